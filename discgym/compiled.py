@@ -1,0 +1,148 @@
+"""Scene -> the flat arrays the kernels read.
+
+Nothing here runs physics; it lays a validated :class:`~discgym.scene.Scene` out as
+struct-of-arrays tables with the dtypes of :mod:`discgym._dtypes`, and decides which effects
+the compiled step has to run (``CompiledScene.flags``).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from ._dtypes import FLOAT, INDEX
+from .scene import Box, Circle, Combination, Decomposition, Exchange, Scene, Transformation
+
+# Reaction channel kinds (ch_kind). A Combination yields two channels: forward and REVERSE.
+TRANSFORMATION, DECOMPOSITION, COMBINATION, EXCHANGE, REVERSE = 0, 1, 2, 3, 4
+
+# Bounds kinds (bkind) and the bounds parameter vector (bparams, 4 floats):
+#   box:    (xmin, ymin, xmax, ymax)
+#   circle: (cx, cy, radius, 0)
+BOX, CIRCLE = 0, 1
+
+# Indices into the float parameter vector (params).
+P_RESTITUTION, P_RELAX, P_MAXDISP, P_RMIN, P_RMAX = range(5)
+# Indices into the flags vector.
+F_COLLISIONS, F_UNI, F_BI, F_FISSION = range(4)
+
+_K_MAX = 1e300  # rate standing for a certain reaction (probability 1 per unit time)
+
+
+def bounds_params(bounds) -> tuple[int, np.ndarray]:
+    if isinstance(bounds, Box):
+        return BOX, np.array(bounds.extent, dtype=FLOAT)
+    if isinstance(bounds, Circle):
+        return CIRCLE, np.array([bounds.center[0], bounds.center[1], bounds.radius, 0.0],
+                                dtype=FLOAT)
+    raise TypeError(f"unknown bounds {bounds!r}")
+
+
+def rate_from_probability(p: float) -> float:
+    """First-order rate k with 1 - exp(-k t) = 1 - (1 - p)^t (physics.md 2.2)."""
+    if p >= 1.0:
+        return _K_MAX
+    return -math.log1p(-p)
+
+
+@dataclass(frozen=True, eq=False)
+class CompiledScene:
+    """The scene as arrays. Shapes: S species, C reaction channels."""
+
+    scene: Scene
+    sp_radius: np.ndarray  # (S,) float
+    sp_mass: np.ndarray  # (S,) float
+    sp_form: np.ndarray  # (S,) float, formation energy
+    ch_kind: np.ndarray  # (C,) int: TRANSFORMATION ... REVERSE
+    ch_reac: np.ndarray  # (C, 2) int species, -1 where unused
+    ch_prod: np.ndarray  # (C, 2) int species, -1 where unused
+    ch_rate: np.ndarray  # (C,) float, first-order rate per unit time (unimolecular channels)
+    ch_energy: np.ndarray  # (C,) float, activation energy (bimolecular) or barrier (REVERSE)
+    uni_start: np.ndarray  # (S + 1,) int, CSR offsets into uni_chan per reactant species
+    uni_chan: np.ndarray  # (U,) int, unimolecular channel indices
+    bi_table: np.ndarray  # (S, S) int, bimolecular channel of a pair of species, or -1
+    params: np.ndarray  # float vector, see P_*
+    flags: np.ndarray  # int vector, see F_*
+    labels: tuple  # (C,) str, one per channel
+
+    @property
+    def tables(self):
+        """The tuple handed to the kernels (order fixed by ``kernels.step``)."""
+        return (self.sp_radius, self.sp_mass, self.sp_form, self.ch_kind, self.ch_reac,
+                self.ch_prod, self.ch_rate, self.ch_energy, self.uni_start, self.uni_chan,
+                self.bi_table)
+
+
+def compile_scene(scene: Scene) -> CompiledScene:
+    names = scene.species_names
+    idx = {n: k for k, n in enumerate(names)}
+    S = len(names)
+    sp_radius = np.array([s.radius for s in scene.species], dtype=FLOAT)
+    sp_mass = np.array([s.mass for s in scene.species], dtype=FLOAT)
+    sp_form = np.array([s.formation_energy for s in scene.species], dtype=FLOAT)
+
+    kinds, reac, prod, rate, energy, labels = [], [], [], [], [], []
+
+    def add(kind, r, p, k, e, label):
+        kinds.append(kind)
+        reac.append([idx[x] for x in r] + [-1] * (2 - len(r)))
+        prod.append([idx[x] for x in p] + [-1] * (2 - len(p)))
+        rate.append(k)
+        energy.append(e)
+        labels.append(label)
+
+    for r in scene.reactions:
+        if isinstance(r, Transformation):
+            add(TRANSFORMATION, r.reactants, r.products, rate_from_probability(r.probability),
+                0.0, r.label())
+        elif isinstance(r, Decomposition):
+            add(DECOMPOSITION, r.reactants, r.products, rate_from_probability(r.probability),
+                0.0, r.label())
+        elif isinstance(r, Combination):
+            add(COMBINATION, r.reactants, r.products, 0.0, r.activation_energy, r.label())
+            if r.reverse_probability > 0.0:
+                a, b, c = (scene.species[idx[x]] for x in (r.reactant1, r.reactant2, r.product))
+                barrier = r.activation_energy + a.formation_energy + b.formation_energy \
+                    - c.formation_energy
+                add(REVERSE, r.products, r.reactants,
+                    rate_from_probability(r.reverse_probability), max(barrier, 0.0),
+                    f"{r.product} -> {r.reactant1} + {r.reactant2} (reverse)")
+        elif isinstance(r, Exchange):
+            add(EXCHANGE, r.reactants, r.products, 0.0, r.activation_energy, r.label())
+    C = len(kinds)
+    ch_kind = np.array(kinds, dtype=INDEX).reshape(C)
+    ch_reac = np.array(reac, dtype=INDEX).reshape(C, 2)
+    ch_prod = np.array(prod, dtype=INDEX).reshape(C, 2)
+    ch_rate = np.array(rate, dtype=FLOAT).reshape(C)
+    ch_energy = np.array(energy, dtype=FLOAT).reshape(C)
+
+    uni = [[] for _ in range(S)]
+    bi_table = np.full((S, S), -1, dtype=INDEX)
+    for c in range(C):
+        if ch_kind[c] in (TRANSFORMATION, DECOMPOSITION, REVERSE):
+            if ch_rate[c] > 0.0:
+                uni[ch_reac[c, 0]].append(c)
+        else:
+            a, b = ch_reac[c]
+            bi_table[a, b] = bi_table[b, a] = c
+    uni_start = np.zeros(S + 1, dtype=INDEX)
+    for s in range(S):
+        uni_start[s + 1] = uni_start[s] + len(uni[s])
+    uni_chan = np.array([c for lst in uni for c in lst], dtype=INDEX)
+
+    params = np.array(
+        [scene.restitution, scene.internal_relaxation, scene.max_displacement,
+         sp_radius.min(), sp_radius.max()],
+        dtype=FLOAT,
+    )
+    fission = any(ch_kind[c] in (DECOMPOSITION, REVERSE) for c in uni_chan)
+    flags = np.array(
+        [int(scene.collisions), int(len(uni_chan) > 0),
+         int(scene.collisions and bool((bi_table >= 0).any())), int(fission)],
+        dtype=INDEX,
+    )
+    return CompiledScene(scene, sp_radius, sp_mass, sp_form, ch_kind, ch_reac, ch_prod,
+                         ch_rate, ch_energy, uni_start, uni_chan, bi_table, params, flags,
+                         tuple(labels))

@@ -1,0 +1,123 @@
+"""The O(N) neighbour grid (a cell list built by counting sort).
+
+Cells are at least one largest diameter wide, so two overlapping discs lie in the same or in
+adjacent cells; cells are also made wide enough that there are at most about two per disc, so
+a huge box with few tiny discs does not allocate a huge grid. Discs outside the grid (a disc
+that has just crossed a wall) are binned into the nearest edge cell, which keeps adjacency.
+
+``grid`` is a float vector (x0, y0, 1/cell_w, 1/cell_h, ncx, ncy).
+"""
+
+import math
+
+import numpy as np
+from numba import njit
+
+from .._dtypes import FLOAT
+
+MAX_CELLS = 1 << 26
+
+
+@njit(cache=True)
+def make_grid(bkind, bp, rmax, n):
+    if bkind == 0:
+        x0, y0, x1, y1 = bp[0], bp[1], bp[2], bp[3]
+    else:
+        x0, y0, x1, y1 = bp[0] - bp[2], bp[1] - bp[2], bp[0] + bp[2], bp[1] + bp[2]
+    w = x1 - x0
+    h = y1 - y0
+    cs = max(2.0 * rmax, math.sqrt(w * h / max(2 * n, 1)), math.sqrt(w * h / MAX_CELLS))
+    ncx = max(1, int(w / cs))
+    ncy = max(1, int(h / cs))
+    grid = np.empty(6, dtype=FLOAT)
+    grid[0] = x0
+    grid[1] = y0
+    grid[2] = ncx / w
+    grid[3] = ncy / h
+    grid[4] = ncx
+    grid[5] = ncy
+    return grid
+
+
+@njit(cache=True)
+def cell_coord(x, icw, x0, nc):
+    c = int((x - x0) * icw) if x > x0 else 0
+    return min(c, nc - 1)
+
+
+@njit(cache=True)
+def build(n, pos, spc, grid, cell_start, cell_items, cell_of):
+    """Counting sort of the live discs (spc >= 0) into cells.
+
+    Fills ``cell_start`` (ncells + 1,) and ``cell_items`` (n,); ``cell_of`` (n,) gets each
+    disc's cell (-1 for dead discs). Returns the number of discs binned.
+    """
+    x0, y0, icx, icy = grid[0], grid[1], grid[2], grid[3]
+    ncx = int(grid[4])
+    ncy = int(grid[5])
+    nc = ncx * ncy
+    for c in range(nc + 1):
+        cell_start[c] = 0
+    for i in range(n):
+        if spc[i] < 0:
+            cell_of[i] = -1
+            continue
+        c = cell_coord(pos[i, 0], icx, x0, ncx) + ncx * cell_coord(pos[i, 1], icy, y0, ncy)
+        cell_of[i] = c
+        cell_start[c + 1] += 1
+    for c in range(nc):
+        cell_start[c + 1] += cell_start[c]
+    # fill using cell_start as cursors, then shift back
+    for i in range(n):
+        c = cell_of[i]
+        if c >= 0:
+            cell_items[cell_start[c]] = i
+            cell_start[c] += 1
+    for c in range(nc, 0, -1):
+        cell_start[c] = cell_start[c - 1]
+    cell_start[0] = 0
+    return cell_start[nc]
+
+
+@njit(cache=True)
+def cell_range(x, y, reach, grid):
+    """Cells (cx0, cx1, cy0, cy1), inclusive, covering the square of half-side ``reach``."""
+    x0, y0, icx, icy = grid[0], grid[1], grid[2], grid[3]
+    ncx = int(grid[4])
+    ncy = int(grid[5])
+    return (cell_coord(x - reach, icx, x0, ncx), cell_coord(x + reach, icx, x0, ncx),
+            cell_coord(y - reach, icy, y0, ncy), cell_coord(y + reach, icy, y0, ncy))
+
+
+@njit(cache=True)
+def overlaps_any(x, y, r, ex1, ex2, pos, spc, sp_radius, grid, cell_start, cell_items, nbin, n,
+                 reach):
+    """Does a disc of radius r at (x, y) overlap any live disc other than ex1 and ex2?
+
+    Discs [0, nbin) are in the grid, binned at positions at most ``reach - rmax`` away from
+    where they are now; discs [nbin, n) were created since and are checked one by one.
+    Touching is not overlapping.
+    """
+    cx0, cx1, cy0, cy1 = cell_range(x, y, r + reach, grid)
+    ncx = int(grid[4])
+    for cy in range(cy0, cy1 + 1):
+        for cx in range(cx0, cx1 + 1):
+            c = cx + ncx * cy
+            for a in range(cell_start[c], cell_start[c + 1]):
+                k = cell_items[a]
+                if k == ex1 or k == ex2 or spc[k] < 0:
+                    continue
+                R = r + sp_radius[spc[k]]
+                dx = pos[k, 0] - x
+                dy = pos[k, 1] - y
+                if dx * dx + dy * dy < R * R:
+                    return True
+    for k in range(nbin, n):
+        if k == ex1 or k == ex2 or spc[k] < 0:
+            continue
+        R = r + sp_radius[spc[k]]
+        dx = pos[k, 0] - x
+        dy = pos[k, 1] - y
+        if dx * dx + dy * dy < R * R:
+            return True
+    return False

@@ -1,0 +1,155 @@
+"""Placing discs without overlap: random sequential addition on an incremental grid.
+
+Used for the initial population, for injection and for discs a shrinking wall pushes in.
+The grid is a linked list per cell (``head``/``nxt``) so discs can be added one by one.
+"""
+
+import math
+
+import numpy as np
+from numba import njit
+
+from .._dtypes import INDEX
+from .celllist import cell_coord, make_grid
+
+
+@njit(cache=True)
+def _cell(x, y, grid):
+    return cell_coord(x, grid[2], grid[0], int(grid[4])) + int(grid[4]) * cell_coord(
+        y, grid[3], grid[1], int(grid[5]))
+
+
+@njit(cache=True)
+def _free(x, y, r, pos, spc, sp_radius, grid, head, nxt, rmax):
+    reach = r + rmax
+    cx0 = cell_coord(x - reach, grid[2], grid[0], int(grid[4]))
+    cx1 = cell_coord(x + reach, grid[2], grid[0], int(grid[4]))
+    cy0 = cell_coord(y - reach, grid[3], grid[1], int(grid[5]))
+    cy1 = cell_coord(y + reach, grid[3], grid[1], int(grid[5]))
+    ncx = int(grid[4])
+    for cy in range(cy0, cy1 + 1):
+        for cx in range(cx0, cx1 + 1):
+            k = head[cx + ncx * cy]
+            while k >= 0:
+                R = r + sp_radius[spc[k]]
+                dx = pos[k, 0] - x
+                dy = pos[k, 1] - y
+                if dx * dx + dy * dy < R * R:
+                    return False
+                k = nxt[k]
+    return True
+
+
+@njit(cache=True)
+def _sample(r, bkind, bp, rng):
+    if bkind == 0:
+        x = bp[0] + r + (bp[2] - bp[0] - 2.0 * r) * rng.random()
+        y = bp[1] + r + (bp[3] - bp[1] - 2.0 * r) * rng.random()
+        return x, y
+    L = bp[2] - r
+    rho = L * math.sqrt(rng.random())
+    a = 2.0 * math.pi * rng.random()
+    return bp[0] + rho * math.cos(a), bp[1] + rho * math.sin(a)
+
+
+@njit(cache=True)
+def _clamp_inside(x, y, r, bkind, bp):
+    if bkind == 0:
+        return min(max(x, bp[0] + r), bp[2] - r), min(max(y, bp[1] + r), bp[3] - r)
+    dx = x - bp[0]
+    dy = y - bp[1]
+    L = bp[2] - r
+    d = math.sqrt(dx * dx + dy * dy)
+    if d > L:
+        if d > 0.0:
+            return bp[0] + dx * (L / d), bp[1] + dy * (L / d)
+        return bp[0], bp[1]
+    return x, y
+
+
+@njit(cache=True)
+def place(pos, spc, n, todo, targets, sp_radius, bkind, bp, rng, attempts):
+    """Place discs of species ``todo`` (M,) after the n placed ones; returns how many fit.
+
+    ``targets`` (M, 2): where each disc should go if that spot is free (NaN: anywhere). A
+    disc whose target is taken is tried at random points ever farther around it, then
+    anywhere in the bounds, ``attempts`` times in all. Placing stops at the first disc that
+    finds no room (the rest are left for the caller to report). The discs [0, n) must not
+    overlap each other; they are not moved.
+    """
+    m = todo.shape[0]
+    rmax = sp_radius.max()
+    grid = make_grid(bkind, bp, rmax, n + m)
+    ncells = int(grid[4]) * int(grid[5])
+    head = np.full(ncells, -1, dtype=INDEX)
+    nxt = np.full(n + m, -1, dtype=INDEX)
+    for k in range(n):
+        c = _cell(pos[k, 0], pos[k, 1], grid)
+        nxt[k] = head[c]
+        head[c] = k
+    for q in range(m):
+        s = todo[q]
+        r = sp_radius[s]
+        k = n + q
+        spc[k] = s
+        ok = False
+        tx = targets[q, 0]
+        ty = targets[q, 1]
+        for a in range(attempts):
+            if not math.isnan(tx) and a < attempts // 2:
+                if a == 0:
+                    x, y = _clamp_inside(tx, ty, r, bkind, bp)
+                else:
+                    spread = r * (1.0 + 0.25 * a)
+                    ang = 2.0 * math.pi * rng.random()
+                    x, y = _clamp_inside(tx + spread * math.cos(ang),
+                                         ty + spread * math.sin(ang), r, bkind, bp)
+            else:
+                x, y = _sample(r, bkind, bp, rng)
+            if _free(x, y, r, pos, spc, sp_radius, grid, head, nxt, rmax):
+                ok = True
+                break
+        if not ok:
+            spc[k] = -1
+            return q
+        pos[k, 0] = x
+        pos[k, 1] = y
+        c = _cell(x, y, grid)
+        nxt[k] = head[c]
+        head[c] = k
+    return m
+
+
+@njit(cache=True)
+def overlapping_pairs(pos, spc, n, sp_radius, bkind, bp, tol):
+    """Count pairs among [0, n) overlapping by more than ``tol`` (relative to R_i + R_j)."""
+    rmax = sp_radius.max()
+    grid = make_grid(bkind, bp, rmax, n)
+    ncells = int(grid[4]) * int(grid[5])
+    head = np.full(ncells, -1, dtype=INDEX)
+    nxt = np.full(max(n, 1), -1, dtype=INDEX)
+    count = 0
+    for i in range(n):
+        x = pos[i, 0]
+        y = pos[i, 1]
+        r = sp_radius[spc[i]]
+        reach = r + rmax
+        ncx = int(grid[4])
+        cx0 = cell_coord(x - reach, grid[2], grid[0], ncx)
+        cx1 = cell_coord(x + reach, grid[2], grid[0], ncx)
+        cy0 = cell_coord(y - reach, grid[3], grid[1], int(grid[5]))
+        cy1 = cell_coord(y + reach, grid[3], grid[1], int(grid[5]))
+        for cy in range(cy0, cy1 + 1):
+            for cx in range(cx0, cx1 + 1):
+                k = head[cx + ncx * cy]
+                while k >= 0:
+                    R = (r + sp_radius[spc[k]]) * (1.0 - tol)
+                    dx = pos[k, 0] - x
+                    dy = pos[k, 1] - y
+                    if dx * dx + dy * dy < R * R:
+                        count += 1
+                    k = nxt[k]
+        c = _cell(x, y, grid)
+        nxt[i] = head[c]
+        head[c] = i
+    return count

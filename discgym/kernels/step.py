@@ -1,0 +1,608 @@
+"""The compiled step: composes the effects a scene calls for.
+
+One (sub)step of length h:
+
+1. drift: every disc moves in a straight line, r += v h;
+2. contacts (only if the scene has collisions; walls always): every disc that crossed a wall
+   and every overlapping, approaching pair is rewound to its exact contact time t in [-h, 0]
+   and queued; events are processed earliest first (ties by disc index), each one rewinding
+   its discs to t, responding (reflection, bounce, or a reactive collision), and winding them
+   forward by -t. A disc's later contacts in the same step are predicted from its new
+   trajectory and may not precede its previous contact, so a disc may collide many times per
+   step, in order;
+3. first-order reactions (only if the scene has any), each disc with its own random draws;
+4. removal of the discs consumed by combinations (stable: the order of the others is kept).
+
+A step is split into k equal substeps when its fastest disc would move more than
+``max_displacement`` times the smallest radius, so no disc can pass through another.
+
+Which effects run is decided once per call from ``flags``; an absent effect is a skipped
+branch per substep, not a per-disc cost (``benchmarks/bench_core.py`` measures it).
+
+Measured on the benchmark scene (N = 10^4, packing 0.3, dt = 0.05, kT = 1, one core of the
+2-core CI machine): see README "Performance".
+"""
+
+import math
+
+import numpy as np
+from numba import njit
+
+from numba import prange
+
+from .._dtypes import COUNT, FLOAT, INDEX
+from .celllist import build, cell_coord, cell_range, make_grid
+from .collisions import bounce, normal_at, pair_time
+from .heap import new_heap, pop, push, reserve
+from .reactions import (
+    COMBINATION,
+    TRANSFORMATION,
+    combine,
+    exchange,
+    first_order_choice,
+    fission,
+    grow1,
+    grow2,
+    transform,
+)
+from .walls import box_contact, circle_contact, contact, push_inside, reflect
+
+# Integer counters (icnt)
+IC_COLLISIONS = 0  # non-reactive disc-disc collisions
+IC_WALL_HITS = 1
+IC_SUBSTEPS = 2
+IC_EVENTS_CAPPED = 3  # substeps whose event budget ran out (overlaps may remain)
+IC_PUSHED_INSIDE = 4  # discs overlapping a wall while moving inward, moved inside
+IC_NO_ROOM = 5  # reactions that could not place their products (they wait / bounce)
+IC_SUBSTEPS_CAPPED = 6  # steps that needed more than MAX_SUBSTEPS substeps
+IC_REACTIVE = 7  # reactive collisions (also counted per channel)
+N_ICOUNTERS = 8
+# Float accumulators (fsum)
+FS_WALL_MOMENTUM = 0  # momentum delivered to the walls (for the pressure)
+FS_DISSIPATED = 1  # kinetic energy lost to restitution e < 1
+N_FSUMS = 2
+
+MAX_SUBSTEPS = 1 << 16
+EVENTS_PER_DISC = 64  # event budget per substep: EVENTS_PER_DISC * n + 1024
+REBUILD_UNBINNED = 256  # rebuild the grid when this many discs were created since it was built
+OV_SLOTS = 4  # overlaps recorded per disc by the (parallel) broad phase; more: rescanned
+PARALLEL_MIN = 4096  # below this many discs a step runs on one thread (threads cost more)
+
+
+
+# ----------------------------------------------------------------------------- phase 1: drift
+@njit(cache=True)
+def _drift_range(lo, hi, h, pos, vel, spc, sp_radius, bkind, bp, tlast, wall_t, wflag, grid,
+                 cell_of, collide):
+    """Move discs [lo, hi) by h; note their wall contacts; bin them (if collide).
+
+    Bounds are unpacked to scalars once: helpers taking arrays cost a reference count per
+    call, which in this loop tripled its time (measured 32 -> 11 ns/disc).
+    """
+    x0, y0, icx, icy = grid[0], grid[1], grid[2], grid[3]
+    ncx = int(grid[4])
+    ncy = int(grid[5])
+    b0, b1, b2, b3 = bp[0], bp[1], bp[2], bp[3]
+    for i in range(lo, hi):
+        vx = vel[i, 0]
+        vy = vel[i, 1]
+        x = pos[i, 0] + h * vx
+        y = pos[i, 1] + h * vy
+        pos[i, 0] = x
+        pos[i, 1] = y
+        tlast[i] = -h
+        r = sp_radius[spc[i]]
+        if bkind == 0:
+            t, axis, inward = box_contact(x, y, vx, vy, r, b0, b1, b2, b3)
+        else:
+            t, axis, inward = circle_contact(x, y, vx, vy, r, b0, b1, b2)
+        wall_t[i] = max(t, -h)
+        wflag[i] = 0
+        if inward:
+            push_inside(i, pos, r, bkind, bp)
+            wflag[i] = 1
+            x = pos[i, 0]
+            y = pos[i, 1]
+        if collide:
+            cx = int((x - x0) * icx) if x > x0 else 0
+            cy = int((y - y0) * icy) if y > y0 else 0
+            cell_of[i] = min(cx, ncx - 1) + ncx * min(cy, ncy - 1)
+
+
+@njit(cache=True, parallel=True)
+def _drift_parallel(nch, n, h, pos, vel, spc, sp_radius, bkind, bp, tlast, wall_t, wflag, grid,
+                    cell_of, collide):
+    for c in prange(nch):
+        _drift_range(c * n // nch, (c + 1) * n // nch, h, pos, vel, spc, sp_radius, bkind, bp,
+                     tlast, wall_t, wflag, grid, cell_of, collide)
+
+
+# ----------------------------------------------------------------------- phase 2: broad phase
+@njit(cache=True)
+def _sort(n, cell_of, cell_start, cell_items):
+    """Counting sort of discs [0, n) by ``cell_of`` (all live)."""
+    nc = cell_start.shape[0] - 1
+    cell_start[:] = 0
+    for i in range(n):
+        cell_start[cell_of[i] + 1] += 1
+    for c in range(nc):
+        cell_start[c + 1] += cell_start[c]
+    for i in range(n):
+        c = cell_of[i]
+        cell_items[cell_start[c]] = i
+        cell_start[c] += 1
+    for c in range(nc, 0, -1):
+        cell_start[c] = cell_start[c - 1]
+    cell_start[0] = 0
+
+
+@njit(cache=True)
+def _strips(c, ncx, ncy, cell_start):
+    """The two runs of sorted discs a disc in cell c is compared with (half stencil):
+    the rest of its own cell and the next cell in its row, then the three cells below
+    (row + 1, columns -1..+1), each contiguous in the sorted order."""
+    cx = c % ncx
+    cy = c // ncx
+    e1 = cell_start[c + 2] if cx + 1 < ncx else cell_start[c + 1]
+    if cy + 1 < ncy:
+        lo2 = cell_start[c + ncx - 1] if cx > 0 else cell_start[c + ncx]
+        hi2 = cell_start[c + ncx + 2] if cx + 1 < ncx else cell_start[c + ncx + 1]
+    else:
+        lo2 = 0
+        hi2 = 0
+    return e1, lo2, hi2
+
+
+@njit(cache=True)
+def _scan_rows(r0, r1, ncx, ncy, cell_start, cell_items, pos, spc, sp_radius, sx, sy, sr,
+               ov_n, ov_b):
+    """Overlapping pairs among discs binned in rows [r0, r1), in sorted order.
+
+    Reads the gathered (sorted, contiguous) ``sx, sy, sr``. ``ov_n[a]`` gets the number of
+    partners b > a (in the half stencil) of sorted disc a, the first OV_SLOTS of them in
+    ``ov_b[a]``. Each call writes only its own rows' discs, so row chunks run in parallel.
+    """
+    for cy in range(r0, r1):
+        for cx in range(ncx):
+            c = cx + ncx * cy
+            a0 = cell_start[c]
+            a1 = cell_start[c + 1]
+            if a0 == a1:
+                continue
+            # the half stencil as two contiguous runs of the sorted order (see _strips)
+            e1 = cell_start[c + 2] if cx + 1 < ncx else a1
+            if cy + 1 < ncy:
+                lo2 = cell_start[c + ncx - 1] if cx > 0 else cell_start[c + ncx]
+                hi2 = cell_start[c + ncx + 2] if cx + 1 < ncx else cell_start[c + ncx + 1]
+            else:
+                lo2 = 0
+                hi2 = 0
+            for a in range(a0, a1):
+                xi = sx[a]
+                yi = sy[a]
+                ri = sr[a]
+                k = 0
+                for b in range(a + 1, e1):
+                    dx = sx[b] - xi
+                    dy = sy[b] - yi
+                    R = ri + sr[b]
+                    if dx * dx + dy * dy < R * R:
+                        if k < OV_SLOTS:
+                            ov_b[a, k] = b
+                        k += 1
+                for b in range(lo2, hi2):
+                    dx = sx[b] - xi
+                    dy = sy[b] - yi
+                    R = ri + sr[b]
+                    if dx * dx + dy * dy < R * R:
+                        if k < OV_SLOTS:
+                            ov_b[a, k] = b
+                        k += 1
+                ov_n[a] = k
+
+
+@njit(cache=True)
+def _gather(lo, hi, cell_items, pos, spc, sp_radius, sx, sy, sr):
+    for a in range(lo, hi):
+        i = cell_items[a]
+        sx[a] = pos[i, 0]
+        sy[a] = pos[i, 1]
+        sr[a] = sp_radius[spc[i]]
+
+
+@njit(cache=True, parallel=True)
+def _broad_parallel(nch, n, ncx, ncy, cell_start, cell_items, pos, spc, sp_radius, sx, sy, sr,
+                    ov_n, ov_b):
+    for c in prange(nch):
+        _gather(c * n // nch, (c + 1) * n // nch, cell_items, pos, spc, sp_radius, sx, sy, sr)
+    for c in prange(nch):
+        _scan_rows(c * ncy // nch, (c + 1) * ncy // nch, ncx, ncy, cell_start, cell_items,
+                   pos, spc, sp_radius, sx, sy, sr, ov_n, ov_b)
+
+
+# ------------------------------------------------------------------ phase 3: event queue
+@njit(cache=True)
+def _try_pair(i, j, sp_radius, pos, vel, spc, tlast, stamp, H, size):
+    """Queue the contact of i and j if they overlap and touched in this step (room for one
+    event must be reserved); returns the new heap size."""
+    t = pair_time(pos[i, 0], pos[i, 1], vel[i, 0], vel[i, 1], sp_radius[spc[i]], tlast[i],
+                  pos[j, 0], pos[j, 1], vel[j, 0], vel[j, 1], sp_radius[spc[j]], tlast[j])
+    if math.isnan(t):
+        return size
+    if i < j:
+        return push(H, size, t, i, j, stamp[i], stamp[j])
+    return push(H, size, t, j, i, stamp[j], stamp[i])
+
+
+@njit(cache=True)
+def _queue_initial(n, collide, sp_radius, pos, vel, spc, tlast, stamp, wall_t, wflag, ncx, ncy,
+                   cell_start, cell_items, sx, sy, sr, ov_n, ov_b, H, icnt):
+    need = 0
+    for i in range(n):
+        if wall_t[i] < math.inf:
+            need += 1
+        if wflag[i]:
+            icnt[IC_PUSHED_INSIDE] += 1
+    if collide:
+        for a in range(n):
+            need += ov_n[a]
+    H = reserve(H, 0, need)
+    size = 0
+    for i in range(n):
+        if wall_t[i] < math.inf:
+            size = push(H, size, wall_t[i], i, -1, stamp[i], 0)
+    if not collide:
+        return H, size
+    for a in range(n):
+        k = ov_n[a]
+        if k == 0:
+            continue
+        i = cell_items[a]
+        if k <= OV_SLOTS:
+            for q in range(k):
+                size = _try_pair(i, cell_items[ov_b[a, q]], sp_radius, pos, vel, spc, tlast,
+                                 stamp, H, size)
+            continue
+        # more partners than slots: scan this disc's stencil again
+        c = 0
+        while cell_start[c + 1] <= a:
+            c += 1
+        e1, lo2, hi2 = _strips(c, ncx, ncy, cell_start)
+        for b in range(a + 1, e1):
+            size = _try_pair(i, cell_items[b], sp_radius, pos, vel, spc, tlast, stamp, H, size)
+        for b in range(lo2, hi2):
+            size = _try_pair(i, cell_items[b], sp_radius, pos, vel, spc, tlast, stamp, H, size)
+    return H, size
+
+
+@njit(cache=True)
+def _schedule(d, sp_radius, pos, vel, spc, tlast, stamp, n, collide, bkind, bp, grid,
+              cell_start, cell_items, nbin, reach, H, size, icnt):
+    """Queue the next contacts of disc d (a wall, and every overlapping disc).
+
+    Reserves room first (one wall event plus every disc in the cells searched), so the loops
+    below never reallocate the heap. Returns the heap and its new size."""
+    r = sp_radius[spc[d]]
+    x = pos[d, 0]
+    y = pos[d, 1]
+    vx = vel[d, 0]
+    vy = vel[d, 1]
+    td = tlast[d]
+    t, axis, inward = contact(x, y, vx, vy, r, bkind, bp)
+    if inward and t == math.inf:
+        push_inside(d, pos, r, bkind, bp)
+        icnt[IC_PUSHED_INSIDE] += 1
+        x = pos[d, 0]
+        y = pos[d, 1]
+    ncx = int(grid[4])
+    cx0, cx1, cy0, cy1 = cell_range(x, y, r + reach, grid)
+    need = 1 + n - nbin
+    if collide:
+        for cy in range(cy0, cy1 + 1):
+            need += cell_start[cx1 + 1 + ncx * cy] - cell_start[cx0 + ncx * cy]
+    H = reserve(H, size, need)
+    if t < math.inf:
+        size = push(H, size, max(t, td), d, -1, stamp[d], 0)
+    if not collide:
+        return H, size
+    sd = stamp[d]
+    for cy in range(cy0, cy1 + 1):
+        for a in range(cell_start[cx0 + ncx * cy], cell_start[cx1 + 1 + ncx * cy]):
+            k = cell_items[a]
+            if k == d or spc[k] < 0:
+                continue
+            tc = pair_time(x, y, vx, vy, r, td, pos[k, 0], pos[k, 1], vel[k, 0], vel[k, 1],
+                           sp_radius[spc[k]], tlast[k])
+            if not math.isnan(tc):
+                if d < k:
+                    size = push(H, size, tc, d, k, sd, stamp[k])
+                else:
+                    size = push(H, size, tc, k, d, stamp[k], sd)
+    for k in range(nbin, n):
+        if k != d and spc[k] >= 0:
+            size = _try_pair(d, k, sp_radius, pos, vel, spc, tlast, stamp, H, size)
+    return H, size
+
+
+@njit(cache=True)
+def _events(n, H, size, tables, pos, vel, spc, uint, tlast, stamp, binx, biny, collide, has_bi,
+            e, kappa, rmax, bkind, bp, grid, cell_start, cell_items, icnt, fsum, ch_count):
+    """Process the queue earliest first. Returns (H, n_dead, delta)."""
+    sp_radius, sp_mass = tables[0], tables[1]
+    ch_kind = tables[3]
+    ch_energy = tables[7]
+    bi_table = tables[10]
+    nbin = n if collide else 0
+    delta = 0.0  # largest distance of a disc from where it was binned
+    n_dead = 0
+    budget = EVENTS_PER_DISC * n + 1024
+    while size > 0:
+        t, i, j, si, sj, size = pop(H, size)
+        if stamp[i] != si or (j >= 0 and stamp[j] != sj):
+            continue
+        budget -= 1
+        if budget < 0:
+            icnt[IC_EVENTS_CAPPED] += 1
+            break
+        if j < 0:
+            r = sp_radius[spc[i]]
+            tw, axis, inward = contact(pos[i, 0], pos[i, 1], vel[i, 0], vel[i, 1], r, bkind, bp)
+            if tw == math.inf:
+                continue
+            tw = max(tw, tlast[i])
+            fsum[FS_WALL_MOMENTUM] += reflect(i, tw, axis, pos, vel, sp_mass[spc[i]], bkind,
+                                              bp)
+            icnt[IC_WALL_HITS] += 1
+            tlast[i] = tw
+            stamp[i] += 1
+            if collide:
+                delta = max(delta, math.hypot(pos[i, 0] - binx[i], pos[i, 1] - biny[i]))
+            H, size = _schedule(i, sp_radius, pos, vel, spc, tlast, stamp, n, collide, bkind,
+                                bp, grid, cell_start, cell_items, nbin, rmax + delta, H, size,
+                                icnt)
+            continue
+        vxi = vel[i, 0]
+        vyi = vel[i, 1]
+        vxj = vel[j, 0]
+        vyj = vel[j, 1]
+        xi, yi, xj, yj, nx, ny = normal_at(pos[i, 0], pos[i, 1], vxi, vyi, pos[j, 0],
+                                           pos[j, 1], vxj, vyj, t)
+        vr = (vxi - vxj) * nx + (vyi - vyj) * ny
+        if vr <= 0.0:
+            continue
+        fired = False
+        if has_bi:
+            c = bi_table[spc[i], spc[j]]
+            if c >= 0:
+                mi = sp_mass[spc[i]]
+                mj = sp_mass[spc[j]]
+                if 0.5 * mi * mj / (mi + mj) * vr * vr >= ch_energy[c]:
+                    if ch_kind[c] == COMBINATION:
+                        fired = combine(i, j, c, t, xi, yi, xj, yj, tables, pos, vel, spc,
+                                        uint, bkind, bp, grid, cell_start, cell_items, nbin, n,
+                                        rmax + delta)
+                        if fired:
+                            n_dead += 1
+                    else:
+                        fired = exchange(i, j, c, t, xi, yi, xj, yj, nx, ny, tables, pos, vel,
+                                         spc, uint, bkind, bp, grid, cell_start, cell_items,
+                                         nbin, n, rmax + delta)
+                    if fired:
+                        ch_count[c] += 1
+                        icnt[IC_REACTIVE] += 1
+                    else:
+                        icnt[IC_NO_ROOM] += 1
+        if not fired:
+            vxi, vyi, vxj, vyj, ui, uj, lost = bounce(vxi, vyi, vxj, vyj, sp_mass[spc[i]],
+                                                      sp_mass[spc[j]], nx, ny, e, kappa,
+                                                      uint[i], uint[j])
+            fsum[FS_DISSIPATED] += lost
+            vel[i, 0] = vxi
+            vel[i, 1] = vyi
+            vel[j, 0] = vxj
+            vel[j, 1] = vyj
+            uint[i] = ui
+            uint[j] = uj
+            pos[i, 0] = xi - t * vxi
+            pos[i, 1] = yi - t * vyi
+            pos[j, 0] = xj - t * vxj
+            pos[j, 1] = yj - t * vyj
+            icnt[IC_COLLISIONS] += 1
+        tlast[i] = t
+        tlast[j] = t
+        stamp[i] += 1
+        stamp[j] += 1
+        delta = max(delta, math.hypot(pos[i, 0] - binx[i], pos[i, 1] - biny[i]))
+        if spc[j] >= 0:
+            delta = max(delta, math.hypot(pos[j, 0] - binx[j], pos[j, 1] - biny[j]))
+        H, size = _schedule(i, sp_radius, pos, vel, spc, tlast, stamp, n, collide, bkind, bp,
+                            grid, cell_start, cell_items, nbin, rmax + delta, H, size, icnt)
+        if spc[j] >= 0:
+            H, size = _schedule(j, sp_radius, pos, vel, spc, tlast, stamp, n, collide, bkind,
+                                bp, grid, cell_start, cell_items, nbin, rmax + delta, H, size,
+                                icnt)
+    return H, n_dead, delta
+
+
+# ------------------------------------------------------------- phase 4: first-order reactions
+@njit(cache=True)
+def _first_order(n, h, tables, pos, vel, spc, uint, collide, fission_possible, bkind, bp, grid,
+                 cell_start, cell_items, cell_of, delta, rmax, rng, icnt, ch_count):
+    """Each disc present at the start of the pass draws its first-order reactions.
+
+    Capacity for one fission per disc is made before the loop (so no array is reallocated
+    inside it). Returns the state arrays (new ones if they grew) and the new n.
+    """
+    ch_kind = tables[3]
+    nbin = n if collide else 0
+    n0 = n
+    if fission_possible and pos.shape[0] < 2 * n0:
+        cap = 2 * n0 + 16
+        pos = grow2(pos, cap)
+        vel = grow2(vel, cap)
+        spc = grow1(spc, cap)
+        spc[n0:] = -1
+        uint = grow1(uint, cap)
+    if collide and fission_possible and cell_items.shape[0] < pos.shape[0]:
+        cell_items = np.empty(pos.shape[0], dtype=INDEX)
+        cell_of = np.empty(pos.shape[0], dtype=INDEX)
+        build(n, pos, spc, grid, cell_start, cell_items, cell_of)
+    for i in range(n0):
+        if spc[i] < 0:
+            continue
+        c = first_order_choice(i, h, tables, spc, uint, rng)
+        if c < 0:
+            continue
+        if ch_kind[c] == TRANSFORMATION:
+            fired = transform(i, c, collide, tables, pos, spc, uint, bkind, bp, grid,
+                              cell_start, cell_items, nbin, n, rmax + delta)
+        else:
+            if collide and n - nbin > REBUILD_UNBINNED:
+                build(n, pos, spc, grid, cell_start, cell_items, cell_of)
+                nbin = n
+                delta = 0.0
+            x_old = pos[i, 0]
+            y_old = pos[i, 1]
+            fired = fission(i, c, n, collide, tables, pos, vel, spc, uint, bkind, bp, grid,
+                            cell_start, cell_items, nbin, rmax + delta, rng)
+            if fired:
+                n += 1
+                # disc i moved from where it is binned: widen the search (triangle inequality)
+                delta += math.hypot(pos[i, 0] - x_old, pos[i, 1] - y_old)
+        if fired:
+            ch_count[c] += 1
+        else:
+            icnt[IC_NO_ROOM] += 1
+    return pos, vel, spc, uint, n
+
+
+# -------------------------------------------------------------------------- phase 5: removal
+@njit(cache=True)
+def _compact(n, pos, vel, spc, uint):
+    """Remove discs with spc < 0, keeping the order of the others; returns the new n."""
+    m = 0
+    for i in range(n):
+        if spc[i] >= 0:
+            if m != i:
+                pos[m, 0] = pos[i, 0]
+                pos[m, 1] = pos[i, 1]
+                vel[m, 0] = vel[i, 0]
+                vel[m, 1] = vel[i, 1]
+                spc[m] = spc[i]
+                uint[m] = uint[i]
+            m += 1
+    for i in range(m, n):
+        spc[i] = -1
+    return m
+
+
+# --------------------------------------------------------------------------------- the driver
+@njit(cache=True)
+def run(pos, vel, spc, uint, n, n_steps, dt, bkind, bp, tables, params, flags, rng, icnt, fsum,
+        ch_count, threads):
+    """Advance ``n_steps`` steps of length ``dt``.
+
+    State (struct of arrays, capacity C >= n): ``pos`` (C, 2), ``vel`` (C, 2), ``spc`` (C,)
+    species index (-1 for no disc), ``uint`` (C,) internal energy; discs are [0, n).
+    ``tables``: see :attr:`discgym.compiled.CompiledScene.tables`; ``params``, ``flags``: see
+    :mod:`discgym.compiled`. Counters ``icnt``, ``fsum``, ``ch_count`` (per reaction channel)
+    are accumulated in place. ``threads``: the number of chunks to split the drift and the
+    broad phase into across numba's threads (4 per thread is a good choice); 0 or 1 runs
+    everything on the calling thread (as it must inside another parallel loop).
+
+    Returns ``(pos, vel, spc, uint, n)``: new (larger) state arrays when a decomposition
+    needed more capacity, else the ones passed in.
+    """
+    sp_radius = tables[0]
+    e = params[0]
+    kappa = params[1]
+    maxdisp = params[2] * params[3]
+    rmax = params[4]
+    collide = flags[0] != 0
+    has_uni = flags[1] != 0
+    has_bi = flags[2] != 0
+    fission_possible = flags[3] != 0
+
+    H = new_heap(256)
+    grid = make_grid(bkind, bp, rmax, max(n, 1))
+    ncx = int(grid[4])
+    ncy = int(grid[5])
+    cell_start = np.empty(ncx * ncy + 1 if collide else 2, dtype=INDEX)
+    ws = pos.shape[0]  # per-disc workspace, reallocated when the state grows
+    stamp = np.zeros(ws, dtype=COUNT)
+    tlast = np.empty(ws, dtype=FLOAT)
+    wall_t = np.empty(ws, dtype=FLOAT)
+    wflag = np.empty(ws, dtype=INDEX)
+    cell_of = np.empty(ws, dtype=INDEX)
+    cell_items = np.empty(ws, dtype=INDEX)
+    sx = np.empty(ws, dtype=FLOAT)
+    sy = np.empty(ws, dtype=FLOAT)
+    sr = np.empty(ws, dtype=FLOAT)
+    ov_n = np.empty(ws, dtype=INDEX)
+    ov_b = np.empty((ws, OV_SLOTS), dtype=INDEX)
+    binx = np.empty(ws, dtype=FLOAT)
+    biny = np.empty(ws, dtype=FLOAT)
+    for _ in range(n_steps):
+        # substeps so that no disc moves more than maxdisp
+        v2max = 0.0
+        for i in range(n):
+            v2 = vel[i, 0] * vel[i, 0] + vel[i, 1] * vel[i, 1]
+            if v2 > v2max:
+                v2max = v2
+        k = 1
+        if v2max > 0.0:
+            kk = math.ceil(math.sqrt(v2max) * dt / maxdisp)
+            if kk > MAX_SUBSTEPS:
+                kk = MAX_SUBSTEPS
+                icnt[IC_SUBSTEPS_CAPPED] += 1
+            k = max(int(kk), 1)
+        h = dt / k
+        for _sub in range(k):
+            icnt[IC_SUBSTEPS] += 1
+            if ws < pos.shape[0]:
+                ws = pos.shape[0]
+                stamp = np.zeros(ws, dtype=COUNT)
+                tlast = np.empty(ws, dtype=FLOAT)
+                wall_t = np.empty(ws, dtype=FLOAT)
+                wflag = np.empty(ws, dtype=INDEX)
+                cell_of = np.empty(ws, dtype=INDEX)
+                cell_items = np.empty(ws, dtype=INDEX)
+                sx = np.empty(ws, dtype=FLOAT)
+                sy = np.empty(ws, dtype=FLOAT)
+                sr = np.empty(ws, dtype=FLOAT)
+                ov_n = np.empty(ws, dtype=INDEX)
+                ov_b = np.empty((ws, OV_SLOTS), dtype=INDEX)
+                binx = np.empty(ws, dtype=FLOAT)
+                biny = np.empty(ws, dtype=FLOAT)
+            par = threads > 1 and n >= PARALLEL_MIN
+            if par:
+                _drift_parallel(threads, n, h, pos, vel, spc, sp_radius, bkind, bp, tlast, wall_t, wflag,
+                                grid, cell_of, collide)
+            else:
+                _drift_range(0, n, h, pos, vel, spc, sp_radius, bkind, bp, tlast, wall_t,
+                             wflag, grid, cell_of, collide)
+            if collide:
+                _sort(n, cell_of, cell_start, cell_items)
+                if par:
+                    _broad_parallel(threads, n, ncx, ncy, cell_start, cell_items, pos, spc, sp_radius,
+                                    sx, sy, sr, ov_n, ov_b)
+                else:
+                    _gather(0, n, cell_items, pos, spc, sp_radius, sx, sy, sr)
+                    _scan_rows(0, ncy, ncx, ncy, cell_start, cell_items, pos, spc, sp_radius,
+                               sx, sy, sr, ov_n, ov_b)
+                for q in range(n):
+                    binx[q] = pos[q, 0]
+                    biny[q] = pos[q, 1]
+            H, size = _queue_initial(n, collide, sp_radius, pos, vel, spc, tlast, stamp,
+                                     wall_t, wflag, ncx, ncy, cell_start, cell_items, sx, sy,
+                                     sr, ov_n, ov_b, H, icnt)
+            H, n_dead, delta = _events(n, H, size, tables, pos, vel, spc, uint, tlast, stamp,
+                                       binx, biny, collide, has_bi, e, kappa, rmax, bkind, bp,
+                                       grid, cell_start, cell_items, icnt, fsum, ch_count)
+            if has_uni:
+                pos, vel, spc, uint, n = _first_order(
+                    n, h, tables, pos, vel, spc, uint, collide, fission_possible, bkind, bp,
+                    grid, cell_start, cell_items, cell_of, delta, rmax, rng, icnt, ch_count)
+            if n_dead:
+                n = _compact(n, pos, vel, spc, uint)
+    return pos, vel, spc, uint, n

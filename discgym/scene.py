@@ -1,0 +1,714 @@
+"""The scene model: plain, frozen, validated data.
+
+A :class:`Scene` says everything the simulator needs and nothing about how it runs: the bounds,
+the species, the reactions, the restitution, the time step and the default initial contents.
+It is validated once, when it is built; a malformed scene raises :class:`SceneError` naming the
+offending field (``reactions[1].products``, ``species[0].radius``, ...), and nothing is
+half-built. Scenes are built in code or loaded from TOML (:meth:`Scene.from_toml`), and written
+back with :meth:`Scene.to_toml`.
+
+Units: k_B = 1, so a temperature is an energy per disc (2D: mean kinetic energy = kT).
+Probabilities of unimolecular reactions are chances per unit of simulated time, in [0, 1]
+(physics.md 2.2): over a step of length dt the chance is ``1 - (1 - p) ** dt``.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+import tomllib
+from dataclasses import dataclass, field, fields
+from pathlib import Path
+from typing import Mapping, Sequence, Union
+
+__all__ = [
+    "SceneError",
+    "Species",
+    "Box",
+    "Circle",
+    "Transformation",
+    "Decomposition",
+    "Combination",
+    "Exchange",
+    "Scene",
+    "HEX_PACKING",
+]
+
+#: Densest packing of equal discs in the plane; no population above it can ever fit.
+HEX_PACKING = math.pi / (2.0 * math.sqrt(3.0))
+
+#: Bounds whose coordinates exceed this many times their own size lose too much precision in
+#: float64 (an offset of 1e6 sizes leaves ~1e-10 of a size as the resolution): refused.
+MAX_OFFSET_RATIO = 1.0e6
+
+_MASS_RTOL = 1e-9
+
+
+class SceneError(ValueError):
+    """A scene (or a scene file) is malformed. ``field`` names the offending entry."""
+
+    def __init__(self, field_name: str, message: str):
+        self.field = field_name
+        super().__init__(f"{field_name}: {message}")
+
+
+def _finite(name: str, value, *, positive=False, nonneg=False, lo=None, hi=None) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise SceneError(name, f"expected a number, got {value!r}")
+    v = float(value)
+    if not math.isfinite(v):
+        raise SceneError(name, f"must be finite, got {v}")
+    if positive and v <= 0.0:
+        raise SceneError(name, f"must be > 0, got {v}")
+    if nonneg and v < 0.0:
+        raise SceneError(name, f"must be >= 0, got {v}")
+    if lo is not None and v < lo:
+        raise SceneError(name, f"must be in [{lo}, {hi}], got {v}")
+    if hi is not None and v > hi:
+        raise SceneError(name, f"must be in [{lo}, {hi}], got {v}")
+    return v
+
+
+def _point(name: str, value) -> tuple[float, float]:
+    try:
+        x, y = value
+    except (TypeError, ValueError):
+        raise SceneError(name, f"expected a pair of numbers, got {value!r}") from None
+    return (_finite(f"{name}[0]", x), _finite(f"{name}[1]", y))
+
+
+def _name(name: str, value) -> str:
+    if not isinstance(value, str) or not value.strip():
+        raise SceneError(name, f"expected a non-empty species name, got {value!r}")
+    return value
+
+
+def _set(obj, **kw):
+    for k, v in kw.items():
+        object.__setattr__(obj, k, v)
+
+
+# --------------------------------------------------------------------------------------------
+# Species and bounds
+
+
+@dataclass(frozen=True)
+class Species:
+    """A kind of disc. ``formation_energy`` is its chemical energy (added to the total energy)."""
+
+    name: str
+    radius: float
+    mass: float
+    formation_energy: float = 0.0
+
+    def __post_init__(self):
+        _set(
+            self,
+            name=_name("name", self.name),
+            radius=_finite("radius", self.radius, positive=True),
+            mass=_finite("mass", self.mass, positive=True),
+            formation_energy=_finite("formation_energy", self.formation_energy),
+        )
+
+
+@dataclass(frozen=True)
+class Box:
+    """Rectangular bounds ``[x0, x0 + width] x [y0, y0 + height]`` with ``origin = (x0, y0)``."""
+
+    width: float
+    height: float
+    origin: tuple[float, float] = (0.0, 0.0)
+
+    kind = "box"
+
+    def __post_init__(self):
+        _set(
+            self,
+            width=_finite("width", self.width, positive=True),
+            height=_finite("height", self.height, positive=True),
+            origin=_point("origin", self.origin),
+        )
+        size = max(self.width, self.height)
+        if max(abs(self.origin[0]), abs(self.origin[1])) > MAX_OFFSET_RATIO * size:
+            raise SceneError(
+                "origin",
+                f"{self.origin} is more than {MAX_OFFSET_RATIO:g} box sizes from (0, 0); "
+                "float64 positions would lose their precision there: shift the scene",
+            )
+
+    @property
+    def area(self) -> float:
+        return self.width * self.height
+
+    @property
+    def perimeter(self) -> float:
+        return 2.0 * (self.width + self.height)
+
+    @property
+    def extent(self) -> tuple[float, float, float, float]:
+        """(xmin, ymin, xmax, ymax)"""
+        x0, y0 = self.origin
+        return (x0, y0, x0 + self.width, y0 + self.height)
+
+    def max_radius(self) -> float:
+        return 0.5 * min(self.width, self.height)
+
+
+@dataclass(frozen=True)
+class Circle:
+    """Circular bounds of the given ``radius`` around ``center``."""
+
+    radius: float
+    center: tuple[float, float] = (0.0, 0.0)
+
+    kind = "circle"
+
+    def __post_init__(self):
+        _set(
+            self,
+            radius=_finite("radius", self.radius, positive=True),
+            center=_point("center", self.center),
+        )
+        if max(abs(self.center[0]), abs(self.center[1])) > MAX_OFFSET_RATIO * 2 * self.radius:
+            raise SceneError(
+                "center",
+                f"{self.center} is more than {MAX_OFFSET_RATIO:g} diameters from (0, 0); "
+                "float64 positions would lose their precision there: shift the scene",
+            )
+
+    @property
+    def area(self) -> float:
+        return math.pi * self.radius**2
+
+    @property
+    def perimeter(self) -> float:
+        return 2.0 * math.pi * self.radius
+
+    @property
+    def extent(self) -> tuple[float, float, float, float]:
+        cx, cy = self.center
+        return (cx - self.radius, cy - self.radius, cx + self.radius, cy + self.radius)
+
+    def max_radius(self) -> float:
+        return self.radius
+
+
+Bounds = Union[Box, Circle]
+
+
+# --------------------------------------------------------------------------------------------
+# Reactions
+
+
+@dataclass(frozen=True)
+class Transformation:
+    """A -> B, first order: chance ``probability`` per unit time. Masses must be equal.
+
+    The formation-energy difference goes into (or comes out of) the disc's internal energy; an
+    endothermic transformation waits until the disc's internal energy can pay for it.
+    """
+
+    reactant: str
+    product: str
+    probability: float
+
+    kind = "transformation"
+
+    def __post_init__(self):
+        _set(self, probability=_finite("probability", self.probability, lo=0.0, hi=1.0))
+
+    @property
+    def reactants(self) -> tuple[str, ...]:
+        return (self.reactant,)
+
+    @property
+    def products(self) -> tuple[str, ...]:
+        return (self.product,)
+
+    def label(self) -> str:
+        return f"{self.reactant} -> {self.product}"
+
+
+@dataclass(frozen=True)
+class Decomposition:
+    """A -> B + C, first order: chance ``probability`` per unit time.
+
+    The fragments leave the parent's velocity in opposite directions perpendicular to it, with
+    equal and opposite momenta carrying the released energy (internal + formation difference).
+    An endothermic decomposition waits until the parent's internal energy can pay for it.
+    """
+
+    reactant: str
+    product1: str
+    product2: str
+    probability: float
+
+    kind = "decomposition"
+
+    def __post_init__(self):
+        _set(self, probability=_finite("probability", self.probability, lo=0.0, hi=1.0))
+
+    @property
+    def reactants(self) -> tuple[str, ...]:
+        return (self.reactant,)
+
+    @property
+    def products(self) -> tuple[str, ...]:
+        return (self.product1, self.product2)
+
+    def label(self) -> str:
+        return f"{self.reactant} -> {self.product1} + {self.product2}"
+
+
+@dataclass(frozen=True)
+class Combination:
+    """A + B -> C on a collision whose line-of-centres energy reaches ``activation_energy``.
+
+    C stores the kinetic energy of the relative motion (plus the reactants' internal energy and
+    the formation-energy difference) as internal energy. Its reverse, C -> A + B, happens with
+    chance ``reverse_probability`` per unit time while C's internal energy is above the barrier
+    (``activation_energy + F_A + F_B - F_C``); collisions drain internal energy (the scene's
+    ``internal_relaxation``), which is what lets a product cool and survive.
+    """
+
+    reactant1: str
+    reactant2: str
+    product: str
+    activation_energy: float = 0.0
+    reverse_probability: float = 0.5
+
+    kind = "combination"
+
+    def __post_init__(self):
+        _set(
+            self,
+            activation_energy=_finite("activation_energy", self.activation_energy, nonneg=True),
+            reverse_probability=_finite(
+                "reverse_probability", self.reverse_probability, lo=0.0, hi=1.0
+            ),
+        )
+
+    @property
+    def reactants(self) -> tuple[str, ...]:
+        return (self.reactant1, self.reactant2)
+
+    @property
+    def products(self) -> tuple[str, ...]:
+        return (self.product,)
+
+    def label(self) -> str:
+        return f"{self.reactant1} + {self.reactant2} -> {self.product}"
+
+
+@dataclass(frozen=True)
+class Exchange:
+    """A + B -> C + D on a collision whose line-of-centres energy reaches ``activation_energy``.
+
+    A reactive collision in the centre-of-mass frame: momentum and total energy conserved, the
+    products' relative speed set by what the formation energies leave over.
+    """
+
+    reactant1: str
+    reactant2: str
+    product1: str
+    product2: str
+    activation_energy: float = 0.0
+
+    kind = "exchange"
+
+    def __post_init__(self):
+        _set(
+            self,
+            activation_energy=_finite("activation_energy", self.activation_energy, nonneg=True),
+        )
+
+    @property
+    def reactants(self) -> tuple[str, ...]:
+        return (self.reactant1, self.reactant2)
+
+    @property
+    def products(self) -> tuple[str, ...]:
+        return (self.product1, self.product2)
+
+    def label(self) -> str:
+        return f"{self.reactant1} + {self.reactant2} -> {self.product1} + {self.product2}"
+
+
+Reaction = Union[Transformation, Decomposition, Combination, Exchange]
+REACTION_TYPES = {c.kind: c for c in (Transformation, Decomposition, Combination, Exchange)}
+
+
+# --------------------------------------------------------------------------------------------
+# Scene
+
+
+@dataclass(frozen=True)
+class Scene:
+    """Everything the simulator needs to know about a reactor.
+
+    Arguments:
+        bounds: :class:`Box` or :class:`Circle`.
+        species: the kinds of disc (unique names).
+        reactions: any of :class:`Transformation`, :class:`Decomposition`,
+            :class:`Combination`, :class:`Exchange`.
+        restitution: coefficient of restitution e in [0, 1] of disc-disc collisions (walls are
+            always elastic). The kinetic energy lost is counted (``Simulation.dissipated_energy``).
+        dt: time step of the time-stepped integrator.
+        internal_relaxation: fraction kappa in [0, 1] of the colliding discs' internal energy
+            released into their relative motion at each non-reactive collision.
+        max_displacement: largest move of any disc in one (sub)step, as a fraction of the
+            smallest radius; a step whose fastest disc would move further is split into equal
+            substeps, so no disc can tunnel through another.
+        collisions: whether discs collide at all (False: an ideal gas of points with radii).
+        counts: default initial population, ``{species name: count}``.
+        temperature: default initial temperature (kT, k_B = 1).
+        name, description: for listings.
+    """
+
+    bounds: Bounds
+    species: Sequence[Species]
+    reactions: Sequence[Reaction] = ()
+    restitution: float = 1.0
+    dt: float = 0.02
+    internal_relaxation: float = 0.5
+    max_displacement: float = 0.5
+    collisions: bool = True
+    counts: Mapping[str, int] = field(default_factory=dict)
+    temperature: float = 1.0
+    name: str = ""
+    description: str = ""
+
+    def __post_init__(self):
+        if not isinstance(self.bounds, (Box, Circle)):
+            raise SceneError("bounds", f"expected Box or Circle, got {self.bounds!r}")
+        species = tuple(self.species)
+        if not species:
+            raise SceneError("species", "a scene needs at least one species")
+        names = {}
+        for k, s in enumerate(species):
+            if not isinstance(s, Species):
+                raise SceneError(f"species[{k}]", f"expected Species, got {s!r}")
+            if s.name in names:
+                raise SceneError(f"species[{k}].name", f"duplicate species name {s.name!r}")
+            names[s.name] = s
+            if s.radius > self.bounds.max_radius():
+                raise SceneError(
+                    f"species[{k}].radius",
+                    f"a disc of radius {s.radius} does not fit in the bounds {self.bounds}",
+                )
+        reactions = tuple(self.reactions)
+        pairs = {}
+        for k, r in enumerate(reactions):
+            where = f"reactions[{k}]"
+            if not isinstance(r, tuple(REACTION_TYPES.values())):
+                raise SceneError(where, f"expected a reaction, got {r!r}")
+            for role, lst in (("reactants", r.reactants), ("products", r.products)):
+                for nm in lst:
+                    if nm not in names:
+                        raise SceneError(f"{where}.{role}", f"unknown species {nm!r}")
+            m_in = sum(names[n].mass for n in r.reactants)
+            m_out = sum(names[n].mass for n in r.products)
+            if abs(m_in - m_out) > _MASS_RTOL * max(m_in, m_out):
+                raise SceneError(
+                    f"{where}.products",
+                    f"{r.label()} does not conserve mass ({m_in} -> {m_out})",
+                )
+            if len(r.reactants) == 2:
+                key = tuple(sorted(r.reactants))
+                if key in pairs:
+                    raise SceneError(
+                        f"{where}.reactants",
+                        f"reactions[{pairs[key]}] already reacts {key[0]} with {key[1]}; "
+                        "one bimolecular reaction per pair of species",
+                    )
+                pairs[key] = k
+        counts = {}
+        for nm, c in dict(self.counts).items():
+            if nm not in names:
+                raise SceneError(f"counts.{nm}", f"unknown species {nm!r}")
+            if isinstance(c, bool) or not isinstance(c, int) or c < 0:
+                raise SceneError(f"counts.{nm}", f"expected a count >= 0, got {c!r}")
+            counts[nm] = int(c)
+        check_fits(self.bounds, names, counts, "counts")
+        if not isinstance(self.collisions, bool):
+            raise SceneError("collisions", f"expected true or false, got {self.collisions!r}")
+        for attr in ("name", "description"):
+            if not isinstance(getattr(self, attr), str):
+                raise SceneError(attr, f"expected a string, got {getattr(self, attr)!r}")
+        _set(
+            self,
+            species=species,
+            reactions=reactions,
+            counts=counts,
+            restitution=_finite("restitution", self.restitution, lo=0.0, hi=1.0),
+            dt=_finite("dt", self.dt, positive=True),
+            internal_relaxation=_finite(
+                "internal_relaxation", self.internal_relaxation, lo=0.0, hi=1.0
+            ),
+            max_displacement=_finite("max_displacement", self.max_displacement, positive=True),
+            temperature=_finite("temperature", self.temperature, nonneg=True),
+        )
+        if self.max_displacement > 1.0:
+            raise SceneError(
+                "max_displacement",
+                f"must be in (0, 1] (a fraction of the smallest radius), got "
+                f"{self.max_displacement}",
+            )
+
+    # ---- lookups
+    def species_index(self, name: str) -> int:
+        for k, s in enumerate(self.species):
+            if s.name == name:
+                return k
+        raise KeyError(f"unknown species {name!r}; this scene has {self.species_names}")
+
+    @property
+    def species_names(self) -> list[str]:
+        return [s.name for s in self.species]
+
+    def replace(self, **changes) -> "Scene":
+        """A copy with some fields changed (validated again)."""
+        kw = {f.name: getattr(self, f.name) for f in fields(self)}
+        kw.update(changes)
+        return Scene(**kw)
+
+    # ---- TOML
+    @classmethod
+    def from_toml(cls, path: Union[str, Path]) -> "Scene":
+        """Load a scene file. Errors name the key and its line in the file."""
+        path = Path(path)
+        text = path.read_text()
+        try:
+            data = tomllib.loads(text)
+        except tomllib.TOMLDecodeError as exc:
+            raise SceneError(str(path), f"not valid TOML: {exc}") from None
+        try:
+            return cls.from_dict(data)
+        except SceneError as exc:
+            line = _line_of(text, exc.field)
+            where = f"{path}:{line}" if line else str(path)
+            raise SceneError(exc.field, f"{exc.args[0].split(': ', 1)[1]} ({where})") from None
+
+    @classmethod
+    def from_toml_string(cls, text: str) -> "Scene":
+        try:
+            data = tomllib.loads(text)
+        except tomllib.TOMLDecodeError as exc:
+            raise SceneError("<string>", f"not valid TOML: {exc}") from None
+        return cls.from_dict(data)
+
+    @classmethod
+    def from_dict(cls, data: Mapping) -> "Scene":
+        """Build from the plain-dict form used by TOML files (unknown keys are errors)."""
+        if not isinstance(data, Mapping):
+            raise SceneError("<scene>", f"expected a table, got {type(data).__name__}")
+        top = {
+            "name", "description", "restitution", "dt", "internal_relaxation",
+            "max_displacement", "collisions", "temperature", "bounds", "species",
+            "reactions", "counts",
+        }
+        _no_unknown("", data, top)
+        for req in ("bounds", "species"):
+            if req not in data:
+                raise SceneError(req, "missing (required)")
+        kw = {k: data[k] for k in top - {"bounds", "species", "reactions", "counts"} if k in data}
+        kw["bounds"] = _bounds_from_dict(data["bounds"])
+        sp = data["species"]
+        if not isinstance(sp, list):
+            raise SceneError("species", "expected an array of tables [[species]]")
+        kw["species"] = [_obj_from_dict(Species, f"species[{k}]", d) for k, d in enumerate(sp)]
+        rx = data.get("reactions", [])
+        if not isinstance(rx, list):
+            raise SceneError("reactions", "expected an array of tables [[reactions]]")
+        kw["reactions"] = [_reaction_from_dict(f"reactions[{k}]", d) for k, d in enumerate(rx)]
+        counts = data.get("counts", {})
+        if not isinstance(counts, Mapping):
+            raise SceneError("counts", "expected a table of species = count")
+        kw["counts"] = dict(counts)
+        return cls(**kw)
+
+    def to_dict(self) -> dict:
+        b = self.bounds
+        if isinstance(b, Box):
+            bd = {"shape": "box", "width": b.width, "height": b.height, "origin": list(b.origin)}
+        else:
+            bd = {"shape": "circle", "radius": b.radius, "center": list(b.center)}
+        out = {
+            "name": self.name,
+            "description": self.description,
+            "restitution": self.restitution,
+            "dt": self.dt,
+            "internal_relaxation": self.internal_relaxation,
+            "max_displacement": self.max_displacement,
+            "collisions": self.collisions,
+            "temperature": self.temperature,
+            "bounds": bd,
+            "species": [
+                {"name": s.name, "radius": s.radius, "mass": s.mass,
+                 "formation_energy": s.formation_energy}
+                for s in self.species
+            ],
+            "reactions": [_reaction_to_dict(r) for r in self.reactions],
+            "counts": dict(self.counts),
+        }
+        return out
+
+    def to_toml(self) -> str:
+        """The scene as an editable TOML document (round-trips through :meth:`from_toml`)."""
+        d = self.to_dict()
+        lines = [f"# discgym scene{': ' + self.name if self.name else ''}"]
+        for k in ("name", "description", "restitution", "dt", "internal_relaxation",
+                  "max_displacement", "collisions", "temperature"):
+            lines.append(f"{k} = {_toml_value(d[k])}")
+        lines += ["", "[bounds]"]
+        lines += [f"{k} = {_toml_value(v)}" for k, v in d["bounds"].items()]
+        for s in d["species"]:
+            lines += ["", "[[species]]"] + [f"{k} = {_toml_value(v)}" for k, v in s.items()]
+        for r in d["reactions"]:
+            lines += ["", "[[reactions]]"] + [f"{k} = {_toml_value(v)}" for k, v in r.items()]
+        lines += ["", "[counts]"] + [f"{k} = {v}" for k, v in d["counts"].items()]
+        return "\n".join(lines) + "\n"
+
+
+def check_fits(bounds, species_by_name: Mapping[str, Species], counts: Mapping[str, int],
+               field_name: str) -> None:
+    """Refuse a population whose discs cover more than the densest packing allows."""
+    disc_area = sum(math.pi * species_by_name[n].radius ** 2 * c for n, c in counts.items())
+    if disc_area > HEX_PACKING * bounds.area:
+        raise SceneError(
+            field_name,
+            f"the discs cannot fit: they cover {disc_area:.4g}, more than the densest packing "
+            f"({HEX_PACKING:.4f}) of the bounds' area {bounds.area:.4g}",
+        )
+
+
+# --------------------------------------------------------------------------------------------
+# dict / TOML helpers
+
+_REACTION_FIELDS = {
+    "transformation": (("reactant",), ("product",), ("probability",)),
+    "decomposition": (("reactant",), ("product1", "product2"), ("probability",)),
+    "combination": (("reactant1", "reactant2"), ("product",),
+                    ("activation_energy", "reverse_probability")),
+    "exchange": (("reactant1", "reactant2"), ("product1", "product2"), ("activation_energy",)),
+}
+
+
+def _no_unknown(prefix: str, data: Mapping, allowed: set) -> None:
+    for key in data:
+        if key not in allowed:
+            where = f"{prefix}.{key}" if prefix else key
+            raise SceneError(where, f"unknown key (allowed: {', '.join(sorted(allowed))})")
+
+
+def _obj_from_dict(cls, where: str, d):
+    if not isinstance(d, Mapping):
+        raise SceneError(where, f"expected a table, got {d!r}")
+    allowed = {f.name for f in fields(cls)}
+    _no_unknown(where, d, allowed)
+    try:
+        return cls(**d)
+    except SceneError as exc:
+        raise SceneError(f"{where}.{exc.field}", exc.args[0].split(": ", 1)[1]) from None
+    except TypeError as exc:  # a missing required argument
+        missing = re.findall(r"'(\w+)'", str(exc))
+        raise SceneError(f"{where}.{missing[0] if missing else '?'}", "missing (required)") \
+            from None
+
+
+def _bounds_from_dict(d) -> Bounds:
+    if not isinstance(d, Mapping):
+        raise SceneError("bounds", f"expected a table, got {d!r}")
+    shape = d.get("shape")
+    rest = {k: v for k, v in d.items() if k != "shape"}
+    if shape == "box":
+        return _obj_from_dict(Box, "bounds", rest)
+    if shape == "circle":
+        return _obj_from_dict(Circle, "bounds", rest)
+    raise SceneError("bounds.shape", f"expected 'box' or 'circle', got {shape!r}")
+
+
+def _reaction_from_dict(where: str, d) -> Reaction:
+    if not isinstance(d, Mapping):
+        raise SceneError(where, f"expected a table, got {d!r}")
+    kind = d.get("type")
+    if kind not in _REACTION_FIELDS:
+        raise SceneError(f"{where}.type", f"expected one of {sorted(_REACTION_FIELDS)}, "
+                                          f"got {kind!r}")
+    rnames, pnames, params = _REACTION_FIELDS[kind]
+    _no_unknown(where, d, {"type", "reactants", "products", *params})
+    kw = {}
+    for role, names in (("reactants", rnames), ("products", pnames)):
+        lst = d.get(role)
+        if not isinstance(lst, list) or len(lst) != len(names):
+            raise SceneError(f"{where}.{role}",
+                             f"a {kind} takes {len(names)} {role}, got {lst!r}")
+        for nm, v in zip(names, lst):
+            kw[nm] = _name(f"{where}.{role}", v)
+    for p in params:
+        if p in d:
+            kw[p] = d[p]
+    try:
+        return REACTION_TYPES[kind](**kw)
+    except SceneError as exc:
+        raise SceneError(f"{where}.{exc.field}", exc.args[0].split(": ", 1)[1]) from None
+    except TypeError as exc:
+        missing = re.findall(r"'(\w+)'", str(exc))
+        raise SceneError(f"{where}.{missing[0] if missing else '?'}", "missing (required)") \
+            from None
+
+
+def _reaction_to_dict(r: Reaction) -> dict:
+    rnames, pnames, params = _REACTION_FIELDS[r.kind]
+    out = {"type": r.kind, "reactants": list(r.reactants), "products": list(r.products)}
+    for p in params:
+        out[p] = getattr(r, p)
+    return out
+
+
+def _toml_value(v) -> str:
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, (int, float)):
+        return repr(float(v)) if isinstance(v, float) else str(v)
+    if isinstance(v, str):
+        return '"' + v.replace("\\", "\\\\").replace('"', '\\"') + '"'
+    if isinstance(v, (list, tuple)):
+        return "[" + ", ".join(_toml_value(x) for x in v) + "]"
+    raise TypeError(f"cannot write {v!r} to TOML")
+
+
+def _line_of(text: str, field_path: str):
+    """Best-effort line number of the key named last in ``field_path`` (1-based) or None."""
+    m = re.match(r"(species|reactions)\[(\d+)\]\.?(\w*)", field_path)
+    lines = text.splitlines()
+    if m:
+        table, idx, key = m.group(1), int(m.group(2)), m.group(3)
+        seen = -1
+        for n, line in enumerate(lines, 1):
+            if line.strip() == f"[[{table}]]":
+                seen += 1
+                if seen == idx:
+                    if not key:
+                        return n
+                    for n2 in range(n, len(lines)):
+                        s = lines[n2].strip()
+                        if s.startswith("["):
+                            break
+                        if re.match(rf"{re.escape(key)}\s*=", s):
+                            return n2 + 1
+                    return n
+        return None
+    key = field_path.split(".")[-1]
+    section = field_path.split(".")[0] if "." in field_path else None
+    in_section = section is None
+    for n, line in enumerate(lines, 1):
+        s = line.strip()
+        if s.startswith("["):
+            in_section = section is not None and s == f"[{section}]"
+            if section is None:
+                break
+            continue
+        if in_section and re.match(rf"{re.escape(key)}\s*=", s):
+            return n
+    return None

@@ -1,0 +1,577 @@
+"""The Python handle on a running reactor: validates and casts, then calls the kernels.
+
+>>> import discgym as dg
+>>> sim = dg.Simulation(dg.scenes.load("ideal_gas"), seed=0)
+>>> sim.advance(1.0)
+>>> round(sim.temperature(), 6) == round(sim.kinetic_energy() / len(sim), 6)
+True
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Mapping, Optional, Union
+
+import numba
+import numpy as np
+
+from ._dtypes import COUNT, FLOAT, INDEX
+from .compiled import CIRCLE, bounds_params, compile_scene
+from .kernels import step as _step
+from .kernels.placement import overlapping_pairs, place
+from .scene import Box, Circle, Scene, SceneError, check_fits
+
+__all__ = ["Simulation", "PlacementError"]
+
+_ATTEMPTS = 2000  # random placement tries per disc before a spot counts as not found
+_SPEC_COUNTERS = {
+    "collisions": _step.IC_COLLISIONS,
+    "wall_hits": _step.IC_WALL_HITS,
+    "substeps": _step.IC_SUBSTEPS,
+    "reactive_collisions": _step.IC_REACTIVE,
+    "events_capped": _step.IC_EVENTS_CAPPED,
+    "pushed_inside": _step.IC_PUSHED_INSIDE,
+    "reactions_without_room": _step.IC_NO_ROOM,
+    "substeps_capped": _step.IC_SUBSTEPS_CAPPED,
+}
+
+
+class PlacementError(ValueError):
+    """Discs could not be placed (or kept) without overlap in the bounds."""
+
+
+def _rng(seed) -> np.random.Generator:
+    if isinstance(seed, np.random.Generator):
+        return seed
+    return np.random.Generator(np.random.PCG64(seed))
+
+
+class Simulation:
+    """A reactor of hard discs, advanced by the compiled time-stepped integrator.
+
+    Arguments:
+        scene: the :class:`~discgym.Scene` (or a built-in scene name, or a TOML path).
+        counts: initial population ``{species: count}``; default ``scene.counts``.
+        temperature: initial temperature kT (k_B = 1); default ``scene.temperature``.
+            Velocities are drawn from the Maxwell-Boltzmann distribution, then shifted to zero
+            total momentum and scaled so that the kinetic energy is exactly N kT.
+        seed: an int, None, or a ``numpy.random.Generator``. All randomness (placement,
+            velocities, reactions) comes from this one generator, so the same seed gives the
+            same trajectory, bit for bit.
+
+    Arrays returned by the properties are copies; shapes use N = ``len(sim)``.
+    """
+
+    def __init__(self, scene: Union[Scene, str], counts: Optional[Mapping[str, int]] = None,
+                 temperature: Optional[float] = None, seed=None):
+        scene = _as_scene(scene)
+        counts = dict(scene.counts if counts is None else counts)
+        temperature = scene.temperature if temperature is None else temperature
+        # validate through the scene model (names the offending field)
+        scene.replace(counts=counts, temperature=temperature)
+        self._setup(scene, seed)
+        todo = np.concatenate([np.full(c, scene.species_index(nm), dtype=INDEX)
+                               for nm, c in counts.items()] + [np.zeros(0, INDEX)])
+        # random order, then largest discs first (random sequential addition packs far
+        # denser that way); the stable sort keeps the random order within a species
+        todo = self._rng.permutation(todo).astype(INDEX)
+        todo = todo[np.argsort(-self._cs.sp_radius[todo], kind="stable")]
+        self._reserve(len(todo))
+        placed = self._place(todo, None)
+        if placed < len(todo):
+            placed = self._place_lattice(todo)
+        self._n = placed
+        self._vel[: self._n] = self._maxwell(self._spc[: self._n], temperature)
+        if self._n > 1:
+            m = self.masses
+            p = (m[:, None] * self._vel[: self._n]).sum(axis=0)
+            self._vel[: self._n] -= p / m.sum()
+            ke = self.kinetic_energy()
+            if ke > 0:
+                self._vel[: self._n] *= math.sqrt(self._n * temperature / ke)
+        self._energy_start = self.total_energy()
+
+    # ------------------------------------------------------------------ construction
+    def _setup(self, scene: Scene, seed) -> None:
+        self.scene = scene
+        self._cs = compile_scene(scene)
+        self._bounds = scene.bounds
+        self._bkind, self._bp = bounds_params(scene.bounds)
+        self._rng = _rng(seed)
+        cap = 16
+        self._pos = np.zeros((cap, 2), dtype=FLOAT)
+        self._vel = np.zeros((cap, 2), dtype=FLOAT)
+        self._spc = np.full(cap, -1, dtype=INDEX)
+        self._uint = np.zeros(cap, dtype=FLOAT)
+        self._n = 0
+        self._time = 0.0
+        self._icnt = np.zeros(_step.N_ICOUNTERS, dtype=COUNT)
+        self._fsum = np.zeros(_step.N_FSUMS, dtype=FLOAT)
+        self._ch_count = np.zeros(len(self._cs.labels), dtype=COUNT)
+        self._since_reset = 0.0
+        self._energy_input = 0.0
+        self._threads = 4 * numba.get_num_threads()
+
+    @classmethod
+    def from_arrays(cls, scene: Union[Scene, str], positions, velocities, species,
+                    internal_energy=None, seed=None) -> "Simulation":
+        """Build from explicit initial conditions.
+
+        ``positions``, ``velocities``: (N, 2); ``species``: (N,) names or indices;
+        ``internal_energy``: (N,) >= 0, default 0. Overlapping or out-of-bounds discs, NaN and
+        unknown species raise ``ValueError`` naming the disc.
+        """
+        scene = _as_scene(scene)
+        self = cls.__new__(cls)
+        self._setup(scene, seed)
+        pos = np.asarray(positions, dtype=FLOAT)
+        vel = np.asarray(velocities, dtype=FLOAT)
+        n = len(pos)
+        if pos.shape != (n, 2) or vel.shape != (n, 2):
+            raise ValueError(f"positions and velocities must both be (N, 2); got {pos.shape} "
+                             f"and {vel.shape}")
+        spc = self._species_indices(species, n)
+        u = np.zeros(n) if internal_energy is None else np.asarray(internal_energy, FLOAT)
+        if u.shape != (n,):
+            raise ValueError(f"internal_energy must be ({n},), got {u.shape}")
+        for name, arr in (("positions", pos), ("velocities", vel), ("internal_energy", u)):
+            bad = np.flatnonzero(~np.isfinite(arr.reshape(n, -1)).all(axis=1))
+            if len(bad):
+                raise ValueError(f"{name} of disc {bad[0]} is not finite: {arr[bad[0]]}")
+        if (u < 0).any():
+            raise ValueError(f"internal_energy of disc {np.flatnonzero(u < 0)[0]} is negative")
+        r = self._cs.sp_radius[spc]
+        outside = np.flatnonzero(~_inside(pos, r, self._bkind, self._bp))
+        if len(outside):
+            k = outside[0]
+            raise ValueError(f"disc {k} (radius {r[k]}) at {pos[k]} is not inside the bounds "
+                             f"{scene.bounds}")
+        self._reserve(n)
+        self._pos[:n] = pos
+        self._vel[:n] = vel
+        self._spc[:n] = spc
+        self._uint[:n] = u
+        self._n = n
+        if scene.collisions and n > 1:
+            bad = overlapping_pairs(self._pos, self._spc, n, self._cs.sp_radius, self._bkind,
+                                    self._bp, 1e-12)
+            if bad:
+                raise ValueError(f"{bad} pair(s) of discs overlap; discs must not overlap "
+                                 "initially")
+        self._energy_start = self.total_energy()
+        return self
+
+    def _species_indices(self, species, n) -> np.ndarray:
+        names = self.scene.species_names
+        out = np.empty(n, dtype=INDEX)
+        sp = list(species) if not isinstance(species, np.ndarray) else species
+        if len(sp) != n:
+            raise ValueError(f"species must have {n} entries, got {len(sp)}")
+        for k, s in enumerate(sp):
+            if isinstance(s, str):
+                if s not in names:
+                    raise ValueError(f"species of disc {k}: unknown species {s!r} "
+                                     f"(scene has {names})")
+                out[k] = names.index(s)
+            else:
+                if not (0 <= int(s) < len(names)) or int(s) != s:
+                    raise ValueError(f"species of disc {k}: no species index {s!r}")
+                out[k] = int(s)
+        return out
+
+    def _reserve(self, extra: int) -> None:
+        need = self._n + extra
+        cap = len(self._spc)
+        if need <= cap:
+            return
+        cap = max(need, 2 * cap)
+        for name in ("_pos", "_vel"):
+            a = np.zeros((cap, 2), dtype=FLOAT)
+            a[: self._n] = getattr(self, name)[: self._n]
+            setattr(self, name, a)
+        spc = np.full(cap, -1, dtype=INDEX)
+        spc[: self._n] = self._spc[: self._n]
+        uint = np.zeros(cap, dtype=FLOAT)
+        uint[: self._n] = self._uint[: self._n]
+        self._spc, self._uint = spc, uint
+
+    def _place(self, todo: np.ndarray, targets: Optional[np.ndarray]) -> int:
+        if targets is None:
+            targets = np.full((len(todo), 2), np.nan)
+        self._reserve(len(todo))
+        return place(self._pos, self._spc, self._n, todo,
+                     np.ascontiguousarray(targets, dtype=FLOAT), self._cs.sp_radius,
+                     self._bkind, self._bp, self._rng, _ATTEMPTS)
+
+    def _place_lattice(self, todo: np.ndarray) -> int:
+        """Dense initial populations: a hexagonal lattice of the largest diameter."""
+        rmax = float(self._cs.sp_radius[todo].max())
+        a = 2.0 * rmax * (1.0 + 1e-9)
+        x0, y0, x1, y1 = self._bounds.extent
+        xs = np.arange(x0 + rmax, x1 - rmax + 1e-12, a)
+        ys = np.arange(y0 + rmax, y1 - rmax + 1e-12, a * math.sqrt(3) / 2)
+        sites = np.array([(x + (0.5 * a if k % 2 else 0.0), y) for k, y in enumerate(ys)
+                          for x in xs]).reshape(-1, 2)
+        sites = sites[_inside(sites, np.full(len(sites), rmax), self._bkind, self._bp)]
+        if len(sites) < len(todo):
+            raise PlacementError(
+                f"counts: {len(todo)} discs do not fit in {self._bounds} (random placement "
+                f"failed and a hexagonal lattice has only {len(sites)} sites)")
+        chosen = sites[self._rng.choice(len(sites), size=len(todo), replace=False)]
+        self._pos[: len(todo)] = chosen
+        self._spc[: len(todo)] = todo
+        return len(todo)
+
+    def _maxwell(self, spc: np.ndarray, temperature: float) -> np.ndarray:
+        m = self._cs.sp_mass[spc]
+        return self._rng.standard_normal((len(spc), 2)) * np.sqrt(temperature / m)[:, None]
+
+    # ------------------------------------------------------------------ running
+    @property
+    def threads(self) -> int:
+        """Work chunks for numba's threads in a step (4 per thread; 1: single-threaded)."""
+        return self._threads
+
+    @threads.setter
+    def threads(self, value: int) -> None:
+        self._threads = max(int(value), 1)
+
+    def step(self, n: int = 1) -> None:
+        """Advance ``n`` steps of ``scene.dt``."""
+        n = int(n)
+        if n < 0:
+            raise ValueError(f"step(n): n must be >= 0, got {n}")
+        if n:
+            self._run(n, self.scene.dt)
+
+    def advance(self, duration: float) -> None:
+        """Advance the simulated time by ``duration``: whole steps of ``scene.dt``, then one
+        shorter step for the remainder (if more than 1e-9 of a step)."""
+        duration = float(duration)
+        if not math.isfinite(duration) or duration < 0:
+            raise ValueError(f"advance(duration): need a finite duration >= 0, got {duration}")
+        dt = self.scene.dt
+        full = int(math.floor(duration / dt + 1e-9))
+        rest = duration - full * dt
+        if full:
+            self._run(full, dt)
+        if rest > 1e-9 * dt:
+            self._run(1, rest)
+
+    def _run(self, n_steps: int, dt: float) -> None:
+        cs = self._cs
+        pos, vel, spc, uint, n = _step.run(
+            self._pos, self._vel, self._spc, self._uint, self._n, n_steps, dt, self._bkind,
+            self._bp, cs.tables, cs.params, cs.flags, self._rng, self._icnt, self._fsum,
+            self._ch_count, self._threads)
+        self._pos, self._vel, self._spc, self._uint, self._n = pos, vel, spc, uint, n
+        self._time += n_steps * dt
+        self._since_reset += n_steps * dt
+
+    # ------------------------------------------------------------------ state views
+    def __len__(self) -> int:
+        return self._n
+
+    @property
+    def time(self) -> float:
+        """Simulated time since the start."""
+        return self._time
+
+    @property
+    def bounds(self):
+        """The current bounds (changed by :meth:`resize`)."""
+        return self._bounds
+
+    @property
+    def positions(self) -> np.ndarray:
+        """(N, 2) copy of the disc centres."""
+        return self._pos[: self._n].copy()
+
+    @property
+    def velocities(self) -> np.ndarray:
+        """(N, 2) copy of the velocities."""
+        return self._vel[: self._n].copy()
+
+    @property
+    def species(self) -> np.ndarray:
+        """(N,) species index of each disc (into ``scene.species``)."""
+        return self._spc[: self._n].copy()
+
+    @property
+    def radii(self) -> np.ndarray:
+        """(N,) radius of each disc."""
+        return self._cs.sp_radius[self._spc[: self._n]]
+
+    @property
+    def masses(self) -> np.ndarray:
+        """(N,) mass of each disc."""
+        return self._cs.sp_mass[self._spc[: self._n]]
+
+    @property
+    def internal_energy(self) -> np.ndarray:
+        """(N,) internal energy of each disc (stored by combination products)."""
+        return self._uint[: self._n].copy()
+
+    # ------------------------------------------------------------------ observables
+    def counts(self) -> dict:
+        """``{species name: number of discs}`` (every species of the scene, zeros included)."""
+        c = np.bincount(self._spc[: self._n], minlength=len(self.scene.species))
+        return {s.name: int(k) for s, k in zip(self.scene.species, c)}
+
+    def kinetic_energy(self) -> float:
+        v = self._vel[: self._n]
+        return float(0.5 * (self.masses * (v * v).sum(axis=1)).sum())
+
+    def internal_energy_total(self) -> float:
+        return float(self._uint[: self._n].sum())
+
+    def formation_energy(self) -> float:
+        return float(self._cs.sp_form[self._spc[: self._n]].sum())
+
+    def total_energy(self) -> float:
+        """Kinetic + internal + formation energy."""
+        return self.kinetic_energy() + self.internal_energy_total() + self.formation_energy()
+
+    def temperature(self) -> float:
+        """kT = kinetic energy per disc (2D, k_B = 1); 0 for an empty reactor."""
+        return self.kinetic_energy() / self._n if self._n else 0.0
+
+    def momentum(self) -> np.ndarray:
+        """(2,) total momentum."""
+        return (self.masses[:, None] * self._vel[: self._n]).sum(axis=0)
+
+    def pressure(self) -> float:
+        """Force per unit length of wall, from the momentum delivered to the walls since the
+        last :meth:`reset_counters` (or the start), averaged over that time."""
+        if self._since_reset <= 0:
+            return 0.0
+        return float(self._fsum[_step.FS_WALL_MOMENTUM] / (self._since_reset *
+                                                           self._bounds.perimeter))
+
+    def packing_fraction(self) -> float:
+        return float(np.pi * (self.radii ** 2).sum() / self._bounds.area)
+
+    @property
+    def dissipated_energy(self) -> float:
+        """Kinetic energy lost to restitution e < 1 since the start."""
+        return float(self._fsum[_step.FS_DISSIPATED])
+
+    @property
+    def energy_input(self) -> float:
+        """Energy added by the controls since the start (heating, injection)."""
+        return self._energy_input
+
+    def energy_balance(self) -> float:
+        """total energy now - (at the start + added by controls - dissipated): 0 up to
+        round-off when every change is accounted for."""
+        return self.total_energy() - (self._energy_start + self._energy_input
+                                      - self.dissipated_energy)
+
+    def counters(self) -> dict:
+        """Event counters since the start: collisions, wall hits, substeps, ..."""
+        return {k: int(self._icnt[v]) for k, v in _SPEC_COUNTERS.items()}
+
+    @property
+    def collisions(self) -> int:
+        """Non-reactive disc-disc collisions since the start."""
+        return int(self._icnt[_step.IC_COLLISIONS])
+
+    @property
+    def wall_hits(self) -> int:
+        return int(self._icnt[_step.IC_WALL_HITS])
+
+    def reactions(self) -> dict:
+        """``{reaction label: times fired}`` (a combination's reverse has its own entry)."""
+        return {lab: int(c) for lab, c in zip(self._cs.labels, self._ch_count)}
+
+    def reset_counters(self) -> None:
+        """Restart the pressure average (the momentum delivered to the walls)."""
+        self._fsum[_step.FS_WALL_MOMENTUM] = 0.0
+        self._since_reset = 0.0
+
+    def overlaps(self, tol: float = 1e-9) -> int:
+        """Number of pairs overlapping by more than ``tol`` of their contact distance."""
+        if self._n < 2:
+            return 0
+        return int(overlapping_pairs(self._pos, self._spc, self._n, self._cs.sp_radius,
+                                     self._bkind, self._bp, tol))
+
+    def outside(self, tol: float = 1e-9) -> int:
+        """Number of discs reaching out of the bounds by more than ``tol`` of their radius."""
+        r = self.radii * (1.0 - tol)
+        return int((~_inside(self._pos[: self._n], r, self._bkind, self._bp)).sum())
+
+    # ------------------------------------------------------------------ controls
+    def scale_temperature(self, factor: float) -> None:
+        """Multiply every kinetic energy by ``factor`` >= 0 (velocities by sqrt(factor)).
+
+        The energy added (or removed) is booked in :attr:`energy_input`."""
+        factor = float(factor)
+        if not math.isfinite(factor) or factor < 0:
+            raise ValueError(f"scale_temperature(factor): need a finite factor >= 0, got "
+                             f"{factor}")
+        ke = self.kinetic_energy()
+        self._vel[: self._n] *= math.sqrt(factor)
+        self._energy_input += self.kinetic_energy() - ke
+
+    def inject(self, species: Union[str, int], n: int, temperature: Optional[float] = None,
+               near=None) -> int:
+        """Add up to ``n`` discs of ``species`` at free random spots (near ``near`` (x, y) if
+        given), with Maxwell-Boltzmann velocities at ``temperature`` (default: the current
+        temperature, or the scene's when the reactor is empty).
+
+        Returns how many were placed: fewer than ``n`` when the reactor has no room (never an
+        overlap). The energy added is booked in :attr:`energy_input`.
+        """
+        s = int(self._species_indices([species], 1)[0])
+        if isinstance(n, bool) or int(n) != n or n < 0:
+            raise ValueError(f"inject(n): need a whole number >= 0, got {n!r}")
+        n = int(n)
+        if n == 0:
+            return 0
+        if temperature is None:
+            temperature = self.temperature() if self._n else self.scene.temperature
+        temperature = float(temperature)
+        if not math.isfinite(temperature) or temperature < 0:
+            raise ValueError(f"inject(temperature): need a finite value >= 0, got "
+                             f"{temperature}")
+        todo = np.full(n, s, dtype=INDEX)
+        targets = np.full((n, 2), np.nan)
+        if near is not None:
+            targets[:] = np.asarray(near, dtype=FLOAT).reshape(1, 2)
+        e0 = self.total_energy()
+        placed = self._place(todo, targets)
+        lo, hi = self._n, self._n + placed
+        self._vel[lo:hi] = self._maxwell(self._spc[lo:hi], temperature)
+        self._uint[lo:hi] = 0.0
+        self._n = hi
+        self._energy_input += self.total_energy() - e0
+        return placed
+
+    def resize(self, bounds: Union[Box, Circle]) -> None:
+        """Change the bounds. Discs that would end up outside are moved inside, to the nearest
+        free spot found (velocities kept, so no energy changes); if any finds no room, the
+        resize is refused with :class:`PlacementError` and nothing changes."""
+        if not isinstance(bounds, (Box, Circle)):
+            raise TypeError(f"resize(bounds): expected Box or Circle, got {bounds!r}")
+        names = {s.name: s for s in self.scene.species}
+        too_big = [s.name for s in self.scene.species if s.radius > bounds.max_radius()]
+        if too_big:
+            raise PlacementError(f"resize: species {too_big} do not fit in {bounds}")
+        try:
+            check_fits(bounds, names, self.counts(), "resize")
+        except SceneError as exc:
+            raise PlacementError(str(exc)) from None
+        bkind, bp = bounds_params(bounds)
+        n = self._n
+        keep = _inside(self._pos[:n], self.radii, bkind, bp)
+        if keep.all():
+            self._bounds, self._bkind, self._bp = bounds, bkind, bp
+            return
+        order = np.concatenate([np.flatnonzero(keep), np.flatnonzero(~keep)])
+        pos = self._pos[order].copy()
+        vel = self._vel[order].copy()
+        spc = self._spc[order].copy()
+        uint = self._uint[order].copy()
+        k = int(keep.sum())
+        todo = spc[k:n].copy()
+        targets = pos[k:n].copy()
+        spc[k:] = -1
+        placed = place(pos, spc, k, todo, targets, self._cs.sp_radius, bkind, bp, self._rng,
+                       _ATTEMPTS)
+        if placed < len(todo):
+            raise PlacementError(
+                f"resize to {bounds}: {len(todo) - placed} of the {len(todo)} discs outside "
+                "the new bounds find no free spot inside; resize refused")
+        # restore the original order of the discs
+        inv = np.empty(n, dtype=np.int64)
+        inv[order] = np.arange(n)
+        self._pos[:n] = pos[inv]
+        self._vel[:n] = vel[inv]
+        self._spc[:n] = spc[inv]
+        self._uint[:n] = uint[inv]
+        self._bounds, self._bkind, self._bp = bounds, bkind, bp
+
+    # ------------------------------------------------------------------ state
+    def get_state(self) -> dict:
+        """Everything needed to continue bit-identically (copies)."""
+        n = self._n
+        return {
+            "positions": self._pos[:n].copy(),
+            "velocities": self._vel[:n].copy(),
+            "species": self._spc[:n].copy(),
+            "internal_energy": self._uint[:n].copy(),
+            "time": self._time,
+            "bounds": self._bounds,
+            "rng": self._rng.bit_generator.state,
+            "icnt": self._icnt.copy(),
+            "fsum": self._fsum.copy(),
+            "ch_count": self._ch_count.copy(),
+            "since_reset": self._since_reset,
+            "energy_input": self._energy_input,
+            "energy_start": self._energy_start,
+        }
+
+    def set_state(self, state: dict) -> None:
+        """Restore a state from :meth:`get_state` (of a simulation of the same scene)."""
+        n = len(state["species"])
+        if len(self._cs.labels) != len(state["ch_count"]):
+            raise ValueError("set_state: the state belongs to a scene with other reactions")
+        self._bounds = state["bounds"]
+        self._bkind, self._bp = bounds_params(self._bounds)
+        self._n = 0
+        self._reserve(n)
+        self._pos[:n] = state["positions"]
+        self._vel[:n] = state["velocities"]
+        self._spc[:n] = state["species"]
+        self._spc[n:] = -1
+        self._uint[:n] = state["internal_energy"]
+        self._n = n
+        self._time = float(state["time"])
+        if not isinstance(self._rng.bit_generator, np.random.PCG64) or \
+                self._rng.bit_generator.state["bit_generator"] != state["rng"]["bit_generator"]:
+            self._rng = np.random.Generator(np.random.PCG64())
+        self._rng.bit_generator.state = state["rng"]
+        self._icnt[:] = state["icnt"]
+        self._fsum[:] = state["fsum"]
+        self._ch_count[:] = state["ch_count"]
+        self._since_reset = float(state["since_reset"])
+        self._energy_input = float(state["energy_input"])
+        self._energy_start = float(state["energy_start"])
+
+    def __getstate__(self):
+        return {"scene": self.scene, "state": self.get_state()}
+
+    def __setstate__(self, d):
+        self._setup(d["scene"], None)
+        self.set_state(d["state"])
+
+    def copy(self) -> "Simulation":
+        other = Simulation.__new__(Simulation)
+        other.__setstate__(self.__getstate__())
+        return other
+
+    def __repr__(self) -> str:
+        return (f"Simulation({self.scene.name or 'scene'!s}, N={self._n}, t={self._time:.4g}, "
+                f"kT={self.temperature():.4g})")
+
+
+def _inside(pos: np.ndarray, r: np.ndarray, bkind: int, bp: np.ndarray) -> np.ndarray:
+    if bkind == CIRCLE:
+        d2 = (pos[:, 0] - bp[0]) ** 2 + (pos[:, 1] - bp[1]) ** 2
+        L = bp[2] - r
+        return (L >= 0) & (d2 <= L * L)
+    return ((pos[:, 0] >= bp[0] + r) & (pos[:, 0] <= bp[2] - r) &
+            (pos[:, 1] >= bp[1] + r) & (pos[:, 1] <= bp[3] - r))
+
+
+def _as_scene(scene) -> Scene:
+    if isinstance(scene, Scene):
+        return scene
+    if isinstance(scene, str):
+        from . import scenes
+
+        if scene in scenes.names():
+            return scenes.load(scene)
+        return Scene.from_toml(scene)
+    raise TypeError(f"expected a Scene, a built-in scene name or a TOML path, got {scene!r}")

@@ -1,0 +1,18 @@
+"""Shared fixtures. The numba kernels compile once per machine (cached in __pycache__), so
+tests share them simply by importing discgym; scenes here are small to keep CI fast."""
+
+import numpy as np
+import pytest
+
+import discgym as dg
+
+
+@pytest.fixture
+def gas_scene():
+    return dg.Scene(bounds=dg.Box(20.0, 20.0), species=[dg.Species("A", 0.5, 1.0)],
+                    counts={"A": 100}, dt=0.02)
+
+
+def two_disc(scene, p1, p2, v1, v2, s1=0, s2=0, u=None, seed=0):
+    return dg.Simulation.from_arrays(scene, np.array([p1, p2], float), np.array([v1, v2], float),
+                                     [s1, s2], internal_energy=u, seed=seed)
