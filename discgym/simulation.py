@@ -81,6 +81,7 @@ class Simulation:
         if placed < len(todo):
             placed = self._place_lattice(todo)
         self._n = placed
+        self._new_ids(0, placed)
         self._vel[: self._n] = self._maxwell(self._spc[: self._n], temperature)
         if self._n > 1:
             m = self.masses
@@ -103,8 +104,11 @@ class Simulation:
         self._vel = np.zeros((cap, 2), dtype=FLOAT)
         self._spc = np.full(cap, -1, dtype=INDEX)
         self._uint = np.zeros(cap, dtype=FLOAT)
+        self._ids = np.zeros(cap, dtype=COUNT)
+        self._idctr = np.zeros(1, dtype=COUNT)  # the next disc identity
         self._n = 0
         self._time = 0.0
+        self._steps = 0  # steps taken (times the memory reordering)
         self._icnt = np.zeros(_step.N_ICOUNTERS, dtype=COUNT)
         self._fsum = np.zeros(_step.N_FSUMS, dtype=FLOAT)
         self._ch_count = np.zeros(len(self._cs.labels), dtype=COUNT)
@@ -152,6 +156,7 @@ class Simulation:
         self._spc[:n] = spc
         self._uint[:n] = u
         self._n = n
+        self._new_ids(0, n)
         if scene.collisions and n > 1:
             bad = overlapping_pairs(self._pos, self._spc, n, self._cs.sp_radius, self._bkind,
                                     self._bp, 1e-12)
@@ -193,7 +198,15 @@ class Simulation:
         spc[: self._n] = self._spc[: self._n]
         uint = np.zeros(cap, dtype=FLOAT)
         uint[: self._n] = self._uint[: self._n]
-        self._spc, self._uint = spc, uint
+        ids = np.zeros(cap, dtype=COUNT)
+        ids[: self._n] = self._ids[: self._n]
+        self._spc, self._uint, self._ids = spc, uint, ids
+
+    def _new_ids(self, lo: int, hi: int) -> None:
+        """Give discs [lo, hi) fresh identities."""
+        k = self._idctr[0]
+        self._ids[lo:hi] = np.arange(k, k + hi - lo)
+        self._idctr[0] = k + hi - lo
 
     def _place(self, todo: np.ndarray, targets: Optional[np.ndarray]) -> int:
         if targets is None:
@@ -260,11 +273,14 @@ class Simulation:
 
     def _run(self, n_steps: int, dt: float) -> None:
         cs = self._cs
-        pos, vel, spc, uint, n = _step.run(
+        pos, vel, spc, uint, ids, n = _step.run_tracked(
             self._pos, self._vel, self._spc, self._uint, self._n, n_steps, dt, self._bkind,
             self._bp, cs.tables, cs.params, cs.flags, self._rng, self._icnt, self._fsum,
-            self._ch_count, self._threads)
-        self._pos, self._vel, self._spc, self._uint, self._n = pos, vel, spc, uint, n
+            self._ch_count, self._threads, self._ids, self._idctr, self._steps,
+            _step.REORDER_EVERY)
+        self._pos, self._vel, self._spc, self._uint, self._ids = pos, vel, spc, uint, ids
+        self._n = n
+        self._steps += n_steps
         self._time += n_steps * dt
         self._since_reset += n_steps * dt
 
@@ -306,6 +322,14 @@ class Simulation:
     def masses(self) -> np.ndarray:
         """(N,) mass of each disc."""
         return self._cs.sp_mass[self._spc[: self._n]]
+
+    @property
+    def ids(self) -> np.ndarray:
+        """(N,) int64 identity of each disc: stable while the disc exists, never reused.
+
+        The order of the discs in the arrays may change (reaction products, and for N >= 16384
+        a periodic reordering in memory by position, for speed); ``ids`` follows each disc."""
+        return self._ids[: self._n].copy()
 
     @property
     def internal_energy(self) -> np.ndarray:
@@ -444,6 +468,7 @@ class Simulation:
         lo, hi = self._n, self._n + placed
         self._vel[lo:hi] = self._maxwell(self._spc[lo:hi], temperature)
         self._uint[lo:hi] = 0.0
+        self._new_ids(lo, hi)
         self._n = hi
         self._energy_input += self.total_energy() - e0
         return placed
@@ -473,6 +498,7 @@ class Simulation:
         vel = self._vel[order].copy()
         spc = self._spc[order].copy()
         uint = self._uint[order].copy()
+        ids = self._ids[order].copy()
         k = int(keep.sum())
         todo = spc[k:n].copy()
         targets = pos[k:n].copy()
@@ -490,6 +516,7 @@ class Simulation:
         self._vel[:n] = vel[inv]
         self._spc[:n] = spc[inv]
         self._uint[:n] = uint[inv]
+        self._ids[:n] = ids[inv]
         self._bounds, self._bkind, self._bp = bounds, bkind, bp
 
     # ------------------------------------------------------------------ state
@@ -501,6 +528,9 @@ class Simulation:
             "velocities": self._vel[:n].copy(),
             "species": self._spc[:n].copy(),
             "internal_energy": self._uint[:n].copy(),
+            "ids": self._ids[:n].copy(),
+            "next_id": int(self._idctr[0]),
+            "steps": self._steps,
             "time": self._time,
             "bounds": self._bounds,
             "rng": self._rng.bit_generator.state,
@@ -526,6 +556,9 @@ class Simulation:
         self._spc[:n] = state["species"]
         self._spc[n:] = -1
         self._uint[:n] = state["internal_energy"]
+        self._ids[:n] = state["ids"]
+        self._idctr[0] = state["next_id"]
+        self._steps = int(state["steps"])
         self._n = n
         self._time = float(state["time"])
         if not isinstance(self._rng.bit_generator, np.random.PCG64) or \
