@@ -33,6 +33,7 @@ _SPEC_COUNTERS = {
     "pushed_inside": _step.IC_PUSHED_INSIDE,
     "reactions_without_room": _step.IC_NO_ROOM,
     "substeps_capped": _step.IC_SUBSTEPS_CAPPED,
+    "elastic_repeats": _step.IC_TC_ELASTIC,
 }
 
 
