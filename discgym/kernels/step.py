@@ -563,6 +563,17 @@ def _reorder(n, pos, vel, spc, uint, ids, grid):
 
 # --------------------------------------------------------------------------------- the driver
 @njit(cache=True)
+def _workspace(ws):
+    """Per-disc scratch arrays of a run, for a capacity of ``ws`` discs."""
+    return (np.zeros(ws, dtype=COUNT), np.zeros(ws, dtype=COUNT), np.empty(ws, dtype=FLOAT),
+            np.empty(ws, dtype=FLOAT), np.empty(ws, dtype=INDEX), np.empty(ws, dtype=INDEX),
+            np.empty(ws, dtype=INDEX), np.empty(ws, dtype=FLOAT), np.empty(ws, dtype=FLOAT),
+            np.empty(ws, dtype=FLOAT), np.empty(ws, dtype=INDEX),
+            np.empty((ws, OV_SLOTS), dtype=INDEX), np.empty(ws, dtype=FLOAT),
+            np.empty(ws, dtype=FLOAT))
+
+
+@njit(cache=True)
 def run(pos, vel, spc, uint, n, n_steps, dt, bkind, bp, tables, params, flags, rng, icnt, fsum,
         ch_count, threads):
     """:func:`run_tracked` without disc identities (and so without memory reordering)."""
@@ -610,20 +621,8 @@ def run_tracked(pos, vel, spc, uint, n, n_steps, dt, bkind, bp, tables, params, 
     ncy = int(grid[5])
     cell_start = np.empty(ncx * ncy + 1 if collide else 2, dtype=INDEX)
     ws = pos.shape[0]  # per-disc workspace, reallocated when the state grows
-    stamp = np.zeros(ws, dtype=COUNT)
-    lastcol = np.zeros(ws, dtype=COUNT)
-    tlast = np.empty(ws, dtype=FLOAT)
-    wall_t = np.empty(ws, dtype=FLOAT)
-    wflag = np.empty(ws, dtype=INDEX)
-    cell_of = np.empty(ws, dtype=INDEX)
-    cell_items = np.empty(ws, dtype=INDEX)
-    sx = np.empty(ws, dtype=FLOAT)
-    sy = np.empty(ws, dtype=FLOAT)
-    sr = np.empty(ws, dtype=FLOAT)
-    ov_n = np.empty(ws, dtype=INDEX)
-    ov_b = np.empty((ws, OV_SLOTS), dtype=INDEX)
-    binx = np.empty(ws, dtype=FLOAT)
-    biny = np.empty(ws, dtype=FLOAT)
+    (stamp, lastcol, tlast, wall_t, wflag, cell_of, cell_items, sx, sy, sr, ov_n, ov_b, binx,
+     biny) = _workspace(ws)
     for s in range(n_steps):
         if reorder_every > 0 and n >= REORDER_MIN and (step0 + s) % reorder_every == 0:
             _reorder(n, pos, vel, spc, uint, ids, grid)
@@ -645,20 +644,8 @@ def run_tracked(pos, vel, spc, uint, n, n_steps, dt, bkind, bp, tables, params, 
             icnt[IC_SUBSTEPS] += 1
             if ws < pos.shape[0]:
                 ws = pos.shape[0]
-                stamp = np.zeros(ws, dtype=COUNT)
-                lastcol = np.zeros(ws, dtype=COUNT)
-                tlast = np.empty(ws, dtype=FLOAT)
-                wall_t = np.empty(ws, dtype=FLOAT)
-                wflag = np.empty(ws, dtype=INDEX)
-                cell_of = np.empty(ws, dtype=INDEX)
-                cell_items = np.empty(ws, dtype=INDEX)
-                sx = np.empty(ws, dtype=FLOAT)
-                sy = np.empty(ws, dtype=FLOAT)
-                sr = np.empty(ws, dtype=FLOAT)
-                ov_n = np.empty(ws, dtype=INDEX)
-                ov_b = np.empty((ws, OV_SLOTS), dtype=INDEX)
-                binx = np.empty(ws, dtype=FLOAT)
-                biny = np.empty(ws, dtype=FLOAT)
+                (stamp, lastcol, tlast, wall_t, wflag, cell_of, cell_items, sx, sy, sr, ov_n,
+                 ov_b, binx, biny) = _workspace(ws)
             par = threads > 1 and n >= PARALLEL_MIN
             if par:
                 _drift_parallel(threads, n, h, pos, vel, spc, sp_radius, bkind, bp, tlast, wall_t, wflag,
