@@ -206,6 +206,7 @@ def parse_args(argv=None) -> Args:
 if __name__ == "__main__":
     a = parse_args()
     folder = train(a)
-    print(f"trained in {json.loads((folder / 'train_summary.json').read_text())['wall_seconds']:.0f}"
-          f" s; wrote {folder}/model.zip, learning_curve.png; evaluate with "
+    summary = json.loads((folder / "train_summary.json").read_text())
+    print(f"trained in {summary['wall_seconds']:.0f} s; wrote {folder}/model.zip, "
+          "learning_curve.png; evaluate with "
           f"python agents/evaluate.py --run {folder}")

@@ -5,6 +5,7 @@ gymnasium nor any renderer; the environment lives in ``discgym.env``.
 """
 
 from . import scenes
+from .env import register_envs
 from .scene import (
     Box,
     Circle,
@@ -17,6 +18,8 @@ from .scene import (
     Transformation,
 )
 from .simulation import PlacementError, Simulation
+
+register_envs()  # DiscReactor-v0 (discgym.env imports gymnasium, never torch or SB3)
 
 __version__ = "0.1.0"
 

@@ -17,9 +17,9 @@ from __future__ import annotations
 import math
 import re
 import tomllib
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, fields
 from pathlib import Path
-from typing import Mapping, Sequence, Union
 
 __all__ = [
     "SceneError",
@@ -193,7 +193,7 @@ class Circle:
         return self.radius
 
 
-Bounds = Union[Box, Circle]
+Bounds = Box | Circle
 
 
 # --------------------------------------------------------------------------------------------
@@ -334,7 +334,7 @@ class Exchange:
         return f"{self.reactant1} + {self.reactant2} -> {self.product1} + {self.product2}"
 
 
-Reaction = Union[Transformation, Decomposition, Combination, Exchange]
+Reaction = Transformation | Decomposition | Combination | Exchange
 REACTION_TYPES = {c.kind: c for c in (Transformation, Decomposition, Combination, Exchange)}
 
 
@@ -466,7 +466,7 @@ class Scene:
     def species_names(self) -> list[str]:
         return [s.name for s in self.species]
 
-    def replace(self, **changes) -> "Scene":
+    def replace(self, **changes) -> Scene:
         """A copy with some fields changed (validated again)."""
         kw = {f.name: getattr(self, f.name) for f in fields(self)}
         kw.update(changes)
@@ -474,7 +474,7 @@ class Scene:
 
     # ---- TOML
     @classmethod
-    def from_toml(cls, path: Union[str, Path]) -> "Scene":
+    def from_toml(cls, path: str | Path) -> Scene:
         """Load a scene file. Errors name the key and its line in the file."""
         path = Path(path)
         text = path.read_text()
@@ -490,7 +490,7 @@ class Scene:
             raise SceneError(exc.field, f"{exc.args[0].split(': ', 1)[1]} ({where})") from None
 
     @classmethod
-    def from_toml_string(cls, text: str) -> "Scene":
+    def from_toml_string(cls, text: str) -> Scene:
         try:
             data = tomllib.loads(text)
         except tomllib.TOMLDecodeError as exc:
@@ -498,7 +498,7 @@ class Scene:
         return cls.from_dict(data)
 
     @classmethod
-    def from_dict(cls, data: Mapping) -> "Scene":
+    def from_dict(cls, data: Mapping) -> Scene:
         """Build from the plain-dict form used by TOML files (unknown keys are errors)."""
         if not isinstance(data, Mapping):
             raise SceneError("<scene>", f"expected a table, got {type(data).__name__}")

@@ -10,13 +10,14 @@ True
 from __future__ import annotations
 
 import math
-from typing import Mapping, Optional, Union
+from collections.abc import Mapping
 
 import numba
 import numpy as np
 
 from ._dtypes import COUNT, FLOAT, INDEX
 from .compiled import CIRCLE, bounds_params, compile_scene
+from .kernels import event_driven as _event
 from .kernels import step as _step
 from .kernels.placement import overlapping_pairs, place
 from .scene import Box, Circle, Scene, SceneError, check_fits
@@ -59,18 +60,25 @@ class Simulation:
         seed: an int, None, or a ``numpy.random.Generator``. All randomness (placement,
             velocities, reactions) comes from this one generator, so the same seed gives the
             same trajectory, bit for bit.
+        integrator: ``"step"`` (default), the time-stepped integrator (``scene.dt``,
+            ``scene.max_displacement``), or ``"event"``, the exact event-driven one
+            (:mod:`discgym.kernels.event_driven`): discs fly freely between exactly predicted
+            contacts and react at exactly sampled times; ``step(n)`` then advances exactly
+            ``n * scene.dt`` of simulated time. Same scene, same physics rules.
 
     Arrays returned by the properties are copies; shapes use N = ``len(sim)``.
     """
 
-    def __init__(self, scene: Union[Scene, str], counts: Optional[Mapping[str, int]] = None,
-                 temperature: Optional[float] = None, seed=None):
+    def __init__(self, scene: Scene | str, counts: Mapping[str, int] | None = None,
+                 temperature: float | None = None, seed=None, integrator: str = "step"):
+        integrator = _integrator_name(integrator)
         scene = _as_scene(scene)
         counts = dict(scene.counts if counts is None else counts)
         temperature = scene.temperature if temperature is None else temperature
         # validate through the scene model (names the offending field)
         scene.replace(counts=counts, temperature=temperature)
         self._setup(scene, seed)
+        self._integrator = integrator
         todo = np.concatenate([np.full(c, scene.species_index(nm), dtype=INDEX)
                                for nm, c in counts.items()] + [np.zeros(0, INDEX)])
         # random order, then largest discs first (random sequential addition packs far
@@ -116,19 +124,24 @@ class Simulation:
         self._since_reset = 0.0
         self._energy_input = 0.0
         self._threads = 4 * numba.get_num_threads()
+        self._integrator = "step"
 
     @classmethod
-    def from_arrays(cls, scene: Union[Scene, str], positions, velocities, species,
-                    internal_energy=None, seed=None) -> "Simulation":
+    def from_arrays(cls, scene: Scene | str, positions, velocities, species,
+                    internal_energy=None, seed=None,
+                    integrator: str = "step") -> Simulation:
         """Build from explicit initial conditions.
 
         ``positions``, ``velocities``: (N, 2); ``species``: (N,) names or indices;
         ``internal_energy``: (N,) >= 0, default 0. Overlapping or out-of-bounds discs, NaN and
-        unknown species raise ``ValueError`` naming the disc.
+        unknown species raise ``ValueError`` naming the disc. ``integrator``: as for
+        :class:`Simulation`.
         """
+        integrator = _integrator_name(integrator)
         scene = _as_scene(scene)
         self = cls.__new__(cls)
         self._setup(scene, seed)
+        self._integrator = integrator
         pos = np.asarray(positions, dtype=FLOAT)
         vel = np.asarray(velocities, dtype=FLOAT)
         n = len(pos)
@@ -209,7 +222,7 @@ class Simulation:
         self._ids[lo:hi] = np.arange(k, k + hi - lo)
         self._idctr[0] = k + hi - lo
 
-    def _place(self, todo: np.ndarray, targets: Optional[np.ndarray]) -> int:
+    def _place(self, todo: np.ndarray, targets: np.ndarray | None) -> int:
         if targets is None:
             targets = np.full((len(todo), 2), np.nan)
         self._reserve(len(todo))
@@ -272,13 +285,24 @@ class Simulation:
         if rest > 1e-9 * dt:
             self._run(1, rest)
 
+    @property
+    def integrator(self) -> str:
+        """``"step"`` (time-stepped) or ``"event"`` (exact, event-driven)."""
+        return self._integrator
+
     def _run(self, n_steps: int, dt: float) -> None:
         cs = self._cs
-        pos, vel, spc, uint, ids, n = _step.run_tracked(
-            self._pos, self._vel, self._spc, self._uint, self._n, n_steps, dt, self._bkind,
-            self._bp, cs.tables, cs.params, cs.flags, self._rng, self._icnt, self._fsum,
-            self._ch_count, self._threads, self._ids, self._idctr, self._steps,
-            _step.REORDER_EVERY)
+        if self._integrator == "event":  # exactly n_steps * dt of simulated time
+            pos, vel, spc, uint, ids, n = _event.run_tracked(
+                self._pos, self._vel, self._spc, self._uint, self._ids, self._idctr, self._n,
+                n_steps * dt, self._bkind, self._bp, cs.tables, cs.params, cs.flags, self._rng,
+                self._icnt, self._fsum, self._ch_count)
+        else:
+            pos, vel, spc, uint, ids, n = _step.run_tracked(
+                self._pos, self._vel, self._spc, self._uint, self._n, n_steps, dt, self._bkind,
+                self._bp, cs.tables, cs.params, cs.flags, self._rng, self._icnt, self._fsum,
+                self._ch_count, self._threads, self._ids, self._idctr, self._steps,
+                _step.REORDER_EVERY)
         self._pos, self._vel, self._spc, self._uint, self._ids = pos, vel, spc, uint, ids
         self._n = n
         self._steps += n_steps
@@ -439,7 +463,7 @@ class Simulation:
         self._vel[: self._n] *= math.sqrt(factor)
         self._energy_input += self.kinetic_energy() - ke
 
-    def inject(self, species: Union[str, int], n: int, temperature: Optional[float] = None,
+    def inject(self, species: str | int, n: int, temperature: float | None = None,
                near=None) -> int:
         """Add up to ``n`` discs of ``species`` at free random spots (near ``near`` (x, y) if
         given), with Maxwell-Boltzmann velocities at ``temperature`` (default: the current
@@ -474,7 +498,7 @@ class Simulation:
         self._energy_input += self.total_energy() - e0
         return placed
 
-    def resize(self, bounds: Union[Box, Circle]) -> None:
+    def resize(self, bounds: Box | Circle) -> None:
         """Change the bounds. Discs that would end up outside are moved inside, to the nearest
         free spot found (velocities kept, so no energy changes); if any finds no room, the
         resize is refused with :class:`PlacementError` and nothing changes."""
@@ -541,6 +565,7 @@ class Simulation:
             "since_reset": self._since_reset,
             "energy_input": self._energy_input,
             "energy_start": self._energy_start,
+            "integrator": self._integrator,
         }
 
     def set_state(self, state: dict) -> None:
@@ -572,6 +597,7 @@ class Simulation:
         self._since_reset = float(state["since_reset"])
         self._energy_input = float(state["energy_input"])
         self._energy_start = float(state["energy_start"])
+        self._integrator = _integrator_name(state.get("integrator", self._integrator))
 
     def __getstate__(self):
         return {"scene": self.scene, "state": self.get_state()}
@@ -580,7 +606,7 @@ class Simulation:
         self._setup(d["scene"], None)
         self.set_state(d["state"])
 
-    def copy(self) -> "Simulation":
+    def copy(self) -> Simulation:
         other = Simulation.__new__(Simulation)
         other.__setstate__(self.__getstate__())
         return other
@@ -597,6 +623,12 @@ def _inside(pos: np.ndarray, r: np.ndarray, bkind: int, bp: np.ndarray) -> np.nd
         return (L >= 0) & (d2 <= L * L)
     return ((pos[:, 0] >= bp[0] + r) & (pos[:, 0] <= bp[2] - r) &
             (pos[:, 1] >= bp[1] + r) & (pos[:, 1] <= bp[3] - r))
+
+
+def _integrator_name(name) -> str:
+    if name not in ("step", "event"):
+        raise ValueError(f"integrator: expected 'step' or 'event', got {name!r}")
+    return name
 
 
 def _as_scene(scene) -> Scene:

@@ -15,10 +15,10 @@ import signal
 import subprocess
 import sys
 import time
+import tomllib
 
 import numpy as np
 import pytest
-import tomllib
 
 import discgym as dg
 from discgym import cli

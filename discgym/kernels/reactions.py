@@ -45,6 +45,31 @@ def room(x, y, r, ex1, ex2, collide, bkind, bp, pos, spc, sp_radius, grid, cell_
 
 
 @njit(cache=True)
+def combine_outcome(mi, mj, vxi, vyi, vxj, vyj, xi, yi, xj, yj, ui, uj, fa, fb, fp, t):
+    """The product of A + B -> C (pure: scalars in, scalars out).
+
+    Reactants of masses mi, mj with velocities v_i, v_j at contact positions (xi, yi),
+    (xj, yj); internal energies ui, uj; formation energies fa, fb of the reactants and fp of
+    the product. C sits at the centre of mass, wound forward by -t (t <= 0: the contact was
+    -t ago; 0 for the event-driven integrator), with the centre-of-mass velocity, and stores
+    U = ui + uj + 1/2 mu |v_i - v_j|^2 + fa + fb - fp. Returns ``(ok, X, Y, Vx, Vy, U)``,
+    ok False (and zeros) when U < 0 (an endothermic combination the energy cannot pay for).
+    """
+    M = mi + mj
+    mu = mi * mj / M
+    dvx = vxi - vxj
+    dvy = vyi - vyj
+    U = ui + uj + 0.5 * mu * (dvx * dvx + dvy * dvy) + fa + fb - fp
+    if U < 0.0:
+        return False, 0.0, 0.0, 0.0, 0.0, 0.0
+    Vx = (mi * vxi + mj * vxj) / M
+    Vy = (mi * vyi + mj * vyj) / M
+    X = (mi * xi + mj * xj) / M - t * Vx
+    Y = (mi * yi + mj * yj) / M - t * Vy
+    return True, X, Y, Vx, Vy, U
+
+
+@njit(cache=True)
 def combine(i, j, c, t, xi, yi, xj, yj, tables, pos, vel, spc, uint, bkind, bp, grid,
             cell_start, cell_items, nbin, n, reach):
     """A + B -> C at contact time t; i becomes C, j dies (spc = -1). Returns True if fired."""
@@ -53,20 +78,11 @@ def combine(i, j, c, t, xi, yi, xj, yj, tables, pos, vel, spc, uint, bkind, bp, 
     a = spc[i]
     b = spc[j]
     p = ch_prod[c, 0]
-    mi = sp_mass[a]
-    mj = sp_mass[b]
-    M = mi + mj
-    mu = mi * mj / M
-    dvx = vel[i, 0] - vel[j, 0]
-    dvy = vel[i, 1] - vel[j, 1]
-    U = uint[i] + uint[j] + 0.5 * mu * (dvx * dvx + dvy * dvy) + sp_form[a] + sp_form[b] \
-        - sp_form[p]
-    if U < 0.0:
+    ok, X, Y, Vx, Vy, U = combine_outcome(
+        sp_mass[a], sp_mass[b], vel[i, 0], vel[i, 1], vel[j, 0], vel[j, 1], xi, yi, xj, yj,
+        uint[i], uint[j], sp_form[a], sp_form[b], sp_form[p], t)
+    if not ok:
         return False
-    Vx = (mi * vel[i, 0] + mj * vel[j, 0]) / M
-    Vy = (mi * vel[i, 1] + mj * vel[j, 1]) / M
-    X = (mi * xi + mj * xj) / M - t * Vx
-    Y = (mi * yi + mj * yj) / M - t * Vy
     if not room(X, Y, sp_radius[p], i, j, True, bkind, bp, pos, spc, sp_radius, grid,
                 cell_start, cell_items, nbin, n, reach):
         return False
@@ -84,29 +100,35 @@ def combine(i, j, c, t, xi, yi, xj, yj, tables, pos, vel, spc, uint, bkind, bp, 
 
 
 @njit(cache=True)
-def exchange(i, j, c, t, xi, yi, xj, yj, nx, ny, tables, pos, vel, spc, uint, bkind, bp,
-             grid, cell_start, cell_items, nbin, n, reach):
-    """A + B -> C + D at contact time t (n from i to j); i and j become the products."""
-    sp_radius, sp_mass, sp_form = tables[0], tables[1], tables[2]
-    ch_reac, ch_prod = tables[4], tables[5]
-    a = spc[i]
-    b = spc[j]
+def exchange_species(c, a, ch_reac, ch_prod):
+    """The products (for i, for j) of exchange channel c when disc i is of species a."""
     if a == ch_reac[c, 0]:
-        pi, pj = ch_prod[c, 0], ch_prod[c, 1]
-    else:
-        pi, pj = ch_prod[c, 1], ch_prod[c, 0]
-    mi = sp_mass[a]
-    mj = sp_mass[b]
+        return ch_prod[c, 0], ch_prod[c, 1]
+    return ch_prod[c, 1], ch_prod[c, 0]
+
+
+@njit(cache=True)
+def exchange_outcome(mi, mj, mC, mD, rC, rD, vxi, vyi, vxj, vyj, xi, yi, xj, yj, nx, ny, ui,
+                     uj, fa, fb, fC, fD, t):
+    """The products of A + B -> C + D (pure: scalars in, scalars out).
+
+    Reactants i (-> C) and j (-> D) of masses mi, mj at contact positions (xi, yi), (xj, yj)
+    with unit normal n from i to j; products of masses mC, mD and radii rC, rD; internal
+    energies ui, uj; formation energies fa, fb (reactants), fC, fD (products). The products
+    leave the centre of mass along the direction an elastic bounce gives the relative
+    velocity, with the relative speed the available energy E = 1/2 mu |w|^2 + ui + uj + fa +
+    fb - fC - fD sets; they are placed (rC + rD)(1 + 1e-9) apart along n about the centre of
+    mass, wound forward by -t (t <= 0). Returns ``(ok, XC, YC, vCx, vCy, XD, YD, vDx, vDy)``,
+    ok False (and zeros) when E < 0.
+    """
     M = mi + mj
     mu = mi * mj / M
-    wx = vel[i, 0] - vel[j, 0]
-    wy = vel[i, 1] - vel[j, 1]
+    wx = vxi - vxj
+    wy = vyi - vyj
     w2 = wx * wx + wy * wy
-    E = 0.5 * mu * w2 + uint[i] + uint[j] + sp_form[a] + sp_form[b] - sp_form[pi] - sp_form[pj]
+    E = 0.5 * mu * w2 + ui + uj + fa + fb - fC - fD
     if E < 0.0:
-        return False
-    mC = sp_mass[pi]
-    mD = sp_mass[pj]
+        return False, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
     Mp = mC + mD
     muCD = mC * mD / Mp
     # direction of the elastic outcome of the relative velocity
@@ -121,19 +143,37 @@ def exchange(i, j, c, t, xi, yi, xj, yj, nx, ny, tables, pos, vel, spc, uint, bk
         ux = -nx
         uy = -ny
     s = math.sqrt(2.0 * E / muCD)
-    Vx = (mi * vel[i, 0] + mj * vel[j, 0]) / M
-    Vy = (mi * vel[i, 1] + mj * vel[j, 1]) / M
+    Vx = (mi * vxi + mj * vxj) / M
+    Vy = (mi * vyi + mj * vyj) / M
     vCx = Vx + mD / Mp * s * ux
     vCy = Vy + mD / Mp * s * uy
     vDx = Vx - mC / Mp * s * ux
     vDy = Vy - mC / Mp * s * uy
-    d = (sp_radius[pi] + sp_radius[pj]) * _SEP
+    d = (rC + rD) * _SEP
     cx = (mi * xi + mj * xj) / M
     cy = (mi * yi + mj * yj) / M
     XC = cx - mD / Mp * d * nx - t * vCx
     YC = cy - mD / Mp * d * ny - t * vCy
     XD = cx + mC / Mp * d * nx - t * vDx
     YD = cy + mC / Mp * d * ny - t * vDy
+    return True, XC, YC, vCx, vCy, XD, YD, vDx, vDy
+
+
+@njit(cache=True)
+def exchange(i, j, c, t, xi, yi, xj, yj, nx, ny, tables, pos, vel, spc, uint, bkind, bp,
+             grid, cell_start, cell_items, nbin, n, reach):
+    """A + B -> C + D at contact time t (n from i to j); i and j become the products."""
+    sp_radius, sp_mass, sp_form = tables[0], tables[1], tables[2]
+    ch_reac, ch_prod = tables[4], tables[5]
+    a = spc[i]
+    b = spc[j]
+    pi, pj = exchange_species(c, a, ch_reac, ch_prod)
+    ok, XC, YC, vCx, vCy, XD, YD, vDx, vDy = exchange_outcome(
+        sp_mass[a], sp_mass[b], sp_mass[pi], sp_mass[pj], sp_radius[pi], sp_radius[pj],
+        vel[i, 0], vel[i, 1], vel[j, 0], vel[j, 1], xi, yi, xj, yj, nx, ny, uint[i], uint[j],
+        sp_form[a], sp_form[b], sp_form[pi], sp_form[pj], t)
+    if not ok:
+        return False
     if not room(XC, YC, sp_radius[pi], i, j, True, bkind, bp, pos, spc, sp_radius, grid,
                 cell_start, cell_items, nbin, n, reach):
         return False
@@ -171,6 +211,20 @@ def first_order_choice(i, h, tables, spc, uint, rng):
     with probability 1 - exp(-K h), K = sum k_c, channel c with probability k_c / K.
     Returns the channel or -1.
     """
+    K = first_order_rate(i, tables, spc, uint)
+    if K == 0.0:
+        return -1
+    if rng.random() >= -math.expm1(-K * h):
+        return -1
+    return first_order_pick(i, K, tables, spc, uint, rng)
+
+
+@njit(cache=True)
+def first_order_rate(i, tables, spc, uint):
+    """Total rate K of the first-order channels of disc i whose energy condition holds now.
+
+    K changes only when the disc's species or internal energy does (reactions, collisions).
+    """
     ch_rate = tables[6]
     uni_start, uni_chan = tables[8], tables[9]
     s = spc[i]
@@ -179,10 +233,16 @@ def first_order_choice(i, h, tables, spc, uint, rng):
         c = uni_chan[q]
         if released_energy(i, c, tables, spc, uint) >= 0.0:
             K += ch_rate[c]
-    if K == 0.0:
-        return -1
-    if rng.random() >= -math.expm1(-K * h):
-        return -1
+    return K
+
+
+@njit(cache=True)
+def first_order_pick(i, K, tables, spc, uint, rng):
+    """Which eligible first-order channel of disc i fires (channel c with chance k_c / K; K
+    from :func:`first_order_rate`, > 0). Draws one random number."""
+    ch_rate = tables[6]
+    uni_start, uni_chan = tables[8], tables[9]
+    s = spc[i]
     x = rng.random() * K
     last = -1
     for q in range(uni_start[s], uni_start[s + 1]):
@@ -196,6 +256,17 @@ def first_order_choice(i, h, tables, spc, uint, rng):
 
 
 @njit(cache=True)
+def transform_energy(u, fa, fp):
+    """Internal energy after A -> B of a disc with internal energy u (formation energies fa,
+    fp): the formation-energy difference goes into it (never below 0: round-off only, since
+    the channel fires only when this is >= 0)."""
+    u += fa - fp
+    if u < 0.0:
+        u = 0.0
+    return u
+
+
+@njit(cache=True)
 def transform(i, c, collide, tables, pos, spc, uint, bkind, bp, grid, cell_start, cell_items,
               nbin, n, reach):
     sp_radius, sp_form = tables[0], tables[2]
@@ -205,11 +276,44 @@ def transform(i, c, collide, tables, pos, spc, uint, bkind, bp, grid, cell_start
             pos[i, 0], pos[i, 1], sp_radius[p], i, i, collide, bkind, bp, pos, spc, sp_radius,
             grid, cell_start, cell_items, nbin, n, reach):
         return False
-    uint[i] += sp_form[a] - sp_form[p]
-    if uint[i] < 0.0:  # round-off only: released_energy was checked >= 0
-        uint[i] = 0.0
+    uint[i] = transform_energy(uint[i], sp_form[a], sp_form[p])
     spc[i] = p
     return True
+
+
+@njit(cache=True)
+def fission_direction(Vx, Vy, rng):
+    """Unit direction along which the fragments of a parent with velocity V separate:
+    perpendicular to V with a random sign (a random direction if V = 0). Draws 1 or 2
+    random numbers."""
+    speed = math.sqrt(Vx * Vx + Vy * Vy)
+    if speed > 0.0:
+        nx = -Vy / speed
+        ny = Vx / speed
+    else:
+        ang = 2.0 * math.pi * rng.random()
+        nx = math.cos(ang)
+        ny = math.sin(ang)
+    if rng.random() < 0.5:
+        nx = -nx
+        ny = -ny
+    return nx, ny
+
+
+@njit(cache=True)
+def fission_outcome(X, Y, Vx, Vy, E, m1, m2, d, nx, ny):
+    """The fragments of A -> B + C (pure): parent at (X, Y) with velocity V, energy released
+    E, fragment masses m1 (B), m2 (C), centre distance d, separation direction n (from B to
+    C). They sit about the parent's centre of mass and carry equal and opposite momenta
+    |P| = sqrt(2 mu E) in its frame. Returns ``(x1, y1, v1x, v1y, x2, y2, v2x, v2y)``."""
+    M = m1 + m2
+    P = math.sqrt(2.0 * (m1 * m2 / M) * max(E, 0.0))
+    x1 = X - m2 / M * d * nx
+    y1 = Y - m2 / M * d * ny
+    x2 = X + m1 / M * d * nx
+    y2 = Y + m1 / M * d * ny
+    return x1, y1, Vx - P / m1 * nx, Vy - P / m1 * ny, x2, y2, Vx + P / m2 * nx, \
+        Vy + P / m2 * ny
 
 
 @njit(cache=True)
@@ -225,42 +329,28 @@ def fission(i, c, n, collide, tables, pos, vel, spc, uint, bkind, bp, grid, cell
     E = released_energy(i, c, tables, spc, uint)
     m1 = sp_mass[b]
     m2 = sp_mass[cc]
-    M = m1 + m2
     Vx = vel[i, 0]
     Vy = vel[i, 1]
-    speed = math.sqrt(Vx * Vx + Vy * Vy)
-    if speed > 0.0:
-        nx = -Vy / speed
-        ny = Vx / speed
-    else:
-        ang = 2.0 * math.pi * rng.random()
-        nx = math.cos(ang)
-        ny = math.sin(ang)
-    if rng.random() < 0.5:
-        nx = -nx
-        ny = -ny
+    nx, ny = fission_direction(Vx, Vy, rng)
     d = (sp_radius[b] + sp_radius[cc]) * _SEP
-    P = math.sqrt(2.0 * (m1 * m2 / M) * max(E, 0.0))
     X = pos[i, 0]
     Y = pos[i, 1]
-    for attempt in range(2):
-        x1 = X - m2 / M * d * nx
-        y1 = Y - m2 / M * d * ny
-        x2 = X + m1 / M * d * nx
-        y2 = Y + m1 / M * d * ny
+    for _attempt in range(2):
+        x1, y1, v1x, v1y, x2, y2, v2x, v2y = fission_outcome(X, Y, Vx, Vy, E, m1, m2, d, nx,
+                                                             ny)
         if room(x1, y1, sp_radius[b], i, i, collide, bkind, bp, pos, spc, sp_radius, grid,
                 cell_start, cell_items, nbin, n, reach) and \
                 room(x2, y2, sp_radius[cc], i, i, collide, bkind, bp, pos, spc, sp_radius,
                      grid, cell_start, cell_items, nbin, n, reach):
             spc[i] = b
             pos[i, 0], pos[i, 1] = x1, y1
-            vel[i, 0] = Vx - P / m1 * nx
-            vel[i, 1] = Vy - P / m1 * ny
+            vel[i, 0] = v1x
+            vel[i, 1] = v1y
             uint[i] = 0.0
             spc[n] = cc
             pos[n, 0], pos[n, 1] = x2, y2
-            vel[n, 0] = Vx + P / m2 * nx
-            vel[n, 1] = Vy + P / m2 * ny
+            vel[n, 0] = v2x
+            vel[n, 1] = v2y
             uint[n] = 0.0
             return True
         nx = -nx

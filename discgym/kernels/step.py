@@ -26,12 +26,10 @@ Measured on the benchmark scene (N = 10^4, packing 0.3, dt = 0.05, kT = 1, one c
 import math
 
 import numpy as np
-from numba import njit
-
-from numba import prange
+from numba import njit, prange
 
 from .._dtypes import COUNT, FLOAT, INDEX
-from .celllist import build, cell_coord, cell_range, make_grid
+from .celllist import build, cell_range, make_grid
 from .collisions import bounce, normal_at, pair_time
 from .heap import new_heap, pop, push, reserve
 from .reactions import (
@@ -650,16 +648,16 @@ def run_tracked(pos, vel, spc, uint, n, n_steps, dt, bkind, bp, tables, params, 
                  ov_b, binx, biny) = _workspace(ws)
             par = threads > 1 and n >= PARALLEL_MIN
             if par:
-                _drift_parallel(threads, n, h, pos, vel, spc, sp_radius, bkind, bp, tlast, wall_t, wflag,
-                                grid, cell_of, collide)
+                _drift_parallel(threads, n, h, pos, vel, spc, sp_radius, bkind, bp, tlast,
+                                wall_t, wflag, grid, cell_of, collide)
             else:
                 _drift_range(0, n, h, pos, vel, spc, sp_radius, bkind, bp, tlast, wall_t,
                              wflag, grid, cell_of, collide)
             if collide:
                 _sort(n, cell_of, cell_start, cell_items)
                 if par:
-                    _broad_parallel(threads, n, ncx, ncy, cell_start, cell_items, pos, spc, sp_radius,
-                                    sx, sy, sr, ov_n, ov_b)
+                    _broad_parallel(threads, n, ncx, ncy, cell_start, cell_items, pos, spc,
+                                    sp_radius, sx, sy, sr, ov_n, ov_b)
                 else:
                     _gather(0, n, cell_items, pos, spc, sp_radius, sx, sy, sr)
                     _scan_rows(0, ncy, ncx, ncy, cell_start, cell_items, pos, spc, sp_radius,

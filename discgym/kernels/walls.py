@@ -93,32 +93,90 @@ def contact(x, y, vx, vy, r, bkind, bp):
 
 
 @njit(cache=True)
+def reflected(xc, yc, vx, vy, axis, bkind, b0, b1):
+    """Specular reflection (pure) of a disc touching the wall at (xc, yc) with velocity v.
+
+    Box: the ``axis`` component is negated. Circle of centre (b0, b1): v -> v - 2 (v.n) n
+    with the outward normal n = (x_c - M)/|x_c - M|. Returns ``(vx, vy, |v.n|)``; the wall
+    receives momentum 2 m |v.n|.
+    """
+    if bkind == 0:
+        if axis == 0:
+            return -vx, vy, abs(vx)
+        return vx, -vy, abs(vy)
+    nx = xc - b0
+    ny = yc - b1
+    d = math.sqrt(nx * nx + ny * ny)
+    if d > 0.0:
+        nx /= d
+        ny /= d
+    else:  # disc as large as the circle: bounce straight back
+        s = math.sqrt(vx ** 2 + vy ** 2)
+        nx = vx / s
+        ny = vy / s
+    vn = vx * nx + vy * ny
+    return vx - 2.0 * vn * nx, vy - 2.0 * vn * ny, abs(vn)
+
+
+@njit(cache=True)
+def box_next(x, y, vx, vy, r, b0, b1, b2, b3):
+    """Time until the next wall contact of a disc moving freely in the box (b0, b1, b2, b3)
+    = (xmin, ymin, xmax, ymax), and the axis hit: ``(t, axis)``, t = inf if it never hits.
+
+    Forward-time counterpart of :func:`box_contact` (for the event-driven integrator). A disc
+    already past a wall (round-off) and moving out of it gets t = 0.
+    """
+    t = INF
+    axis = -1
+    if vx > 0.0:
+        t = max((b2 - r - x) / vx, 0.0)
+        axis = 0
+    elif vx < 0.0:
+        t = max((b0 + r - x) / vx, 0.0)
+        axis = 0
+    if vy > 0.0:
+        ty = max((b3 - r - y) / vy, 0.0)
+        if ty < t:
+            t, axis = ty, 1
+    elif vy < 0.0:
+        ty = max((b1 + r - y) / vy, 0.0)
+        if ty < t:
+            t, axis = ty, 1
+    return t, axis
+
+
+@njit(cache=True)
+def circle_next(x, y, vx, vy, r, b0, b1, b2):
+    """Time until a disc moving freely inside the circle of centre (b0, b1), radius b2 next
+    touches it: the root t >= 0 of |d + t v| = L (d = r - M, L = b2 - r) at which it would
+    leave, computed without cancellation; inf if it does not move. Returns ``(t, 0)``."""
+    vv = vx * vx + vy * vy
+    if vv == 0.0:
+        return INF, -1
+    dx = x - b0
+    dy = y - b1
+    L = b2 - r
+    c = dx * dx + dy * dy - L * L  # <= 0 inside
+    b = dx * vx + dy * vy
+    disc = b * b - vv * c
+    if disc < 0.0:  # only if outside (round-off) and moving past: no contact ahead
+        disc = 0.0
+    if b > 0.0:
+        if c >= 0.0:  # on or past the wall (round-off) and moving out: now
+            return 0.0, 0
+        return -c / (b + math.sqrt(disc)), 0
+    return (-b + math.sqrt(disc)) / vv, 0
+
+
+@njit(cache=True)
 def reflect(i, t, axis, pos, vel, m, bkind, bp):
     """Reflect disc i at its contact time t; returns the momentum delivered to the wall."""
     xc = pos[i, 0] + t * vel[i, 0]
     yc = pos[i, 1] + t * vel[i, 1]
-    if bkind == 0:
-        if axis == 0:
-            dp = 2.0 * m * abs(vel[i, 0])
-            vel[i, 0] = -vel[i, 0]
-        else:
-            dp = 2.0 * m * abs(vel[i, 1])
-            vel[i, 1] = -vel[i, 1]
-    else:
-        nx = xc - bp[0]
-        ny = yc - bp[1]
-        d = math.sqrt(nx * nx + ny * ny)
-        if d > 0.0:
-            nx /= d
-            ny /= d
-        else:  # disc as large as the circle: bounce straight back
-            s = math.sqrt(vel[i, 0] ** 2 + vel[i, 1] ** 2)
-            nx = vel[i, 0] / s
-            ny = vel[i, 1] / s
-        vn = vel[i, 0] * nx + vel[i, 1] * ny
-        dp = 2.0 * m * abs(vn)
-        vel[i, 0] -= 2.0 * vn * nx
-        vel[i, 1] -= 2.0 * vn * ny
+    vx, vy, vn = reflected(xc, yc, vel[i, 0], vel[i, 1], axis, bkind, bp[0], bp[1])
+    dp = 2.0 * m * vn
+    vel[i, 0] = vx
+    vel[i, 1] = vy
     pos[i, 0] = xc - t * vel[i, 0]
     pos[i, 1] = yc - t * vel[i, 1]
     return dp

@@ -1,0 +1,768 @@
+"""``DiscReactor-v0``: the Gymnasium environment on top of the simulator.
+
+An adapter at the edge (the physics never imports gymnasium): it translates an action into
+the :class:`~discgym.Simulation` controls (``scale_temperature``, ``resize``, ``inject``),
+advances the reactor, and translates its state into an observation and a reward. The full
+documentation (action space, observation space, rewards, episode end, arguments, baselines
+and measured speed) is ``docs/env.md``.
+
+>>> import gymnasium as gym
+>>> import discgym  # registers DiscReactor-v0
+>>> env = gym.make("DiscReactor-v0")
+>>> obs, info = env.reset(seed=0)
+>>> obs.shape, obs.dtype.name
+((19,), 'float32')
+>>> obs, reward, terminated, truncated, info = env.step(env.action_space.sample())
+>>> type(reward).__name__, terminated
+('float', False)
+
+The per-reactor logic (:class:`ReactorConfig`, :func:`apply_action`, :func:`observe`) is shared
+with the batched :class:`discgym.vector.DiscReactorVectorEnv`, so that a reactor of the batch
+follows exactly the trajectory of a lone environment with the same seed and actions.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+import gymnasium as gym
+import numpy as np
+from gymnasium import spaces
+
+from ._dtypes import FLOAT
+from .compiled import CompiledScene, compile_scene
+from .kernels.batch import observe_batch
+from .scene import Box, Circle, Combination, Exchange, Scene
+from .simulation import PlacementError, Simulation, _as_scene
+
+__all__ = [
+    "DiscReactorEnv",
+    "ReactorConfig",
+    "register_envs",
+    "ENV_ID",
+    "DEFAULTS",
+    "HeuristicPolicy",
+    "heuristic_policy",
+    "constant_policy",
+    "random_policy",
+    "evaluate",
+    "best_constant_action",
+]
+
+ENV_ID = "DiscReactor-v0"
+
+#: Default keyword arguments of :class:`DiscReactorEnv` (and of ``gymnasium.make``).
+DEFAULTS = dict(
+    scene="reactor",
+    n_discs=None,
+    episode_steps=100,
+    step_time=0.5,
+    heat_rate=2.0,
+    temperature_range=(0.2, 8.0),
+    size_range=(0.6, 1.4),
+    wall_speed=0.05,
+    feed=None,
+    inject_max=4,
+    feed_budget=None,
+    product=None,
+    count_jitter=0.1,
+    temperature_jitter=0.4,
+    heat_cost=0.0,
+    feed_cost=0.0,
+)
+
+#: Observations are clipped to these bounds (see docs/env.md).
+OBS_ENERGY_MAX = 20.0  # per-species kT, mean internal energy, |total energy per disc|
+OBS_DISCS_MAX = 4.0  # discs now / discs at reset
+OBS_YIELD_MAX = 4.0  # product / limiting reactant at reset
+
+_FLOATS = (np.dtype(np.float32), np.dtype(np.float64))
+_NON_INTERACTIVE = {"agg", "cairo", "pdf", "pgf", "ps", "svg", "template"}
+
+
+# --------------------------------------------------------------------------------------------
+# configuration shared by the single and the vector environment
+
+
+@dataclass(frozen=True, eq=False)
+class ReactorConfig:
+    """The validated settings of a reactor environment (see :data:`DEFAULTS`).
+
+    Built by :meth:`from_kwargs`; read by :class:`DiscReactorEnv` and
+    :class:`discgym.vector.DiscReactorVectorEnv`. ``S`` species, ``F`` feed species.
+    """
+
+    scene: Scene
+    template: np.ndarray  # (S,) int, initial counts before the jitter
+    episode_steps: int
+    steps_per_action: int  # kernel steps of scene.dt per env step
+    heat_rate: float
+    t_min: float
+    t_max: float
+    size_min: float
+    size_max: float
+    wall_speed: float
+    feed: tuple  # (F,) species indices
+    inject_max: int
+    feed_budget: np.ndarray  # (F,) int
+    product: int  # species index
+    count_jitter: float
+    temperature_jitter: float
+    heat_cost: float
+    feed_cost: float
+    max_discs: int  # the most discs a reactor can ever hold
+    obs_names: tuple
+    obs_low: np.ndarray
+    obs_high: np.ndarray
+    compiled: CompiledScene
+
+    @property
+    def n_species(self) -> int:
+        return len(self.scene.species)
+
+    @property
+    def action_names(self) -> tuple:
+        return ("heat", "wall") + tuple(f"inject_{self.scene.species[f].name}"
+                                        for f in self.feed)
+
+    @property
+    def capacity(self) -> int:
+        """Disc capacity that keeps a reactor's arrays from ever growing (see kernels.batch)."""
+        return 2 * self.max_discs + 16
+
+    @classmethod
+    def from_kwargs(cls, **kw) -> ReactorConfig:
+        unknown = set(kw) - set(DEFAULTS)
+        if unknown:
+            raise TypeError(f"unknown argument(s) {sorted(unknown)}; allowed: "
+                            f"{sorted(DEFAULTS)}")
+        o = dict(DEFAULTS)
+        o.update(kw)
+        scene = o["scene"]
+        if isinstance(scene, Path):
+            scene = str(scene)
+        scene = _as_scene(scene)
+        names = scene.species_names
+        S = len(names)
+
+        def index(what, nm):
+            if nm not in names:
+                raise ValueError(f"{what}: unknown species {nm!r} (scene has {names})")
+            return names.index(nm)
+
+        first = next((r for r in scene.reactions if isinstance(r, (Combination, Exchange))),
+                     None)
+        product = o["product"]
+        if product is None:
+            if first is None:
+                raise ValueError("product: the scene has no combination or exchange reaction; "
+                                 "name the product species")
+            product = first.products[0]
+        product = index("product", product)
+        feed = o["feed"]
+        if feed is None:
+            if first is None:
+                raise ValueError("feed: the scene has no combination or exchange reaction; "
+                                 "name the feed species")
+            feed = first.reactants
+        if isinstance(feed, str):
+            feed = (feed,)
+        feed = tuple(index("feed", f) for f in feed)
+        if len(set(feed)) != len(feed):
+            raise ValueError(f"feed: species repeated in {o['feed']!r}")
+
+        template = np.array([scene.counts.get(nm, 0) for nm in names], dtype=np.int64)
+        n_discs = o["n_discs"]
+        if n_discs is not None:
+            if isinstance(n_discs, bool) or int(n_discs) != n_discs or n_discs < 1:
+                raise ValueError(f"n_discs: need a whole number >= 1, got {n_discs!r}")
+            if template.sum() == 0:
+                raise ValueError("n_discs: the scene has no initial counts to scale")
+            template = np.round(template * (int(n_discs) / template.sum())).astype(np.int64)
+        if template.sum() == 0:
+            raise ValueError("the scene has no initial contents (counts)")
+
+        episode_steps = _whole(o["episode_steps"], "episode_steps", 1)
+        step_time = _pos_float(o["step_time"], "step_time")
+        spa = int(round(step_time / scene.dt))
+        if spa < 1 or abs(spa * scene.dt - step_time) > 1e-9 * step_time:
+            raise ValueError(f"step_time: {step_time} must be a whole number of the scene's "
+                             f"time step dt = {scene.dt}")
+        heat_rate = _pos_float(o["heat_rate"], "heat_rate")
+        if heat_rate < 1.0:
+            raise ValueError(f"heat_rate: must be >= 1 (the kinetic-energy factor at action "
+                             f"+1), got {heat_rate}")
+        t_min, t_max = _range(o["temperature_range"], "temperature_range")
+        size_min, size_max = _range(o["size_range"], "size_range")
+        wall_speed = _nonneg_float(o["wall_speed"], "wall_speed")
+        inject_max = _whole(o["inject_max"], "inject_max", 0)
+        cj = _nonneg_float(o["count_jitter"], "count_jitter")
+        tj = _nonneg_float(o["temperature_jitter"], "temperature_jitter")
+        if cj >= 1.0 or tj >= 1.0:
+            raise ValueError("count_jitter and temperature_jitter must be < 1")
+        budget = o["feed_budget"]
+        if budget is None:
+            mean = template.sum() / max(S, 1)
+            budget = [int(math.ceil(0.25 * (template[f] if template[f] else mean)))
+                      for f in feed]
+        elif np.ndim(budget) == 0:
+            budget = [budget] * len(feed)
+        if len(budget) != len(feed):
+            raise ValueError(f"feed_budget: need one budget per feed species ({len(feed)}), "
+                             f"got {budget!r}")
+        feed_budget = np.array([_whole(b, "feed_budget", 0) for b in budget], dtype=np.int64)
+        # the most discs a reactor can ever hold: reactions conserve mass, so at most the
+        # largest initial contents plus every feed budget, all split into the lightest species
+        mass = [sp.mass for sp in scene.species]
+        most = [int(math.floor(t * (1.0 + cj) + 0.5)) for t in template]
+        total_mass = sum(c * m for c, m in zip(most, mass)) + \
+            sum(int(b) * mass[f] for b, f in zip(feed_budget, feed))
+        max_discs = int(math.floor(total_mass / min(mass) * (1.0 + 1e-12)))
+
+        obs_names, lo, hi = [], [], []
+
+        def slot(name, low, high):
+            obs_names.append(name)
+            lo.append(low)
+            hi.append(high)
+
+        for nm in names:
+            slot(f"fraction_{nm}", 0.0, 1.0)
+        for nm in names:
+            slot(f"kT_{nm}", 0.0, OBS_ENERGY_MAX)
+        for nm in names:
+            slot(f"internal_{nm}", 0.0, OBS_ENERGY_MAX)
+        slot("energy_per_disc", -OBS_ENERGY_MAX, OBS_ENERGY_MAX)
+        slot("discs", 0.0, OBS_DISCS_MAX)
+        slot("yield", 0.0, OBS_YIELD_MAX)
+        slot("size", size_min, size_max)
+        slot("time_left", 0.0, 1.0)
+        for f in feed:
+            slot(f"feed_left_{names[f]}", 0.0, 1.0)
+        return cls(
+            scene=scene, template=template, episode_steps=episode_steps,
+            steps_per_action=spa, heat_rate=heat_rate, t_min=t_min, t_max=t_max,
+            size_min=size_min, size_max=size_max, wall_speed=wall_speed, feed=feed,
+            inject_max=inject_max, feed_budget=feed_budget, product=product,
+            count_jitter=cj, temperature_jitter=tj,
+            heat_cost=_nonneg_float(o["heat_cost"], "heat_cost"),
+            feed_cost=_nonneg_float(o["feed_cost"], "feed_cost"), max_discs=max_discs,
+            obs_names=tuple(obs_names), obs_low=np.array(lo, dtype=np.float32),
+            obs_high=np.array(hi, dtype=np.float32), compiled=compile_scene(scene))
+
+    # ---------------------------------------------------------------- spaces
+    def observation_space(self) -> spaces.Box:
+        return spaces.Box(self.obs_low.copy(), self.obs_high.copy(), dtype=np.float32)
+
+    def action_space(self) -> spaces.Box:
+        return spaces.Box(-1.0, 1.0, shape=(2 + len(self.feed),), dtype=np.float32)
+
+    # ---------------------------------------------------------------- reset
+    def draw_contents(self, np_random: np.random.Generator):
+        """Initial ``{species: count}``, temperature and simulation seed, drawn from
+        ``np_random`` in this fixed order (the single and the vector env share it)."""
+        names = self.scene.species_names
+        cj, tj = self.count_jitter, self.temperature_jitter
+        counts = {}
+        for k, t in enumerate(self.template):
+            if t > 0:
+                counts[names[k]] = int(round(t * np_random.uniform(1.0 - cj, 1.0 + cj)))
+        temperature = self.scene.temperature * float(np_random.uniform(1.0 - tj, 1.0 + tj))
+        seed = int(np_random.integers(0, 2**63 - 1))
+        return counts, temperature, seed
+
+    def new_simulation(self, np_random: np.random.Generator,
+                       generator: np.random.Generator | None = None) -> Simulation:
+        """A fresh reactor with contents drawn from ``np_random``. Its own generator is
+        seeded from ``np_random`` too; pass ``generator`` to have that one reseeded and used
+        (the vector env keeps one generator object per reactor)."""
+        counts, temperature, seed = self.draw_contents(np_random)
+        if generator is None:
+            generator = np.random.Generator(np.random.PCG64(seed))
+        else:
+            generator.bit_generator.state = np.random.PCG64(seed).state
+        sim = Simulation(self.scene, counts=counts, temperature=temperature, seed=generator)
+        sim.threads = 1
+        return sim
+
+    def n_ref(self, counts: np.ndarray) -> float:
+        """The normaliser of the reward: the initial count of the limiting feed species."""
+        return float(max(min(int(counts[f]) for f in self.feed), 1))
+
+    def size_of(self, bounds) -> float:
+        ref = self.scene.bounds
+        if isinstance(ref, Box):
+            return bounds.width / ref.width
+        return bounds.radius / ref.radius
+
+    def bounds_of(self, size: float):
+        ref = self.scene.bounds
+        if isinstance(ref, Box):
+            return Box(ref.width * size, ref.height, ref.origin)
+        return Circle(ref.radius * size, ref.center)
+
+
+def _whole(v, name, lo):
+    if isinstance(v, bool) or not isinstance(v, (int, np.integer, float)) or int(v) != v \
+            or v < lo:
+        raise ValueError(f"{name}: need a whole number >= {lo}, got {v!r}")
+    return int(v)
+
+
+def _pos_float(v, name):
+    v = _nonneg_float(v, name)
+    if v <= 0:
+        raise ValueError(f"{name}: must be > 0, got {v}")
+    return v
+
+
+def _nonneg_float(v, name):
+    try:
+        f = float(v)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name}: expected a number, got {v!r}") from None
+    if not math.isfinite(f) or f < 0:
+        raise ValueError(f"{name}: need a finite number >= 0, got {v!r}")
+    return f
+
+
+def _range(v, name):
+    try:
+        lo, hi = (float(x) for x in v)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name}: expected (low, high), got {v!r}") from None
+    if not (math.isfinite(lo) and math.isfinite(hi) and 0 < lo <= hi):
+        raise ValueError(f"{name}: need finite 0 < low <= high, got {v!r}")
+    return lo, hi
+
+
+# --------------------------------------------------------------------------------------------
+# the per-step logic, shared with the vector env
+
+
+def sanitize_actions(cfg: ReactorConfig, actions) -> tuple[np.ndarray, np.ndarray]:
+    """(R, A) actions -> (clean (R, A) float64 in [-1, 1], invalid (R, A) bool).
+
+    A NaN or infinite component is invalid: its control does nothing this step (see
+    :func:`apply_action`). Finite values outside [-1, 1] are clipped.
+    """
+    a = np.asarray(actions, dtype=FLOAT)
+    A = 2 + len(cfg.feed)
+    if a.ndim != 2 or a.shape[1] != A:
+        raise ValueError(f"action: expected shape ({A},) (heat, wall, one injection per feed "
+                         f"species), got {a.shape[1:] if a.ndim == 2 else a.shape}")
+    bad = ~np.isfinite(a)
+    return np.clip(np.where(bad, 0.0, a), -1.0, 1.0), bad
+
+
+def heat_factor(cfg: ReactorConfig, a0: float, temperature: float) -> float:
+    """The kinetic-energy factor of heat action ``a0`` at kT ``temperature``:
+    ``heat_rate ** a0``, cut so that kT stays in [t_min, t_max] (a reactor already outside
+    can only move back); 1.0 means no change."""
+    T = temperature
+    if a0 == 0.0 or not T > 0.0:
+        return 1.0
+    f = cfg.heat_rate ** a0
+    return min(max(f, min(1.0, cfg.t_min / T)), max(1.0, cfg.t_max / T))
+
+
+def apply_action(cfg: ReactorConfig, sim: Simulation, a: Sequence[float],
+                 bad: Sequence[bool], size: float, feed_left: np.ndarray,
+                 temperature: float, kinetic: float) -> tuple:
+    """Apply one clean action ``a`` (A,) (Python floats) to ``sim``: heat, then the wall,
+    then injection. ``temperature`` and ``kinetic`` are the reactor's kT and kinetic energy
+    (from the last observation's sums); ``feed_left`` (F,) is decremented in place by the
+    discs placed.
+
+    Returns ``(size, heat_energy, injected (F,), refused (F,), wall_blocked)``; the heat
+    energy is ``(factor - 1) * kinetic``.
+    """
+    # heat: kinetic energy x heat_rate ** a[0], kept inside [t_min, t_max]
+    heat = 0.0
+    f = heat_factor(cfg, a[0], temperature)
+    if f != 1.0:
+        sim.scale_temperature(f)
+        heat = (f - 1.0) * kinetic
+    size, injected, refused, blocked = wall_and_feed(cfg, sim, a, bad, size, feed_left)
+    return size, heat, injected, refused, blocked
+
+
+def wall_and_feed(cfg: ReactorConfig, sim: Simulation, a: Sequence[float],
+                  bad: Sequence[bool], size: float, feed_left: np.ndarray) -> tuple:
+    """The wall and injection part of :func:`apply_action`; returns
+    ``(size, injected (F,), refused (F,), wall_blocked)``."""
+    # wall: move toward the target size by at most wall_speed
+    blocked = False
+    if not bad[1]:
+        target = cfg.size_min + 0.5 * (a[1] + 1.0) * (cfg.size_max - cfg.size_min)
+        step = min(max(target - size, -cfg.wall_speed), cfg.wall_speed)
+        new = min(max(size + step, cfg.size_min), cfg.size_max)
+        if new != size:
+            try:
+                sim.resize(cfg.bounds_of(new))
+                size = new
+            except PlacementError:
+                blocked = True
+    # injection: round(a * inject_max) discs of each feed species for a > 0, within budget
+    F = len(cfg.feed)
+    injected = np.zeros(F, dtype=np.int64)
+    refused = np.zeros(F, dtype=np.int64)
+    for k in range(F):
+        want = int(round(a[2 + k] * cfg.inject_max)) if a[2 + k] > 0.0 else 0
+        if want <= 0:
+            continue
+        n = min(want, int(feed_left[k]))
+        placed = sim.inject(cfg.feed[k], n) if n > 0 else 0
+        feed_left[k] -= placed
+        injected[k] = placed
+        refused[k] = want - placed
+    return size, injected, refused, blocked
+
+
+def observe(cfg: ReactorConfig, vel, spc, uint, n, size, steps, feed_left, n_init, n_ref,
+            stats, temperature, kinetic, obs) -> None:
+    """Fill ``stats`` (R, 3S+1), ``temperature`` and ``kinetic`` (R,) and ``obs`` (R, D)
+    float32 for R reactors (see :func:`discgym.kernels.batch.observe_batch`)."""
+    cs = cfg.compiled
+    observe_batch(vel, spc, uint, n, cs.sp_mass, cs.sp_form, cfg.product, size, steps,
+                  cfg.episode_steps, feed_left, cfg.feed_budget, n_init, n_ref, cfg.obs_low,
+                  cfg.obs_high, stats, temperature, kinetic, obs)
+
+
+# --------------------------------------------------------------------------------------------
+# the environment
+
+
+class DiscReactorEnv(gym.Env):
+    """A reactor of reacting hard discs to be run for the most product. See docs/env.md.
+
+    Arguments (all optional; they show up in ``env.spec.kwargs`` when given to
+    ``gymnasium.make``): ``scene`` (a built-in name, a TOML path or a :class:`Scene`),
+    ``n_discs``, ``episode_steps``, ``step_time``, ``heat_rate``, ``temperature_range``,
+    ``size_range``, ``wall_speed``, ``feed``, ``inject_max``, ``feed_budget``, ``product``,
+    ``count_jitter``, ``temperature_jitter``, ``heat_cost``, ``feed_cost`` (see
+    :data:`DEFAULTS` and docs/env.md), ``render_mode`` ("rgb_array" or "human") and
+    ``render_size`` (pixels).
+
+    ``env.unwrapped.simulation`` is the underlying :class:`~discgym.Simulation`.
+    """
+
+    metadata = {"render_modes": ["human", "rgb_array"], "render_fps": 10}
+
+    def __init__(self, render_mode: str | None = None, render_size: int = 400, **kwargs):
+        self.config = cfg = ReactorConfig.from_kwargs(**kwargs)
+        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
+            raise ValueError(f"render_mode: expected one of {self.metadata['render_modes']} "
+                             f"or None, got {render_mode!r}")
+        self.render_mode = render_mode
+        self.render_size = int(render_size)
+        if render_mode == "human":
+            _need_matplotlib()
+        self.observation_space = cfg.observation_space()
+        self.action_space = cfg.action_space()
+        self.observation_names = cfg.obs_names
+        self.action_names = cfg.action_names
+        self.simulation: Simulation | None = None
+        S, F = cfg.n_species, len(cfg.feed)
+        # per-episode state as (1, ...) rows, the layout the compiled observation reads
+        self._stats = np.zeros((1, 3 * S + 1), dtype=FLOAT)
+        self._size = np.ones(1, dtype=FLOAT)
+        self._steps = np.zeros(1, dtype=np.int64)
+        self._feed_left = np.zeros((1, F), dtype=np.int64)
+        self._n_init = np.ones(1, dtype=FLOAT)
+        self._n_ref = np.ones(1, dtype=FLOAT)
+        self._n = np.zeros(1, dtype=np.int64)
+        self._temp = np.zeros(1, dtype=FLOAT)
+        self._kin = np.zeros(1, dtype=FLOAT)
+        self._fig = None
+
+    # ------------------------------------------------------------------ API
+    def reset(self, *, seed: int | None = None, options: dict | None = None):
+        super().reset(seed=seed)
+        cfg = self.config
+        self.simulation = sim = cfg.new_simulation(self.np_random)
+        self._steps[0] = 0
+        self._size[0] = cfg.size_of(sim.bounds)
+        self._feed_left[0] = cfg.feed_budget
+        self._n_init[0] = len(sim)
+        counts = np.bincount(sim.species, minlength=cfg.n_species)
+        self._n_ref[0] = cfg.n_ref(counts)
+        obs = self._observe()
+        self._product = float(self._stats[0, cfg.product])
+        info = {"counts": sim.counts(), "temperature": self._temperature,
+                "n_ref": float(self._n_ref[0])}
+        if self.render_mode == "human":
+            self.render()
+        return obs, info
+
+    def step(self, action):
+        if self.simulation is None:
+            raise gym.error.ResetNeeded("call reset() before step()")
+        cfg = self.config
+        sim = self.simulation
+        a, bad = _sanitize_one(cfg, action)
+        size, heat, injected, refused, blocked = apply_action(
+            cfg, sim, a, bad, float(self._size[0]), self._feed_left[0], self._temperature,
+            self._kinetic)
+        self._size[0] = size
+        sim.step(cfg.steps_per_action)
+        self._steps[0] += 1
+        obs = self._observe()
+        # the same arithmetic, in the same order, as rewards() of the vector env
+        n_ref = float(self._n_ref[0])
+        product = float(self._stats[0, cfg.product])
+        gain = (product - self._product) / n_ref
+        cost_heat = cfg.heat_cost * abs(heat) / n_ref
+        cost_feed = cfg.feed_cost * float(injected.sum()) / n_ref
+        reward = gain - cost_heat - cost_feed
+        self._product = product
+        truncated = bool(self._steps[0] >= cfg.episode_steps)
+        names = cfg.scene.species_names
+        counts = self._stats[0, :cfg.n_species]
+        info = {
+            "counts": {nm: int(c) for nm, c in zip(names, counts)},
+            "product": int(product),
+            "yield": product / n_ref,
+            "reward_product": gain,
+            "cost_heat": cost_heat,
+            "cost_feed": cost_feed,
+            "heat_energy": float(heat),
+            "temperature": self._temperature,
+            "size": size,
+            "injected": {names[f]: int(k) for f, k in zip(cfg.feed, injected)},
+            "inject_refused": {names[f]: int(k) for f, k in zip(cfg.feed, refused)},
+            "wall_blocked": blocked,
+            "invalid_action": sum(bad),
+            "time": sim.time,
+        }
+        if self.render_mode == "human":
+            self.render()
+        return obs, reward, False, truncated, info
+
+    def render(self):
+        if self.render_mode is None:
+            gym.logger.warn("render() called without a render_mode; pass "
+                            "render_mode='rgb_array' or 'human' to gymnasium.make")
+            return None
+        if self.simulation is None:
+            raise gym.error.ResetNeeded("call reset() before render()")
+        frame = self._frame()
+        if self.render_mode == "rgb_array":
+            return frame
+        plt = _need_matplotlib()
+        import matplotlib
+
+        backend = matplotlib.get_backend().lower()
+        shown = backend not in _NON_INTERACTIVE and "inline" not in backend
+        if self._fig is None:
+            self._fig, ax = plt.subplots(figsize=(5, 5))
+            ax.set_axis_off()
+            self._im = ax.imshow(frame)
+            if shown:
+                plt.show(block=False)
+        else:
+            self._im.set_data(frame)
+        self._fig.canvas.draw_idle()
+        if shown:  # a headless (Agg) backend just draws, without a window
+            plt.pause(1.0 / self.metadata["render_fps"])
+        return None
+
+    def close(self):
+        if self._fig is not None:
+            import matplotlib.pyplot as plt
+
+            plt.close(self._fig)
+            self._fig = None
+
+    # ------------------------------------------------------------------ helpers
+    def _observe(self) -> np.ndarray:
+        sim = self.simulation
+        self._n[0] = len(sim)
+        obs = np.empty((1, len(self.config.obs_names)), dtype=np.float32)
+        observe(self.config, sim.velocities[None], sim.species[None],
+                sim.internal_energy[None], self._n, self._size, self._steps, self._feed_left,
+                self._n_init, self._n_ref, self._stats, self._temp, self._kin, obs)
+        self._temperature = float(self._temp[0])
+        self._kinetic = float(self._kin[0])
+        return obs[0]
+
+    def _frame(self) -> np.ndarray:
+        from .render import render_frame
+
+        y = self._product / float(self._n_ref[0])
+        title = f"T {self._temperature:.2f} Y {y:.2f}"
+        return render_frame(self.simulation, size=self.render_size, title=title)
+
+    def __getstate__(self):
+        d = self.__dict__.copy()
+        d["_fig"] = None
+        d.pop("_im", None)
+        return d
+
+
+def _sanitize_one(cfg: ReactorConfig, action) -> tuple[list, list]:
+    """One action (A,) -> (clean Python floats, invalid flags); same rule as
+    :func:`sanitize_actions`."""
+    A = 2 + len(cfg.feed)
+    if type(action) is np.ndarray and action.shape == (A,) and action.dtype in _FLOATS:
+        vals = action.tolist()  # float32 -> the same float64 values as np.asarray would give
+    else:
+        a = np.asarray(action, dtype=FLOAT)
+        if a.shape != (A,):
+            raise ValueError(f"action: expected shape ({A},) (heat, wall, one injection per "
+                             f"feed species), got {a.shape}")
+        vals = a.tolist()
+    bad = [not math.isfinite(x) for x in vals]
+    clean = [0.0 if b else min(max(x, -1.0), 1.0) for x, b in zip(vals, bad)]
+    return clean, bad
+
+
+def _need_matplotlib():
+    try:
+        import matplotlib.pyplot as plt
+    except ImportError:
+        raise gym.error.DependencyNotInstalled(
+            "render_mode='human' needs matplotlib: pip install 'discgym[render]' "
+            "(or use render_mode='rgb_array', which needs numpy only)") from None
+    return plt
+
+
+# --------------------------------------------------------------------------------------------
+# registration
+
+
+def register_envs() -> None:
+    """Register ``DiscReactor-v0`` (idempotent). Called by ``import discgym``."""
+    if ENV_ID in gym.registry:
+        return
+    gym.register(
+        id=ENV_ID,
+        entry_point="discgym.env:DiscReactorEnv",
+        vector_entry_point="discgym.vector:DiscReactorVectorEnv",
+        max_episode_steps=DEFAULTS["episode_steps"],
+    )
+
+
+# --------------------------------------------------------------------------------------------
+# baselines: a scheduled heuristic, constant actions and random actions
+
+
+class HeuristicPolicy:
+    """The scheduled heuristic: a thermostat on the observed temperature that heats the cold
+    reactor over the activation barrier to ``t_hot`` and holds it there until the product
+    yield reaches ``switch_yield`` (or the fraction ``switch_time`` of the episode is over),
+    then holds ``t_cold``, cooling against the reaction heat. It also sets the wall action to
+    ``wall`` (-1: the smallest reactor) and the injection actions to ``inject`` (one value
+    per feed species, or one for all).
+
+    Works on one observation (D,) or a batch (R, D); reads the slots by name, so give it the
+    ``observation_names`` of the env (default: those of the default env) and the env's
+    ``heat_rate`` if it is not the default.
+    """
+
+    def __init__(self, observation_names: Sequence[str] | None = None, *, t_hot=1.8,
+                 t_cold=1.6, switch_yield=0.2, switch_time=1.0, wall=-1.0, inject=1.0,
+                 heat_rate=None):
+        if observation_names is None:
+            observation_names = _default_config().obs_names
+        names = list(observation_names)
+        self.frac = [k for k, nm in enumerate(names) if nm.startswith("fraction_")]
+        self.kT = [k for k, nm in enumerate(names) if nm.startswith("kT_")]
+        self.i_yield = names.index("yield")
+        self.i_time = names.index("time_left")
+        self.n_feed = sum(nm.startswith("feed_left_") for nm in names)
+        self.t_hot, self.t_cold = float(t_hot), float(t_cold)
+        self.switch_yield, self.switch_time = float(switch_yield), float(switch_time)
+        self.wall = float(wall)
+        self.inject = np.broadcast_to(np.asarray(inject, dtype=FLOAT), (self.n_feed,))
+        self.log_rate = math.log(heat_rate if heat_rate else DEFAULTS["heat_rate"])
+
+    def __call__(self, obs: np.ndarray) -> np.ndarray:
+        o = np.asarray(obs, dtype=FLOAT)
+        one = o.ndim == 1
+        o = np.atleast_2d(o)
+        T = (o[:, self.frac] * o[:, self.kT]).sum(axis=1)
+        late = (o[:, self.i_yield] >= self.switch_yield) | \
+            (o[:, self.i_time] <= 1.0 - self.switch_time)
+        target = np.where(late, self.t_cold, self.t_hot)
+        a = np.empty((len(o), 2 + self.n_feed), dtype=np.float32)
+        a[:, 0] = np.clip(np.log(target / np.maximum(T, 1e-6)) / self.log_rate, -1.0, 1.0)
+        a[:, 1] = self.wall
+        a[:, 2:] = self.inject
+        return a[0] if one else a
+
+
+def heuristic_policy(obs: np.ndarray) -> np.ndarray:
+    """The default :class:`HeuristicPolicy` on observations of the default env."""
+    global _HEURISTIC
+    if _HEURISTIC is None:
+        _HEURISTIC = HeuristicPolicy()
+    return _HEURISTIC(obs)
+
+
+_HEURISTIC = None
+_CONFIG = None
+
+
+def _default_config() -> ReactorConfig:
+    global _CONFIG
+    if _CONFIG is None:
+        _CONFIG = ReactorConfig.from_kwargs()
+    return _CONFIG
+
+
+def constant_policy(action) -> Callable[[np.ndarray], np.ndarray]:
+    """A policy that always takes ``action`` (A,) (for a batch: the same row for each)."""
+    act = np.asarray(action, dtype=np.float32)
+
+    def policy(obs):
+        o = np.asarray(obs)
+        return act.copy() if o.ndim == 1 else np.tile(act, (len(o), 1))
+
+    return policy
+
+
+def random_policy(n_actions: int = 4, seed=None) -> Callable[[np.ndarray], np.ndarray]:
+    """Uniform random actions in [-1, 1]^n_actions from its own generator."""
+    rng = np.random.default_rng(seed)
+
+    def policy(obs):
+        o = np.asarray(obs)
+        shape = (n_actions,) if o.ndim == 1 else (len(o), n_actions)
+        return rng.uniform(-1.0, 1.0, size=shape).astype(np.float32)
+
+    return policy
+
+
+def evaluate(policy: Callable[[np.ndarray], np.ndarray], episodes: int = 10, seed: int = 0,
+             threads: int | None = None, **env_kwargs) -> np.ndarray:
+    """Returns (episodes,) undiscounted returns of ``policy`` (a batch of observations ->
+    a batch of actions), one episode per reactor of a vector env, seeds ``seed + k``."""
+    from .vector import DiscReactorVectorEnv
+
+    venv = DiscReactorVectorEnv(num_envs=episodes, autoreset_mode="Disabled", threads=threads,
+                                **env_kwargs)
+    obs, _ = venv.reset(seed=seed)
+    total = np.zeros(episodes)
+    for _ in range(venv.config.episode_steps):
+        obs, r, term, trunc, _ = venv.step(policy(obs))
+        total += r
+        if (term | trunc).all():
+            break
+    venv.close()
+    return total
+
+
+def best_constant_action(candidates: Sequence[Sequence[float]], episodes: int = 10,
+                         seed: int = 0, threads: int | None = None,
+                         **env_kwargs) -> tuple[np.ndarray, np.ndarray]:
+    """Evaluate each constant action of ``candidates`` (K, A) on the same seeds; returns
+    ``(best action (A,), mean returns (K,))``."""
+    cand = np.asarray(candidates, dtype=np.float32)
+    means = np.array([evaluate(constant_policy(c), episodes, seed, threads, **env_kwargs)
+                      .mean() for c in cand])
+    return cand[int(np.argmax(means))], means
+

@@ -1,0 +1,210 @@
+"""The batched env: bit-identical to the single env, autoreset modes, make_vec, the SB3 adapter."""
+
+import warnings
+
+import gymnasium as gym
+import numpy as np
+import pytest
+from gymnasium.vector import AutoresetMode
+
+from discgym.env import DiscReactorEnv
+from discgym.vector import DiscReactorVectorEnv
+
+KW = dict(n_discs=80, episode_steps=6)
+
+
+def actions(n, R, seed=0):
+    a = np.random.default_rng(seed).uniform(-1.1, 1.1, (n, R, 4)).astype(np.float32)
+    a[2, 0, 0] = np.nan  # an invalid component somewhere
+    a[4, -1, 1] = np.inf
+    return a
+
+
+def test_each_reactor_follows_the_single_env_bit_for_bit_across_autoresets():
+    R, n = 3, 14  # episodes of 6 steps: two autoresets (NextStep) per reactor
+    acts = actions(n, R)
+    venv = DiscReactorVectorEnv(num_envs=R, **KW)
+    assert venv.metadata["autoreset_mode"] == AutoresetMode.NEXT_STEP
+    vo, _ = venv.reset(seed=10)
+    traj = [venv.step(acts[k]) for k in range(n)]
+    for i in range(R):
+        env = DiscReactorEnv(**KW)
+        o, _ = env.reset(seed=10 + i)
+        assert np.array_equal(o, vo[i])
+        done = False
+        for k in range(n):
+            vobs, vrew, vterm, vtrunc, vinfo = traj[k]
+            if done:  # NextStep: this step resets the reactor, its action is ignored
+                o, _ = env.reset()
+                assert np.array_equal(o, vobs[i]) and vrew[i] == 0.0
+                assert not vinfo["_counts"][i]
+                done = False
+                continue
+            o, r, term, trunc, info = env.step(acts[k, i])
+            assert np.array_equal(o, vobs[i]), (i, k)
+            assert r == vrew[i] and term == vterm[i] and trunc == vtrunc[i]
+            assert info["invalid_action"] == vinfo["invalid_action"][i]
+            assert info["temperature"] == vinfo["temperature"][i]
+            assert info["counts"] == {s: int(v[i]) for s, v in vinfo["counts"].items()
+                                      if not s.startswith("_")}
+            assert info["time"] == vinfo["time"][i]
+            done = term or trunc
+        # the reactor's Simulation is the same state as the single env's
+        sim, vsim = env.simulation, venv.simulations[i]
+        assert np.array_equal(sim.positions, vsim.positions)
+        assert np.array_equal(sim.velocities, vsim.velocities)
+        assert np.array_equal(sim.ids, vsim.ids)
+        assert sim.counters() == vsim.counters() and sim.reactions() == vsim.reactions()
+        assert sim.bounds == vsim.bounds and sim.time == vsim.time
+        # heating is booked by the batch itself: the same energy up to rounding
+        assert vsim.energy_input == pytest.approx(sim.energy_input, rel=1e-12, abs=1e-12)
+        assert abs(vsim.energy_balance()) < 1e-9 * abs(vsim.total_energy())
+
+
+def test_make_vec_uses_the_vector_entry_point():
+    env = gym.make_vec("DiscReactor-v0", num_envs=4, n_discs=60)
+    assert isinstance(env.unwrapped, DiscReactorVectorEnv)
+    assert env.num_envs == 4 and env.metadata["autoreset_mode"] == AutoresetMode.NEXT_STEP
+    obs, info = env.reset(seed=0)
+    assert obs.shape == (4, env.single_observation_space.shape[0]) and obs.dtype == np.float32
+    assert env.observation_space.contains(obs)
+    obs2, rew, term, trunc, info = env.step(env.action_space.sample())
+    assert rew.shape == (4,) and rew.dtype == np.float64
+    assert not np.shares_memory(obs, obs2)
+    assert env.spec.kwargs["n_discs"] == 60
+    env.close()
+
+
+def test_max_episode_steps_of_make_vec_caps_the_episode():
+    env = gym.make_vec("DiscReactor-v0", num_envs=2, n_discs=60, max_episode_steps=3)
+    env.reset(seed=0)
+    for _ in range(3):
+        *_, trunc, _ = env.step(np.zeros((2, 4), np.float32))
+    assert trunc.all()
+
+
+def test_same_step_autoreset_gives_final_obs():
+    R = 2
+    venv = DiscReactorVectorEnv(num_envs=R, autoreset_mode="SameStep", **KW)
+    assert venv.metadata["autoreset_mode"] == AutoresetMode.SAME_STEP
+    venv.reset(seed=3)
+    twin = DiscReactorVectorEnv(num_envs=R, autoreset_mode="Disabled", **KW)
+    twin.reset(seed=3)
+    a = np.zeros((R, 4), np.float32)
+    for _ in range(KW["episode_steps"]):
+        obs, rew, term, trunc, info = venv.step(a)
+        tobs, trew, *_ = twin.step(a)
+    assert trunc.all() and info["_final_obs"].all()
+    for i in range(R):
+        assert np.array_equal(info["final_obs"][i], tobs[i])
+    assert np.array_equal(rew, trew)
+    assert info["final_info"]["_counts"].all()
+    # the observation returned is the first of the next episode
+    obs_reset, _ = twin.reset(options={"reset_mask": np.ones(R, bool)})
+    assert np.array_equal(obs, obs_reset)
+    assert (obs[:, venv.observation_names.index("time_left")] == 1.0).all()
+
+
+def test_disabled_autoreset_needs_a_partial_reset():
+    venv = DiscReactorVectorEnv(num_envs=2, autoreset_mode="Disabled", **KW)
+    venv.reset(seed=0)
+    for _ in range(KW["episode_steps"]):
+        venv.step(np.zeros((2, 4), np.float32))
+    with pytest.raises(gym.error.ResetNeeded):
+        venv.step(np.zeros((2, 4), np.float32))
+    obs, _ = venv.reset(options={"reset_mask": np.array([True, True])})
+    venv.step(np.zeros((2, 4), np.float32))
+
+
+def test_full_feed_budgets_stay_within_capacity():
+    venv = DiscReactorVectorEnv(num_envs=2, n_discs=80, inject_max=10, feed_budget=40,
+                                episode_steps=12)
+    venv.reset(seed=1)
+    a = np.tile(np.array([0.3, -1.0, 1.0, 1.0], np.float32), (2, 1))
+    for _ in range(10):
+        obs, rew, term, trunc, info = venv.step(a)
+    assert (obs[:, venv.observation_names.index("feed_left_A")] == 0).all()
+    cap = venv.config.capacity
+    for sim in venv.simulations:
+        assert sim._pos.shape[0] == cap and sim.overlaps() == 0 and sim.outside() == 0
+
+
+def test_a_decomposing_scene_grows_within_the_planned_capacity():
+    # AB -> A + B doubles the discs: the capacity plan counts mass, not initial discs
+    kw = dict(scene="decomposition", product="A", feed=["AB"], n_discs=60, inject_max=5,
+              feed_budget=20, episode_steps=30)
+    venv = DiscReactorVectorEnv(num_envs=2, **kw)
+    assert venv.config.max_discs >= 2 * (66 + 20)
+    venv.reset(seed=0)
+    a = np.tile(np.array([1.0, 0.0, 1.0], np.float32), (2, 1))
+    for _ in range(30):
+        obs, rew, term, trunc, info = venv.step(a)
+    assert (info["counts"]["A"] > 60).all()  # most AB decomposed (and the fed AB too)
+    env = DiscReactorEnv(**kw)
+    env.reset(seed=0)
+    for _ in range(30):
+        o, *_ = env.step(a[0])
+    assert np.array_equal(o, obs[0])
+
+
+def test_render_rgb_array_frames():
+    venv = DiscReactorVectorEnv(num_envs=2, render_mode="rgb_array", render_size=64, **KW)
+    venv.reset(seed=0)
+    frames = venv.render()
+    assert len(frames) == 2 and frames[0].shape == (64, 64, 3)
+
+
+def test_bad_arguments():
+    with pytest.raises(ValueError, match="num_envs"):
+        DiscReactorVectorEnv(num_envs=0)
+    with pytest.raises(ValueError, match="render_mode"):
+        DiscReactorVectorEnv(num_envs=1, render_mode="human")
+    venv = DiscReactorVectorEnv(num_envs=2, **KW)
+    with pytest.raises(gym.error.ResetNeeded):
+        venv.step(np.zeros((2, 4), np.float32))
+    venv.reset(seed=0)
+    with pytest.raises(ValueError, match="action"):
+        venv.step(np.zeros((2, 3), np.float32))
+
+
+# ------------------------------------------------------------------ Stable-Baselines3
+
+
+def test_sb3_vec_env_terminal_observation_and_truncation():
+    pytest.importorskip("stable_baselines3")
+    from discgym.sb3 import DiscReactorSB3VecEnv
+
+    R = 3
+    venv = DiscReactorSB3VecEnv(num_envs=R, **KW)
+    venv.seed(5)
+    obs = venv.reset()
+    twin = DiscReactorVectorEnv(num_envs=R, autoreset_mode="Disabled", **KW)
+    tobs, _ = twin.reset(seed=5)
+    assert np.array_equal(obs, tobs)
+    a = np.zeros((R, 4), np.float32)
+    for _ in range(KW["episode_steps"]):
+        obs, rew, dones, infos = venv.step(a)
+        tobs, trew, *_ = twin.step(a)
+        assert rew.dtype == np.float32 and np.allclose(rew, trew)
+    assert dones.all() and len(infos) == R
+    for i, info in enumerate(infos):
+        assert np.array_equal(info["terminal_observation"], tobs[i])
+        assert info["TimeLimit.truncated"] is True
+        assert isinstance(info["counts"]["A"], int)
+    assert (obs[:, twin.observation_names.index("time_left")] == 1.0).all()
+
+
+def test_sb3_ppo_trains_on_the_batched_env():
+    pytest.importorskip("stable_baselines3")
+    from stable_baselines3 import PPO
+    from stable_baselines3.common.vec_env import VecMonitor
+
+    from discgym.sb3 import DiscReactorSB3VecEnv
+
+    venv = VecMonitor(DiscReactorSB3VecEnv(num_envs=4, **KW))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        model = PPO("MlpPolicy", venv, n_steps=8, batch_size=16, n_epochs=1, seed=0,
+                    device="cpu")
+        model.learn(total_timesteps=64)
+    assert model.num_timesteps >= 64
