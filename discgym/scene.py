@@ -178,7 +178,7 @@ class Circle:
 
     @property
     def area(self) -> float:
-        return math.pi * self.radius**2
+        return math.pi * self.radius * self.radius  # (r ** 2 raises OverflowError)
 
     @property
     def perimeter(self) -> float:
@@ -398,6 +398,7 @@ class Scene:
                 )
         reactions = tuple(self.reactions)
         pairs = {}
+        labels = {}
         for k, r in enumerate(reactions):
             where = f"reactions[{k}]"
             if not isinstance(r, tuple(REACTION_TYPES.values())):
@@ -413,6 +414,11 @@ class Scene:
                     f"{where}.products",
                     f"{r.label()} does not conserve mass ({m_in} -> {m_out})",
                 )
+            if len(r.reactants) == 1 and r.label() in labels:  # (pairs: checked below)
+                raise SceneError(
+                    where, f"{r.label()} is already reactions[{labels[r.label()]}]; give one "
+                    "reaction (with the combined probability) instead of two")
+            labels[r.label()] = k
             if len(r.reactants) == 2:
                 key = tuple(sorted(r.reactants))
                 if key in pairs:
@@ -573,7 +579,8 @@ class Scene:
 def check_fits(bounds, species_by_name: Mapping[str, Species], counts: Mapping[str, int],
                field_name: str) -> None:
     """Refuse a population whose discs cover more than the densest packing allows."""
-    disc_area = sum(math.pi * species_by_name[n].radius ** 2 * c for n, c in counts.items())
+    disc_area = sum(math.pi * species_by_name[n].radius * species_by_name[n].radius * c
+                    for n, c in counts.items())
     if disc_area > HEX_PACKING * bounds.area:
         raise SceneError(
             field_name,
@@ -632,7 +639,7 @@ def _reaction_from_dict(where: str, d) -> Reaction:
     if not isinstance(d, Mapping):
         raise SceneError(where, f"expected a table, got {d!r}")
     kind = d.get("type")
-    if kind not in _REACTION_FIELDS:
+    if not isinstance(kind, str) or kind not in _REACTION_FIELDS:
         raise SceneError(f"{where}.type", f"expected one of {sorted(_REACTION_FIELDS)}, "
                                           f"got {kind!r}")
     rnames, pnames, params = _REACTION_FIELDS[kind]

@@ -19,6 +19,7 @@ from ._dtypes import COUNT, FLOAT, INDEX
 from .compiled import CIRCLE, bounds_params, compile_scene
 from .kernels import event_driven as _event
 from .kernels import step as _step
+from .kernels import walls as _walls
 from .kernels.placement import overlapping_pairs, place
 from .scene import Box, Circle, Scene, SceneError, check_fits
 
@@ -35,6 +36,8 @@ _SPEC_COUNTERS = {
     "reactions_without_room": _step.IC_NO_ROOM,
     "substeps_capped": _step.IC_SUBSTEPS_CAPPED,
     "elastic_repeats": _step.IC_TC_ELASTIC,
+    "wall_glides": _step.IC_GLIDES,
+    "fallback_repairs": _step.IC_RESOLVED,
 }
 
 
@@ -78,7 +81,7 @@ class Simulation:
         # validate through the scene model (names the offending field)
         scene.replace(counts=counts, temperature=temperature)
         self._setup(scene, seed)
-        self._integrator = integrator
+        self._integrator = _event_fit(integrator, scene, scene.bounds)
         todo = np.concatenate([np.full(c, scene.species_index(nm), dtype=INDEX)
                                for nm, c in counts.items()] + [np.zeros(0, INDEX)])
         # random order, then largest discs first (random sequential addition packs far
@@ -99,6 +102,8 @@ class Simulation:
             ke = self.kinetic_energy()
             if ke > 0:
                 self._vel[: self._n] *= math.sqrt(self._n * temperature / ke)
+        self._check_speeds(self._vel[: self._n], "temperature")
+        self._check_energy("Simulation")
         self._energy_start = self.total_energy()
 
     # ------------------------------------------------------------------ construction
@@ -141,7 +146,7 @@ class Simulation:
         scene = _as_scene(scene)
         self = cls.__new__(cls)
         self._setup(scene, seed)
-        self._integrator = integrator
+        self._integrator = _event_fit(integrator, scene, scene.bounds)
         pos = np.asarray(positions, dtype=FLOAT)
         vel = np.asarray(velocities, dtype=FLOAT)
         n = len(pos)
@@ -152,18 +157,9 @@ class Simulation:
         u = np.zeros(n) if internal_energy is None else np.asarray(internal_energy, FLOAT)
         if u.shape != (n,):
             raise ValueError(f"internal_energy must be ({n},), got {u.shape}")
-        for name, arr in (("positions", pos), ("velocities", vel), ("internal_energy", u)):
-            bad = np.flatnonzero(~np.isfinite(arr.reshape(n, -1)).all(axis=1))
-            if len(bad):
-                raise ValueError(f"{name} of disc {bad[0]} is not finite: {arr[bad[0]]}")
-        if (u < 0).any():
-            raise ValueError(f"internal_energy of disc {np.flatnonzero(u < 0)[0]} is negative")
-        r = self._cs.sp_radius[spc]
-        outside = np.flatnonzero(~_inside(pos, r, self._bkind, self._bp))
-        if len(outside):
-            k = outside[0]
-            raise ValueError(f"disc {k} (radius {r[k]}) at {pos[k]} is not inside the bounds "
-                             f"{scene.bounds}")
+        _check_discs(pos, vel, spc, u, self._cs.sp_radius, self._bkind, self._bp,
+                     scene.bounds)
+        self._check_speeds(vel, "velocities")
         self._reserve(n)
         self._pos[:n] = pos
         self._vel[:n] = vel
@@ -177,6 +173,7 @@ class Simulation:
             if bad:
                 raise ValueError(f"{bad} pair(s) of discs overlap; discs must not overlap "
                                  "initially")
+        self._check_energy("from_arrays")
         self._energy_start = self.total_energy()
         return self
 
@@ -187,16 +184,43 @@ class Simulation:
         if len(sp) != n:
             raise ValueError(f"species must have {n} entries, got {len(sp)}")
         for k, s in enumerate(sp):
+            if not isinstance(s, (str, int, np.integer, float, np.floating)) or \
+                    isinstance(s, bool):
+                raise ValueError(f"species of disc {k}: expected a species name or index, got "
+                                 f"{s!r}")
             if isinstance(s, str):
                 if s not in names:
                     raise ValueError(f"species of disc {k}: unknown species {s!r} "
                                      f"(scene has {names})")
                 out[k] = names.index(s)
             else:
-                if not (0 <= int(s) < len(names)) or int(s) != s:
+                if not (math.isfinite(s) and 0 <= s < len(names) and int(s) == s):
                     raise ValueError(f"species of disc {k}: no species index {s!r}")
                 out[k] = int(s)
         return out
+
+    @property
+    def speed_limit(self) -> float:
+        """The fastest a disc may move: a step of ``scene.dt`` is split into at most
+        ``MAX_SUBSTEPS`` (65536) substeps of at most ``max_displacement`` smallest radii, so
+        faster discs could pass through each other. Controls and initial conditions that
+        would exceed it are refused with ``ValueError``."""
+        cs = self._cs
+        return _step.MAX_SUBSTEPS * cs.params[2] * cs.params[3] / self.scene.dt
+
+    def _check_speeds(self, vel: np.ndarray, what: str) -> None:
+        if len(vel):
+            v = float(np.sqrt((vel * vel).sum(axis=1)).max())
+            if not v <= self.speed_limit:
+                raise ValueError(
+                    f"{what}: a disc would move at speed {v:.3g}, above the speed limit "
+                    f"{self.speed_limit:.3g} (65536 substeps of max_displacement x the "
+                    "smallest radius per step of dt); lower the temperature or dt")
+
+    def _check_energy(self, what: str) -> None:
+        if not math.isfinite(self.total_energy()):
+            raise ValueError(f"{what}: the total energy {self.total_energy()} is not a finite "
+                             "number (energies beyond the float range)")
 
     def _reserve(self, extra: int) -> None:
         need = self._n + extra
@@ -265,9 +289,10 @@ class Simulation:
 
     def step(self, n: int = 1) -> None:
         """Advance ``n`` steps of ``scene.dt``."""
+        if isinstance(n, bool) or not isinstance(n, (int, np.integer, float, np.floating)) \
+                or not math.isfinite(n) or n != int(n) or n < 0:
+            raise ValueError(f"step(n): need a whole number >= 0, got {n!r}")
         n = int(n)
-        if n < 0:
-            raise ValueError(f"step(n): n must be >= 0, got {n}")
         if n:
             self._run(n, self.scene.dt)
 
@@ -459,6 +484,8 @@ class Simulation:
         if not math.isfinite(factor) or factor < 0:
             raise ValueError(f"scale_temperature(factor): need a finite factor >= 0, got "
                              f"{factor}")
+        self._check_speeds(self._vel[: self._n] * math.sqrt(factor),
+                           f"scale_temperature({factor})")
         ke = self.kinetic_energy()
         self._vel[: self._n] *= math.sqrt(factor)
         self._energy_input += self.kinetic_energy() - ke
@@ -473,7 +500,8 @@ class Simulation:
         overlap). The energy added is booked in :attr:`energy_input`.
         """
         s = int(self._species_indices([species], 1)[0])
-        if isinstance(n, bool) or int(n) != n or n < 0:
+        if isinstance(n, bool) or not isinstance(n, (int, np.integer, float, np.floating)) \
+                or not math.isfinite(n) or int(n) != n or n < 0:
             raise ValueError(f"inject(n): need a whole number >= 0, got {n!r}")
         n = int(n)
         if n == 0:
@@ -487,11 +515,26 @@ class Simulation:
         todo = np.full(n, s, dtype=INDEX)
         targets = np.full((n, 2), np.nan)
         if near is not None:
-            targets[:] = np.asarray(near, dtype=FLOAT).reshape(1, 2)
+            try:
+                xy = np.asarray(near, dtype=FLOAT).reshape(2)
+            except (TypeError, ValueError):
+                raise ValueError(f"inject(near): expected a point (x, y), got {near!r}") \
+                    from None
+            if not np.isfinite(xy).all():
+                raise ValueError(f"inject(near): need a finite point, got {near!r}")
+            targets[:] = xy
         e0 = self.total_energy()
+        rng_state = self._rng.bit_generator.state
         placed = self._place(todo, targets)
         lo, hi = self._n, self._n + placed
-        self._vel[lo:hi] = self._maxwell(self._spc[lo:hi], temperature)
+        vel = self._maxwell(self._spc[lo:hi], temperature)
+        try:
+            self._check_speeds(vel, f"inject(temperature={temperature})")
+        except ValueError:
+            self._spc[lo:hi] = -1  # refused: as if never tried
+            self._rng.bit_generator.state = rng_state
+            raise
+        self._vel[lo:hi] = vel
         self._uint[lo:hi] = 0.0
         self._new_ids(lo, hi)
         self._n = hi
@@ -512,6 +555,7 @@ class Simulation:
             check_fits(bounds, names, self.counts(), "resize")
         except SceneError as exc:
             raise PlacementError(str(exc)) from None
+        _event_fit(self._integrator, self.scene, bounds)
         bkind, bp = bounds_params(bounds)
         n = self._n
         keep = _inside(self._pos[:n], self.radii, bkind, bp)
@@ -528,9 +572,11 @@ class Simulation:
         todo = spc[k:n].copy()
         targets = pos[k:n].copy()
         spc[k:] = -1
+        rng_state = self._rng.bit_generator.state
         placed = place(pos, spc, k, todo, targets, self._cs.sp_radius, bkind, bp, self._rng,
                        _ATTEMPTS)
         if placed < len(todo):
+            self._rng.bit_generator.state = rng_state  # refused: as if never tried
             raise PlacementError(
                 f"resize to {bounds}: {len(todo) - placed} of the {len(todo)} discs outside "
                 "the new bounds find no free spot inside; resize refused")
@@ -573,7 +619,33 @@ class Simulation:
         n = len(state["species"])
         if len(self._cs.labels) != len(state["ch_count"]):
             raise ValueError("set_state: the state belongs to a scene with other reactions")
-        self._bounds = state["bounds"]
+        if len(state["icnt"]) != len(self._icnt) or len(state["fsum"]) != len(self._fsum):
+            raise ValueError("set_state: the state comes from another version of discgym")
+        bounds = state["bounds"]
+        if not isinstance(bounds, (Box, Circle)):
+            raise ValueError(f"set_state: bounds must be a Box or Circle, got {bounds!r}")
+        integrator = _event_fit(_integrator_name(state.get("integrator", self._integrator)),
+                                self.scene, bounds)
+        pos = np.asarray(state["positions"], dtype=FLOAT)
+        vel = np.asarray(state["velocities"], dtype=FLOAT)
+        spc = np.asarray(state["species"])
+        u = np.asarray(state["internal_energy"], dtype=FLOAT)
+        ids = np.asarray(state["ids"])
+        if pos.shape != (n, 2) or vel.shape != (n, 2) or u.shape != (n,) or \
+                ids.shape != (n,) or spc.ndim != 1:
+            raise ValueError("set_state: positions, velocities (N, 2), species, "
+                             "internal_energy, ids (N,) disagree in shape")
+        if n and not (np.issubdtype(spc.dtype, np.integer) and 0 <= spc.min()
+                      and spc.max() < len(self.scene.species)):
+            raise ValueError(f"set_state: species must be indices in [0, "
+                             f"{len(self.scene.species)}), got {spc}")
+        spc = spc.astype(INDEX)
+        bkind, bp = bounds_params(bounds)
+        # overlaps are allowed (the adversarial tests build them on purpose); the rest is not
+        _check_discs(pos, vel, spc, u, self._cs.sp_radius, bkind, bp, bounds,
+                     what="set_state: ")
+        self._check_speeds(vel, "set_state: velocities")
+        self._bounds = bounds
         self._bkind, self._bp = bounds_params(self._bounds)
         self._n = 0
         self._reserve(n)
@@ -597,7 +669,8 @@ class Simulation:
         self._since_reset = float(state["since_reset"])
         self._energy_input = float(state["energy_input"])
         self._energy_start = float(state["energy_start"])
-        self._integrator = _integrator_name(state.get("integrator", self._integrator))
+        self._integrator = integrator
+        self._check_energy("set_state")
 
     def __getstate__(self):
         return {"scene": self.scene, "state": self.get_state()}
@@ -623,6 +696,46 @@ def _inside(pos: np.ndarray, r: np.ndarray, bkind: int, bp: np.ndarray) -> np.nd
         return (L >= 0) & (d2 <= L * L)
     return ((pos[:, 0] >= bp[0] + r) & (pos[:, 0] <= bp[2] - r) &
             (pos[:, 1] >= bp[1] + r) & (pos[:, 1] <= bp[3] - r))
+
+
+def _check_discs(pos, vel, spc, u, sp_radius, bkind, bp, bounds, what: str = "") -> None:
+    """Finite positions, velocities and internal energies, no negative internal energy, every
+    disc inside ``bounds``; else ``ValueError`` naming the first offending disc."""
+    n = len(pos)
+    if n == 0:
+        return
+    for name, arr in (("positions", pos), ("velocities", vel), ("internal_energy", u)):
+        bad = np.flatnonzero(~np.isfinite(arr.reshape(n, -1)).all(axis=1))
+        if len(bad):
+            raise ValueError(f"{what}{name} of disc {bad[0]} is not finite: {arr[bad[0]]}")
+    if (u < 0).any():
+        raise ValueError(f"{what}internal_energy of disc {np.flatnonzero(u < 0)[0]} is "
+                         "negative")
+    r = sp_radius[spc]
+    outside = np.flatnonzero(~_inside(pos, r, bkind, bp))
+    if len(outside):
+        k = outside[0]
+        raise ValueError(f"{what}positions: disc {k} (radius {r[k]}) at {pos[k]} is not "
+                         f"inside the bounds {bounds}")
+
+
+def _event_fit(integrator: str, scene: Scene, bounds) -> str:
+    """The event-driven integrator refuses bounds that a species fits exactly (no room to
+    move along an axis): such a disc would meet both walls at once, forever, an event
+    sequence with no end. (The time-stepped integrator holds such a disc in place.)"""
+    if integrator == "event":
+        for s in scene.species:
+            if isinstance(bounds, Circle):
+                gaps = [bounds.radius - s.radius]
+            else:
+                gaps = [bounds.width - 2 * s.radius, bounds.height - 2 * s.radius]
+            if min(gaps) <= _walls.FIT_TOL * s.radius:
+                raise ValueError(
+                    f"integrator='event': species {s.name!r} (radius {s.radius}) fits "
+                    f"{bounds} exactly, with no room to move: its wall contacts would never "
+                    "end. Use the time-stepped integrator (the default), which holds such a "
+                    "disc in place.")
+    return integrator
 
 
 def _integrator_name(name) -> str:

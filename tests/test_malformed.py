@@ -69,10 +69,7 @@ BAD_COUNTS = [-1, 1.5, "3", True, NAN, [3], 10**9]
 
 
 # mutants that expose a bug today: (substring of the id, reason); marked xfail(strict=True)
-KNOWN_BUGS = [
-    (".type=['combination']", "BUG: a reaction type that is a list raises TypeError "
-     "(unhashable) in _reaction_from_dict instead of SceneError naming reactions[k].type"),
-]
+KNOWN_BUGS: list = []  # (fixed: a reaction type that is a list raised TypeError)
 
 
 def mutants():
@@ -356,8 +353,7 @@ P, V, S = [[2.0, 2.0], [5.0, 5.0]], [[0.0, 0.0], [1.0, 1.0]], [0, 0]
     ((P, V, S, [0.0]), "internal_energy"),
     (([[20.0, 20.0], [5.0, 5.0]], V, S, None), "not inside"),
     (([[5.0, 5.2], [5.0, 5.0]], V, S, None), "overlap"),
-    pytest.param((P, V, [None, 0], None), "species", marks=pytest.mark.xfail(
-        strict=True, reason="BUG (minor): species None raises TypeError from int()")),
+    pytest.param((P, V, [None, 0], None), "species"),
 ])
 def test_malformed_initial_arrays_raise_value_error(args, match):
     """``Simulation.from_arrays`` refuses malformed arrays with ValueError (naming the array
@@ -367,9 +363,6 @@ def test_malformed_initial_arrays_raise_value_error(args, match):
         dg.Simulation.from_arrays(SC, p, v, s, internal_energy=u)
 
 
-@pytest.mark.xfail(strict=True, reason="BUG (minor): from_arrays with zero discs fails in "
-                   "its finiteness check (reshape of an empty array) instead of building an "
-                   "empty reactor")
 def test_from_arrays_accepts_an_empty_reactor():
     """Zero discs is a valid (empty) reactor, as ``Simulation(scene, counts={})`` is."""
     sim = dg.Simulation.from_arrays(SC, np.zeros((0, 2)), np.zeros((0, 2)), [])
@@ -389,10 +382,6 @@ def _state_mutants():
     return out
 
 
-@pytest.mark.xfail(strict=True, reason="BUG: set_state does not validate: NaN/inf positions "
-                   "or velocities, unknown species indices, negative internal energy and "
-                   "discs outside the bounds are accepted and reach the kernels (an infinite "
-                   "velocity then segfaults the step)")
 @pytest.mark.parametrize("key, idx, value", _state_mutants())
 def test_malformed_state_is_refused_by_set_state(key, idx, value):
     """``set_state`` with a damaged state raises ValueError naming the key, and leaves the
@@ -413,9 +402,6 @@ def _run_isolated(code: str) -> subprocess.CompletedProcess:
                           text=True, timeout=300)
 
 
-@pytest.mark.xfail(strict=True, reason="BUG: set_state accepts an infinite velocity; the "
-                   "step then makes the position infinite, and sim.overlaps() (cell index "
-                   "int(inf)) dies with SIGSEGV")
 def test_infinite_velocity_never_crashes_the_process():
     """An infinite velocity smuggled in through ``set_state`` is refused (ValueError), or the
     step and the diagnostics cope: the interpreter never dies inside numba. Run in a
@@ -446,7 +432,6 @@ def _sound(sim):
 
 
 _A = dg.Species("A", 0.5, 1.0)
-_OVERFLOW = "BUG: substep count overflows int64 (math.ceil of v dt / max_disp > 9.2e18)"
 EXTREME = [
     pytest.param(dict(dt=1e-300), id="dt=1e-300"),
     pytest.param(dict(temperature=1e-300), id="T=1e-300"),
@@ -459,16 +444,11 @@ EXTREME = [
     pytest.param(dict(bounds=dg.Box(1e300, 1e300)), id="box=1e300"),
     pytest.param(dict(species=[dg.Species("A", 0.5, 1.0, formation_energy=1e300)]),
                  id="F=1e300"),
-    pytest.param(dict(dt=1e300), id="dt=1e300",
-                 marks=pytest.mark.xfail(strict=True, reason=_OVERFLOW)),
-    pytest.param(dict(temperature=1e300), id="T=1e300",
-                 marks=pytest.mark.xfail(strict=True, reason=_OVERFLOW)),
-    pytest.param(dict(species=[dg.Species("A", 0.5, 1e-300)]), id="mass=1e-300",
-                 marks=pytest.mark.xfail(strict=True, reason=_OVERFLOW)),
+    pytest.param(dict(dt=1e300), id="dt=1e300"),
+    pytest.param(dict(temperature=1e300), id="T=1e300"),
+    pytest.param(dict(species=[dg.Species("A", 0.5, 1e-300)]), id="mass=1e-300"),
     pytest.param(dict(species=[dg.Species("A", 0.5, 1.0, formation_energy=-1e308)]),
-                 id="F=-1e308", marks=pytest.mark.xfail(strict=True, reason=(
-                     "BUG: formation energies summing past the float range make the total "
-                     "energy -inf and energy_balance() NaN; validation accepts them"))),
+                 id="F=-1e308"),
 ]
 
 
@@ -488,8 +468,6 @@ def test_valid_scene_with_extreme_magnitudes_is_refused_or_runs_soundly(kw):
     assert _sound(sim)
 
 
-@pytest.mark.xfail(strict=True, reason="BUG: validation computes pi r^2 with r ** 2, which "
-                   "raises OverflowError (not SceneError) for radii above ~1.3e154")
 def test_huge_radius_is_a_scene_error():
     """A species radius of 1e200 in bounds of 1e300: validation either accepts it or raises
     SceneError; never OverflowError."""

@@ -279,15 +279,12 @@ def test_random_scenes_run_long_enough_to_react(scene, seed):
     event("reactions fired: " + ("0" if fired == 0 else "1-9" if fired < 10 else ">= 10"))
 
 
-@pytest.mark.xfail(strict=True, reason="BUG: a scene may list the same first-order reaction "
-                   "twice (validation allows it); sim.reactions() is a dict keyed by label, so "
-                   "the second channel's count overwrites the first and fired reactions "
-                   "vanish from the record (found by the property test)")
 def test_duplicate_reactions_are_counted():
     """Two identical decompositions S2 -> S0 + S0 (certain): either the scene is refused
     (SceneError naming reactions[1]) or ``sim.reactions()`` accounts for every
     decomposition: for seeds 0-5, the record equals the number of S2 discs gone after one
-    step (today seeds 2 and 3 decompose both discs, one per channel, and report 1)."""
+    step (before the fix seeds 2 and 3 decomposed both discs, one per channel, and reported
+    1)."""
     sp = [dg.Species("S0", 0.5, 1.0), dg.Species("S2", 0.5, 2.0)]
     rx = [dg.Decomposition("S2", "S0", "S0", 1.0)] * 2
     try:
@@ -303,9 +300,6 @@ def test_duplicate_reactions_are_counted():
 
 # -------------------------------------------------------------- NaN and inf to the controls
 BAD = [math.nan, math.inf, -math.inf]
-_OVERFLOW = "BUG: int(inf) raises OverflowError, not ValueError"
-_NEAR = "BUG: inject(near=...) accepts non-finite points (NaN: silently 'anywhere'; " \
-        "inf: clamped to the wall) instead of raising ValueError"
 
 
 @pytest.mark.parametrize("call", [
@@ -313,12 +307,9 @@ _NEAR = "BUG: inject(near=...) accepts non-finite points (NaN: silently 'anywher
     pytest.param(lambda s, x: s.scale_temperature(-1.0 if math.isnan(x) else -x),
                  id="scale_temperature(negative)"),
     pytest.param(lambda s, x: s.inject("A", 2, temperature=x), id="inject(temperature)"),
-    pytest.param(lambda s, x: s.inject("A", x), id="inject(n)",
-                 marks=pytest.mark.xfail(strict=True, reason=_OVERFLOW, raises=OverflowError)),
-    pytest.param(lambda s, x: s.inject("A", 2, near=(x, 5.0)), id="inject(near)",
-                 marks=pytest.mark.xfail(strict=True, reason=_NEAR)),
-    pytest.param(lambda s, x: s.step(x), id="step(n)",
-                 marks=pytest.mark.xfail(strict=True, reason=_OVERFLOW, raises=OverflowError)),
+    pytest.param(lambda s, x: s.inject("A", x), id="inject(n)"),
+    pytest.param(lambda s, x: s.inject("A", 2, near=(x, 5.0)), id="inject(near)"),
+    pytest.param(lambda s, x: s.step(x), id="step(n)"),
     pytest.param(lambda s, x: s.advance(x), id="advance"),
     pytest.param(lambda s, x: s.resize(dg.Box(x, 10.0)), id="resize(Box width)"),
     pytest.param(lambda s, x: s.resize(dg.Circle(x)), id="resize(Circle radius)"),
@@ -344,8 +335,6 @@ def test_non_finite_control_arguments_raise_value_error_and_change_nothing(call)
         assert before["rng"] == after["rng"] and before["bounds"] == after["bounds"]
 
 
-@pytest.mark.xfail(strict=True, reason="BUG (minor): step(n) truncates a non-integral n "
-                   "(step(1.5) runs 1 step) instead of refusing it")
 def test_step_refuses_a_non_integral_count():
     """``step(1.5)`` raises ValueError rather than silently running one step."""
     sim = dg.Simulation("ideal_gas", seed=0)
@@ -353,9 +342,6 @@ def test_step_refuses_a_non_integral_count():
         sim.step(1.5)
 
 
-@pytest.mark.xfail(strict=True, reason="BUG: scale_temperature checks only the factor: three "
-                   "finite factors of 1e300 make the velocities infinite; the step then sends "
-                   "the discs to infinity and sim.overlaps() dies with SIGSEGV")
 def test_repeated_extreme_heating_never_crashes_the_process():
     """``scale_temperature(1e300)`` three times: each call either raises ValueError, or the
     velocities stay finite; then a step and the diagnostics run without killing the

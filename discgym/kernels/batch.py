@@ -41,7 +41,7 @@ def run_batch(pos, vel, spc, uint, ids, idctr, n, steps, n_steps, dt, bkind, bp,
     (the memory-reordering clock of ``run_tracked``, updated in place). ``bkind`` (R,) int64
     and ``bp`` (R, 4): the bounds of each reactor. ``tables``, ``params``, ``flags``: the
     (shared) compiled scene. ``rngs``: a ``numba.typed.List`` of R ``np.random.Generator``.
-    Counters accumulated in place: ``icnt`` (R, 9), ``fsum`` (R, 2), ``ch_count``
+    Counters accumulated in place: ``icnt`` (R, N_ICOUNTERS), ``fsum`` (R, 2), ``ch_count``
     (R, channels). ``reorder_every``: as in ``run_tracked``. ``active`` (R,) bool: the
     reactors to advance (the others are left alone). ``status`` (R,) int64: set to
     :data:`GREW` for a reactor whose capacity was too small (its new state is lost).

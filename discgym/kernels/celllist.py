@@ -41,8 +41,15 @@ def make_grid(bkind, bp, rmax, n):
 
 @njit(cache=True)
 def cell_coord(x, icw, x0, nc):
-    c = int((x - x0) * icw) if x > x0 else 0
-    return min(c, nc - 1)
+    """Column (or row) of coordinate x in a grid of nc cells of inverse width icw from x0,
+    clamped to [0, nc - 1] before the conversion to an integer (a disc far outside, or a
+    search reach far larger than the grid, must not overflow int64: NaN goes to 0 too)."""
+    f = (x - x0) * icw
+    if not f > 0.0:
+        return 0
+    if f >= nc:
+        return nc - 1
+    return int(f)
 
 
 @njit(cache=True)
@@ -90,34 +97,35 @@ def cell_range(x, y, reach, grid):
 
 
 @njit(cache=True)
-def overlaps_any(x, y, r, ex1, ex2, pos, spc, sp_radius, grid, cell_start, cell_items, nbin, n,
-                 reach):
-    """Does a disc of radius r at (x, y) overlap any live disc other than ex1 and ex2?
+def overlaps_any(x, y, r, t, ex1, ex2, pos, vel, spc, sp_radius, grid, cell_start, cell_items,
+                 nbin, n, reach):
+    """Does a disc of radius r at (x, y) at time t (<= 0, relative to the end of the substep)
+    overlap any live disc other than ex1 and ex2, each taken at ``pos + t * vel`` on its
+    current straight trajectory (exact for a time no earlier than every disc's latest event,
+    as holds for an event being processed in time order)?
 
     Discs [0, nbin) are in the grid, binned at positions at most ``reach - rmax`` away from
-    where they are now; discs [nbin, n) were created since and are checked one by one.
+    where they are at time t; discs [nbin, n) were created since and are checked one by one.
     Touching is not overlapping.
     """
     cx0, cx1, cy0, cy1 = cell_range(x, y, r + reach, grid)
     ncx = int(grid[4])
     for cy in range(cy0, cy1 + 1):
-        for cx in range(cx0, cx1 + 1):
-            c = cx + ncx * cy
-            for a in range(cell_start[c], cell_start[c + 1]):
-                k = cell_items[a]
-                if k == ex1 or k == ex2 or spc[k] < 0:
-                    continue
-                R = r + sp_radius[spc[k]]
-                dx = pos[k, 0] - x
-                dy = pos[k, 1] - y
-                if dx * dx + dy * dy < R * R:
-                    return True
+        for a in range(cell_start[cx0 + ncx * cy], cell_start[cx1 + 1 + ncx * cy]):
+            k = cell_items[a]
+            if k == ex1 or k == ex2 or spc[k] < 0:
+                continue
+            R = r + sp_radius[spc[k]]
+            dx = pos[k, 0] + t * vel[k, 0] - x
+            dy = pos[k, 1] + t * vel[k, 1] - y
+            if dx * dx + dy * dy < R * R:
+                return True
     for k in range(nbin, n):
         if k == ex1 or k == ex2 or spc[k] < 0:
             continue
         R = r + sp_radius[spc[k]]
-        dx = pos[k, 0] - x
-        dy = pos[k, 1] - y
+        dx = pos[k, 0] + t * vel[k, 0] - x
+        dy = pos[k, 1] + t * vel[k, 1] - y
         if dx * dx + dy * dy < R * R:
             return True
     return False

@@ -54,6 +54,7 @@ import numpy as np
 from numba import njit
 
 from .._dtypes import COUNT, FLOAT, INDEX
+from .celllist import cell_coord
 from .collisions import bounce, normal_at
 from .reactions import (
     _SEP,
@@ -80,7 +81,7 @@ from .step import (
     IC_TC_ELASTIC,
     IC_WALL_HITS,
 )
-from .walls import box_next, circle_next, inside, reflected
+from .walls import box_next, circle_next, graze_floor, inside, reflected
 
 INF = math.inf
 
@@ -159,9 +160,7 @@ def _hset(d, key, hk, hd, hpos):
 # ------------------------------------------------------------------------------ the cells
 @njit(cache=True)
 def _cell_of(x, y, gx0, gy0, icw, ich, ncx, ncy):
-    cx = int((x - gx0) * icw) if x > gx0 else 0
-    cy = int((y - gy0) * ich) if y > gy0 else 0
-    return min(cx, ncx - 1) + ncx * min(cy, ncy - 1)
+    return cell_coord(x, icw, gx0, ncx) + ncx * cell_coord(y, ich, gy0, ncy)
 
 
 @njit(cache=True, inline="always")
@@ -630,9 +629,11 @@ def _simulate(pos, vel, spc_ext, uint_ext, ids, idctr, n, t0, t1, bkind, bp, tab
                             ok, X, Y, Vx, Vy, U = combine_outcome(
                                 mi, mj, vxi, vyi, vxj, vyj, xi, yi, xj, yj, uint[i], uint[j],
                                 sp_form[si], sp_form[sj], sp_form[p], 0.0)
-                            if ok and _room(X, Y, sp_radius[p], i, j, t, W, spc, cell, head,
-                                            nxt, collide, bkind, bp, gx0, gy0, icw, ich, ncx,
-                                            ncy, rmax):
+                            fits = ok and _room(X, Y, sp_radius[p], i, j, t, W, spc, cell,
+                                                head, nxt, collide, bkind, bp, gx0, gy0, icw,
+                                                ich, ncx, ncy, rmax)
+                            refused = ok and not fits
+                            if fits:
                                 fired = True
                                 killed = True
                                 spc[i] = p
@@ -662,12 +663,13 @@ def _simulate(pos, vel, spc_ext, uint_ext, ids, idctr, n, t0, t1, bkind, bp, tab
                                 mi, mj, sp_mass[pi], sp_mass[pj], sp_radius[pi], sp_radius[pj],
                                 vxi, vyi, vxj, vyj, xi, yi, xj, yj, nx, ny, uint[i], uint[j],
                                 sp_form[si], sp_form[sj], sp_form[pi], sp_form[pj], 0.0)
-                            if ok and _room(XC, YC, sp_radius[pi], i, j, t, W, spc, cell, head,
-                                            nxt, collide, bkind, bp, gx0, gy0, icw, ich, ncx,
-                                            ncy, rmax) and \
-                                    _room(XD, YD, sp_radius[pj], i, j, t, W, spc, cell, head,
-                                          nxt, collide, bkind, bp, gx0, gy0, icw, ich, ncx,
-                                          ncy, rmax):
+                            fits = ok and _room(XC, YC, sp_radius[pi], i, j, t, W, spc, cell,
+                                                head, nxt, collide, bkind, bp, gx0, gy0, icw,
+                                                ich, ncx, ncy, rmax) and \
+                                _room(XD, YD, sp_radius[pj], i, j, t, W, spc, cell, head, nxt,
+                                      collide, bkind, bp, gx0, gy0, icw, ich, ncx, ncy, rmax)
+                            refused = ok and not fits
+                            if fits:
                                 fired = True
                                 spc[i] = pi
                                 spc[j] = pj
@@ -694,7 +696,7 @@ def _simulate(pos, vel, spc_ext, uint_ext, ids, idctr, n, t0, t1, bkind, bp, tab
                         if fired:
                             ch_count[c] += 1
                             icnt[IC_REACTIVE] += 1
-                        else:
+                        elif refused:  # (not when the energy could not pay for it)
                             icnt[IC_NO_ROOM] += 1
                 if not fired:
                     e = e_rest
@@ -738,8 +740,16 @@ def _simulate(pos, vel, spc_ext, uint_ext, ids, idctr, n, t0, t1, bkind, bp, tab
             else:
                 entered = 3 if c_new > c_old else 4
         elif code == EV_WALL:  # -------------------------------------------------- a wall
-            vx, vy, vn = reflected(W[d, 0], W[d, 1], W[d, 2], W[d, 3], int(Ev[d, 3]), bkind,
-                                   b0, b1)
+            vx0 = W[d, 2]
+            vy0 = W[d, 3]
+            vx, vy, vn = reflected(W[d, 0], W[d, 1], vx0, vy0, int(Ev[d, 3]), bkind, b0, b1)
+            if bkind == 1:  # never tangent to the curved wall (see walls.graze_floor)
+                vx, vy = graze_floor(W[d, 0], W[d, 1], vx, vy, b0, b1)
+                nx = W[d, 0] - b0
+                ny = W[d, 1] - b1
+                nr = math.sqrt(nx * nx + ny * ny)
+                if nr > 0.0:  # the normal momentum the wall takes
+                    vn = 0.5 * ((vx0 - vx) * nx + (vy0 - vy) * ny) / nr
             W[d, 2] = vx
             W[d, 3] = vy
             fsum[FS_WALL_MOMENTUM] += 2.0 * W[d, 6] * vn

@@ -30,17 +30,21 @@ from .celllist import overlaps_any
 from .walls import inside
 
 TRANSFORMATION, DECOMPOSITION, COMBINATION, EXCHANGE, REVERSE = 0, 1, 2, 3, 4
+FIRED, NO_ENERGY, NO_ROOM = 1, 0, -1  # outcomes of a reactive collision
 _SEP = 1.0 + 1e-9  # products are placed this fraction farther apart than touching
 
 
 @njit(cache=True)
-def room(x, y, r, ex1, ex2, collide, bkind, bp, pos, spc, sp_radius, grid, cell_start,
+def room(x, y, r, t, ex1, ex2, collide, bkind, bp, pos, vel, spc, sp_radius, grid, cell_start,
          cell_items, nbin, n, reach):
+    """Is there room for a disc of radius r at (x, y) at time t (<= 0: the contact time of a
+    reactive collision, 0 for a first-order reaction at the end of the substep), inside the
+    bounds and clear of every other disc (except ex1, ex2) where it is at that time?"""
     if not inside(x, y, r, bkind, bp):
         return False
     if not collide:
         return True
-    return not overlaps_any(x, y, r, ex1, ex2, pos, spc, sp_radius, grid, cell_start,
+    return not overlaps_any(x, y, r, t, ex1, ex2, pos, vel, spc, sp_radius, grid, cell_start,
                             cell_items, nbin, n, reach)
 
 
@@ -72,7 +76,8 @@ def combine_outcome(mi, mj, vxi, vyi, vxj, vyj, xi, yi, xj, yj, ui, uj, fa, fb, 
 @njit(cache=True)
 def combine(i, j, c, t, xi, yi, xj, yj, tables, pos, vel, spc, uint, bkind, bp, grid,
             cell_start, cell_items, nbin, n, reach):
-    """A + B -> C at contact time t; i becomes C, j dies (spc = -1). Returns True if fired."""
+    """A + B -> C at contact time t; i becomes C, j dies (spc = -1). Returns FIRED, or
+    NO_ENERGY (an endothermic product the energy cannot pay for) or NO_ROOM."""
     sp_radius, sp_mass, sp_form = tables[0], tables[1], tables[2]
     ch_prod = tables[5]
     a = spc[i]
@@ -82,10 +87,11 @@ def combine(i, j, c, t, xi, yi, xj, yj, tables, pos, vel, spc, uint, bkind, bp, 
         sp_mass[a], sp_mass[b], vel[i, 0], vel[i, 1], vel[j, 0], vel[j, 1], xi, yi, xj, yj,
         uint[i], uint[j], sp_form[a], sp_form[b], sp_form[p], t)
     if not ok:
-        return False
-    if not room(X, Y, sp_radius[p], i, j, True, bkind, bp, pos, spc, sp_radius, grid,
-                cell_start, cell_items, nbin, n, reach):
-        return False
+        return NO_ENERGY
+    # room where C appears: at the contact, not where it would be at the end of the substep
+    if not room(X + t * Vx, Y + t * Vy, sp_radius[p], t, i, j, True, bkind, bp, pos, vel, spc,
+                sp_radius, grid, cell_start, cell_items, nbin, n, reach):
+        return NO_ROOM
     spc[i] = p
     pos[i, 0] = X
     pos[i, 1] = Y
@@ -96,7 +102,7 @@ def combine(i, j, c, t, xi, yi, xj, yj, tables, pos, vel, spc, uint, bkind, bp, 
     vel[j, 0] = 0.0
     vel[j, 1] = 0.0
     uint[j] = 0.0
-    return True
+    return FIRED
 
 
 @njit(cache=True)
@@ -162,7 +168,8 @@ def exchange_outcome(mi, mj, mC, mD, rC, rD, vxi, vyi, vxj, vyj, xi, yi, xj, yj,
 @njit(cache=True)
 def exchange(i, j, c, t, xi, yi, xj, yj, nx, ny, tables, pos, vel, spc, uint, bkind, bp,
              grid, cell_start, cell_items, nbin, n, reach):
-    """A + B -> C + D at contact time t (n from i to j); i and j become the products."""
+    """A + B -> C + D at contact time t (n from i to j); i and j become the products.
+    Returns FIRED, NO_ENERGY or NO_ROOM (as :func:`combine`)."""
     sp_radius, sp_mass, sp_form = tables[0], tables[1], tables[2]
     ch_reac, ch_prod = tables[4], tables[5]
     a = spc[i]
@@ -173,20 +180,21 @@ def exchange(i, j, c, t, xi, yi, xj, yj, nx, ny, tables, pos, vel, spc, uint, bk
         vel[i, 0], vel[i, 1], vel[j, 0], vel[j, 1], xi, yi, xj, yj, nx, ny, uint[i], uint[j],
         sp_form[a], sp_form[b], sp_form[pi], sp_form[pj], t)
     if not ok:
-        return False
-    if not room(XC, YC, sp_radius[pi], i, j, True, bkind, bp, pos, spc, sp_radius, grid,
-                cell_start, cell_items, nbin, n, reach):
-        return False
-    if not room(XD, YD, sp_radius[pj], i, j, True, bkind, bp, pos, spc, sp_radius, grid,
-                cell_start, cell_items, nbin, n, reach):
-        return False
+        return NO_ENERGY
+    # room where the products appear, at the contact
+    if not room(XC + t * vCx, YC + t * vCy, sp_radius[pi], t, i, j, True, bkind, bp, pos, vel,
+                spc, sp_radius, grid, cell_start, cell_items, nbin, n, reach):
+        return NO_ROOM
+    if not room(XD + t * vDx, YD + t * vDy, sp_radius[pj], t, i, j, True, bkind, bp, pos, vel,
+                spc, sp_radius, grid, cell_start, cell_items, nbin, n, reach):
+        return NO_ROOM
     spc[i] = pi
     spc[j] = pj
     pos[i, 0], pos[i, 1], vel[i, 0], vel[i, 1] = XC, YC, vCx, vCy
     pos[j, 0], pos[j, 1], vel[j, 0], vel[j, 1] = XD, YD, vDx, vDy
     uint[i] = 0.0
     uint[j] = 0.0
-    return True
+    return FIRED
 
 
 @njit(cache=True)
@@ -267,14 +275,14 @@ def transform_energy(u, fa, fp):
 
 
 @njit(cache=True)
-def transform(i, c, collide, tables, pos, spc, uint, bkind, bp, grid, cell_start, cell_items,
-              nbin, n, reach):
+def transform(i, c, collide, tables, pos, vel, spc, uint, bkind, bp, grid, cell_start,
+              cell_items, nbin, n, reach):
     sp_radius, sp_form = tables[0], tables[2]
     p = tables[5][c, 0]
     a = spc[i]
     if sp_radius[p] > sp_radius[a] and not room(
-            pos[i, 0], pos[i, 1], sp_radius[p], i, i, collide, bkind, bp, pos, spc, sp_radius,
-            grid, cell_start, cell_items, nbin, n, reach):
+            pos[i, 0], pos[i, 1], sp_radius[p], 0.0, i, i, collide, bkind, bp, pos, vel, spc,
+            sp_radius, grid, cell_start, cell_items, nbin, n, reach):
         return False
     uint[i] = transform_energy(uint[i], sp_form[a], sp_form[p])
     spc[i] = p
@@ -338,10 +346,10 @@ def fission(i, c, n, collide, tables, pos, vel, spc, uint, bkind, bp, grid, cell
     for _attempt in range(2):
         x1, y1, v1x, v1y, x2, y2, v2x, v2y = fission_outcome(X, Y, Vx, Vy, E, m1, m2, d, nx,
                                                              ny)
-        if room(x1, y1, sp_radius[b], i, i, collide, bkind, bp, pos, spc, sp_radius, grid,
-                cell_start, cell_items, nbin, n, reach) and \
-                room(x2, y2, sp_radius[cc], i, i, collide, bkind, bp, pos, spc, sp_radius,
-                     grid, cell_start, cell_items, nbin, n, reach):
+        if room(x1, y1, sp_radius[b], 0.0, i, i, collide, bkind, bp, pos, vel, spc, sp_radius,
+                grid, cell_start, cell_items, nbin, n, reach) and \
+                room(x2, y2, sp_radius[cc], 0.0, i, i, collide, bkind, bp, pos, vel, spc,
+                     sp_radius, grid, cell_start, cell_items, nbin, n, reach):
             spc[i] = b
             pos[i, 0], pos[i, 1] = x1, y1
             vel[i, 0] = v1x

@@ -29,11 +29,13 @@ import numpy as np
 from numba import njit, prange
 
 from .._dtypes import COUNT, FLOAT, INDEX
-from .celllist import build, cell_range, make_grid
+from .celllist import build, cell_coord, cell_range, make_grid, overlaps_any
 from .collisions import bounce, normal_at, pair_time
 from .heap import new_heap, pop, push, reserve
 from .reactions import (
     COMBINATION,
+    FIRED,
+    NO_ROOM,
     TRANSFORMATION,
     combine,
     exchange,
@@ -43,26 +45,42 @@ from .reactions import (
     grow2,
     transform,
 )
-from .walls import box_contact, circle_contact, contact, inside, push_inside, reflect
+from .resolve import resolve
+from .walls import (
+    GLIDE_CHORDS,
+    box_contact,
+    circle_chord,
+    circle_contact,
+    circle_glide,
+    contact,
+    push_inside,
+    reflect,
+    settle_after_reflection,
+)
 
 # Integer counters (icnt)
 IC_COLLISIONS = 0  # non-reactive disc-disc collisions
 IC_WALL_HITS = 1
 IC_SUBSTEPS = 2
-IC_EVENTS_CAPPED = 3  # substeps whose event budget ran out (overlaps may remain)
+IC_EVENTS_CAPPED = 3  # substeps finished by the fallback (an event bound was reached)
 IC_PUSHED_INSIDE = 4  # discs overlapping a wall while moving inward, moved inside
 IC_NO_ROOM = 5  # reactions that could not place their products (they wait / bounce)
 IC_SUBSTEPS_CAPPED = 6  # steps that needed more than MAX_SUBSTEPS substeps
 IC_REACTIVE = 7  # reactive collisions (also counted per channel)
 IC_TC_ELASTIC = 8  # repeat collisions within a substep made elastic (TC model, e < 1 only)
-N_ICOUNTERS = 9
+IC_GLIDES = 9  # grazing discs advanced through many circle-wall reflections at once
+IC_RESOLVED = 10  # discs moved in / pairs pushed apart by the fallback (resolve.py)
+N_ICOUNTERS = 11
 # Float accumulators (fsum)
 FS_WALL_MOMENTUM = 0  # momentum delivered to the walls (for the pressure)
 FS_DISSIPATED = 1  # kinetic energy lost to restitution e < 1
 N_FSUMS = 2
 
 MAX_SUBSTEPS = 1 << 16
+VR_ROUNDOFF = 1e-13  # a pair whose approach speed is below this fraction of its speeds is not
+# approaching: the impulse would be lost to round-off and the pair re-detected forever
 EVENTS_PER_DISC = 64  # event budget per substep: EVENTS_PER_DISC * n + 1024
+DISC_EVENTS = 1024  # events one disc may take part in per substep; past it, see resolve.py
 REBUILD_UNBINNED = 256  # rebuild the grid when this many discs were created since it was built
 OV_SLOTS = 4  # overlaps recorded per disc by the (parallel) broad phase; more: rescanned
 PARALLEL_MIN = 65536  # below this many discs a step runs on one thread: waking numba's
@@ -107,9 +125,7 @@ def _drift_range(lo, hi, h, pos, vel, spc, sp_radius, bkind, bp, tlast, wall_t, 
             x = pos[i, 0]
             y = pos[i, 1]
         if collide:
-            cx = int((x - x0) * icx) if x > x0 else 0
-            cy = int((y - y0) * icy) if y > y0 else 0
-            cell_of[i] = min(cx, ncx - 1) + ncx * min(cy, ncy - 1)
+            cell_of[i] = cell_coord(x, icx, x0, ncx) + ncx * cell_coord(y, icy, y0, ncy)
 
 
 @njit(cache=True, parallel=True)
@@ -328,17 +344,81 @@ def _schedule(d, sp_radius, pos, vel, spc, tlast, stamp, n, collide, bkind, bp, 
 
 
 @njit(cache=True)
-def _events(n, H, size, tables, pos, vel, spc, uint, tlast, stamp, lastcol, sub_id, binx, biny,
-            collide, has_bi, e, kappa, rmax, bkind, bp, grid, cell_start, cell_items, icnt, fsum,
-            ch_count):
-    """Process the queue earliest first. Returns (H, n_dead, delta).
+def _glide(i, tw, xc, yc, tau, psi, vn, r, mi, pos, vel, spc, sp_radius, tlast, collide, bp,
+           grid, cell_start, cell_items, nbin, n, reach, icnt, fsum):
+    """Disc i, just reflected at (xc, yc) at time tw, grazes the circle wall so closely that
+    more than GLIDE_CHORDS chords ``(tau, psi, vn)`` fit in the rest of the substep: move it
+    through them in closed form (:func:`~discgym.kernels.walls.circle_glide`). If the glide
+    would run into another disc, it stops where the two touch (bisection on the glide time,
+    to 2^-40 of the step), and that collision is the disc's next event. Books the wall
+    momentum and sets ``tlast[i]`` to its last reflection. Returns False (nothing done) for a
+    disc wedged between the wall and a disc it already touches.
+    """
+    T = -tw
+    b0, b1, b2 = bp[0], bp[1], bp[2]
+    vx = vel[i, 0]
+    vy = vel[i, 1]
+    gx, gy, ux, uy, rest, imp = circle_glide(xc, yc, vx, vy, r, b0, b1, b2, tau, psi, vn, T)
+    s = T
+    if collide and overlaps_any(gx, gy, r, 0.0, i, i, pos, vel, spc, sp_radius, grid,
+                                cell_start, cell_items, nbin, n, reach):
+        lo = 0.0
+        hi = T
+        for _ in range(40):
+            mid = 0.5 * (lo + hi)
+            x, y, _ux, _uy, _rest, _imp = circle_glide(xc, yc, vx, vy, r, b0, b1, b2, tau,
+                                                       psi, vn, mid)
+            if overlaps_any(x, y, r, tw + mid, i, i, pos, vel, spc, sp_radius, grid,
+                            cell_start, cell_items, nbin, n, reach):
+                hi = mid
+            else:
+                lo = mid
+        s = lo
+        if s <= 0.0:
+            return False  # wedged between the wall and a disc it touches
+        gx, gy, ux, uy, rest, imp = circle_glide(xc, yc, vx, vy, r, b0, b1, b2, tau, psi, vn,
+                                                 s)
+        # position at tw + s -> its straight-line extrapolation to the end of the substep
+        gx -= (tw + s) * ux
+        gy -= (tw + s) * uy
+    pos[i, 0] = gx
+    pos[i, 1] = gy
+    vel[i, 0] = ux
+    vel[i, 1] = uy
+    tlast[i] = tw + s - rest
+    fsum[FS_WALL_MOMENTUM] += mi * imp
+    icnt[IC_GLIDES] += 1
+    return True
+
+
+@njit(cache=True)
+def _events(n, H, size, tables, pos, vel, spc, uint, tlast, stamp, lastcol, partner, nev,
+            sub_id, binx, biny, collide, has_bi, e, kappa, rmax, h, vfast, bkind, bp, grid,
+            cell_start, cell_items, icnt, fsum, ch_count):
+    """Process the queue earliest first. Returns (H, n_dead, delta, dropped, vfast):
+    ``dropped`` if events were left unprocessed because a disc (``nev``, at most DISC_EVENTS
+    per substep) or the substep (EVENTS_PER_DISC * n + 1024) ran out of events; the caller
+    then repairs the state with :func:`~discgym.kernels.resolve.resolve`.
+
+    ``h`` is the substep and ``vfast`` the largest speed at its start: a disc is within
+    ``delta + h * vfast`` of where it was binned at any time of the substep (``vfast`` is
+    raised whenever a collision makes a disc faster), which is the reach of the room checks
+    made at a contact time.
 
     Inelastic collapse (e < 1): a disc's second and later collisions within one substep are
     elastic (the TC model of Luding & McNamara, with t_c = the substep; ``lastcol`` holds the
     substep ``sub_id`` of each disc's last collision). Without it a cluster at e = 0 takes
     unbounded numbers of ever smaller collisions (measured: the event budget ran out in every
-    substep of a 300-disc e = 0 box). A wall reflection that would leave a disc outside (a disc
-    as wide as the bounds) is followed by moving it inside.
+    substep of a 300-disc e = 0 box). A wall reflection that would leave a disc outside along
+    the reflected axis (a disc as wide as the bounds) is followed by moving it inside along
+    that axis (``walls.settle_after_reflection``).
+
+    Work bound: a pair event is skipped when the pair is not approaching to round-off
+    (``VR_ROUNDOFF``) or when both discs' latest events were with each other in this substep
+    (``partner``; two discs that have just bounced move apart on straight lines and cannot
+    meet again before something else happens to one of them). Without these a pair whose
+    impulse is lost to round-off (speeds ~1e2, approach speed ~1e-15), or a pair with
+    coincident centres, was re-detected at the same time until the event budget ran out.
     """
     sp_radius, sp_mass = tables[0], tables[1]
     ch_kind = tables[3]
@@ -348,27 +428,44 @@ def _events(n, H, size, tables, pos, vel, spc, uint, tlast, stamp, lastcol, sub_
     delta = 0.0  # largest distance of a disc from where it was binned
     n_dead = 0
     budget = EVENTS_PER_DISC * n + 1024
+    dropped = False
     while size > 0:
         t, i, j, si, sj, size = pop(H, size)
         if stamp[i] != si or (j >= 0 and stamp[j] != sj):
             continue
+        if nev[i] >= DISC_EVENTS or (j >= 0 and nev[j] >= DISC_EVENTS):
+            dropped = True  # a disc out of events: left to resolve() at the end
+            continue
         budget -= 1
         if budget < 0:
-            icnt[IC_EVENTS_CAPPED] += 1
+            dropped = True
             break
+        nev[i] += 1
+        if j >= 0:
+            nev[j] += 1
         if j < 0:
             r = sp_radius[spc[i]]
             tw, axis, inward = contact(pos[i, 0], pos[i, 1], vel[i, 0], vel[i, 1], r, bkind, bp)
             if tw == math.inf:
                 continue
             tw = max(tw, tlast[i])
-            fsum[FS_WALL_MOMENTUM] += reflect(i, tw, axis, pos, vel, sp_mass[spc[i]], bkind,
-                                              bp)
-            if not inside(pos[i, 0], pos[i, 1], r * (1.0 - 1e-12), bkind, bp):
-                push_inside(i, pos, r, bkind, bp)
-                icnt[IC_PUSHED_INSIDE] += 1
+            mi = sp_mass[spc[i]]
+            fsum[FS_WALL_MOMENTUM] += reflect(i, tw, axis, pos, vel, mi, bkind, bp)
             icnt[IC_WALL_HITS] += 1
+            partner[i] = -1
             tlast[i] = tw
+            if settle_after_reflection(i, axis, pos, r, bkind, bp):
+                icnt[IC_PUSHED_INSIDE] += 1
+            elif bkind == 1:
+                xc = pos[i, 0] + tw * vel[i, 0]
+                yc = pos[i, 1] + tw * vel[i, 1]
+                tau, psi, vn = circle_chord(xc, yc, vel[i, 0], vel[i, 1], r, bp[0], bp[1],
+                                            bp[2])
+                if tau * GLIDE_CHORDS < -tw:
+                    if not _glide(i, tw, xc, yc, tau, psi, vn, r, mi, pos, vel, spc, sp_radius,
+                                  tlast, collide, bp, grid, cell_start, cell_items, nbin, n,
+                                  rmax + delta + h * vfast, icnt, fsum):
+                        nev[i] = DISC_EVENTS  # wedged: no finite sequence of events frees it
             stamp[i] += 1
             if collide:
                 delta = max(delta, math.hypot(pos[i, 0] - binx[i], pos[i, 1] - biny[i]))
@@ -383,8 +480,11 @@ def _events(n, H, size, tables, pos, vel, spc, uint, tlast, stamp, lastcol, sub_
         xi, yi, xj, yj, nx, ny = normal_at(pos[i, 0], pos[i, 1], vxi, vyi, pos[j, 0],
                                            pos[j, 1], vxj, vyj, t)
         vr = (vxi - vxj) * nx + (vyi - vyj) * ny
-        if vr <= 0.0:
-            continue
+        if vr <= VR_ROUNDOFF * (abs(vxi) + abs(vyi) + abs(vxj) + abs(vyj)):
+            continue  # not approaching (to round-off: an impulse this small changes nothing)
+        if partner[i] == j and partner[j] == i:
+            continue  # the pair's last events were with each other: straight lines that have
+            # just separated cannot meet again (a re-detection by round-off)
         fired = False
         if has_bi:
             c = bi_table[spc[i], spc[j]]
@@ -393,19 +493,20 @@ def _events(n, H, size, tables, pos, vel, spc, uint, tlast, stamp, lastcol, sub_
                 mj = sp_mass[spc[j]]
                 if 0.5 * mi * mj / (mi + mj) * vr * vr >= ch_energy[c]:
                     if ch_kind[c] == COMBINATION:
-                        fired = combine(i, j, c, t, xi, yi, xj, yj, tables, pos, vel, spc,
-                                        uint, bkind, bp, grid, cell_start, cell_items, nbin, n,
-                                        rmax + delta)
-                        if fired:
-                            n_dead += 1
+                        outcome = combine(i, j, c, t, xi, yi, xj, yj, tables, pos, vel, spc,
+                                          uint, bkind, bp, grid, cell_start, cell_items, nbin,
+                                          n, rmax + delta + h * vfast)
                     else:
-                        fired = exchange(i, j, c, t, xi, yi, xj, yj, nx, ny, tables, pos, vel,
-                                         spc, uint, bkind, bp, grid, cell_start, cell_items,
-                                         nbin, n, rmax + delta)
+                        outcome = exchange(i, j, c, t, xi, yi, xj, yj, nx, ny, tables, pos,
+                                           vel, spc, uint, bkind, bp, grid, cell_start,
+                                           cell_items, nbin, n, rmax + delta + h * vfast)
+                    fired = outcome == FIRED
                     if fired:
                         ch_count[c] += 1
                         icnt[IC_REACTIVE] += 1
-                    else:
+                        if ch_kind[c] == COMBINATION:
+                            n_dead += 1
+                    elif outcome == NO_ROOM:
                         icnt[IC_NO_ROOM] += 1
         if not fired:
             e_eff = e
@@ -434,16 +535,20 @@ def _events(n, H, size, tables, pos, vel, spc, uint, tlast, stamp, lastcol, sub_
         tlast[j] = t
         stamp[i] += 1
         stamp[j] += 1
+        partner[i] = j
+        partner[j] = i
         delta = max(delta, math.hypot(pos[i, 0] - binx[i], pos[i, 1] - biny[i]))
+        vfast = max(vfast, math.hypot(vel[i, 0], vel[i, 1]))
         if spc[j] >= 0:
             delta = max(delta, math.hypot(pos[j, 0] - binx[j], pos[j, 1] - biny[j]))
+            vfast = max(vfast, math.hypot(vel[j, 0], vel[j, 1]))
         H, size = _schedule(i, sp_radius, pos, vel, spc, tlast, stamp, n, collide, bkind, bp,
                             grid, cell_start, cell_items, nbin, rmax + delta, H, size, icnt)
         if spc[j] >= 0:
             H, size = _schedule(j, sp_radius, pos, vel, spc, tlast, stamp, n, collide, bkind,
                                 bp, grid, cell_start, cell_items, nbin, rmax + delta, H, size,
                                 icnt)
-    return H, n_dead, delta
+    return H, n_dead, delta, dropped, vfast
 
 
 # ------------------------------------------------------------- phase 4: first-order reactions
@@ -478,7 +583,7 @@ def _first_order(n, h, tables, pos, vel, spc, uint, ids, idctr, collide, fission
         if c < 0:
             continue
         if ch_kind[c] == TRANSFORMATION:
-            fired = transform(i, c, collide, tables, pos, spc, uint, bkind, bp, grid,
+            fired = transform(i, c, collide, tables, pos, vel, spc, uint, bkind, bp, grid,
                               cell_start, cell_items, nbin, n, rmax + delta)
         else:
             if collide and n - nbin > REBUILD_UNBINNED:
@@ -534,9 +639,8 @@ def _reorder(n, pos, vel, spc, uint, ids, grid):
     start = np.zeros(nc + 1, dtype=np.int64)
     cell = np.empty(n, dtype=np.int64)
     for i in range(n):
-        cx = int((pos[i, 0] - grid[0]) * grid[2]) if pos[i, 0] > grid[0] else 0
-        cy = int((pos[i, 1] - grid[1]) * grid[3]) if pos[i, 1] > grid[1] else 0
-        c = min(cx, ncx - 1) + ncx * min(cy, ncy - 1)
+        c = cell_coord(pos[i, 0], grid[2], grid[0], ncx) + \
+            ncx * cell_coord(pos[i, 1], grid[3], grid[1], ncy)
         cell[i] = c
         start[c + 1] += 1
     for c in range(nc):
@@ -570,7 +674,7 @@ def _workspace(ws):
             np.empty(ws, dtype=INDEX), np.empty(ws, dtype=FLOAT), np.empty(ws, dtype=FLOAT),
             np.empty(ws, dtype=FLOAT), np.empty(ws, dtype=INDEX),
             np.empty((ws, OV_SLOTS), dtype=INDEX), np.empty(ws, dtype=FLOAT),
-            np.empty(ws, dtype=FLOAT))
+            np.empty(ws, dtype=FLOAT), np.empty(ws, dtype=INDEX), np.zeros(ws, dtype=INDEX))
 
 
 @njit(cache=True)
@@ -622,7 +726,7 @@ def run_tracked(pos, vel, spc, uint, n, n_steps, dt, bkind, bp, tables, params, 
     cell_start = np.empty(ncx * ncy + 1 if collide else 2, dtype=INDEX)
     ws = pos.shape[0]  # per-disc workspace, reallocated when the state grows
     (stamp, lastcol, tlast, wall_t, wflag, cell_of, cell_items, sx, sy, sr, ov_n, ov_b, binx,
-     biny) = _workspace(ws)
+     biny, partner, nev) = _workspace(ws)
     for s in range(n_steps):
         if reorder_every > 0 and n >= REORDER_MIN and (step0 + s) % reorder_every == 0:
             _reorder(n, pos, vel, spc, uint, ids, grid)
@@ -634,18 +738,20 @@ def run_tracked(pos, vel, spc, uint, n, n_steps, dt, bkind, bp, tables, params, 
                 v2max = v2
         k = 1
         if v2max > 0.0:
-            kk = math.ceil(math.sqrt(v2max) * dt / maxdisp)
-            if kk > MAX_SUBSTEPS:
-                kk = MAX_SUBSTEPS
+            q = math.sqrt(v2max) * dt / maxdisp  # compared as a float: ceil() of 1e19 or of
+            if not q <= MAX_SUBSTEPS:  # inf would overflow int64 (and NaN compares false)
+                k = MAX_SUBSTEPS
                 icnt[IC_SUBSTEPS_CAPPED] += 1
-            k = max(int(kk), 1)
+            else:
+                k = max(int(math.ceil(q)), 1)
         h = dt / k
+        vfast = math.sqrt(v2max)  # the fastest disc; raised by collisions (see _events)
         for _sub in range(k):
             icnt[IC_SUBSTEPS] += 1
             if ws < pos.shape[0]:
                 ws = pos.shape[0]
                 (stamp, lastcol, tlast, wall_t, wflag, cell_of, cell_items, sx, sy, sr, ov_n,
-                 ov_b, binx, biny) = _workspace(ws)
+                 ov_b, binx, biny, partner, nev) = _workspace(ws)
             par = threads > 1 and n >= PARALLEL_MIN
             if par:
                 _drift_parallel(threads, n, h, pos, vel, spc, sp_radius, bkind, bp, tlast,
@@ -653,6 +759,8 @@ def run_tracked(pos, vel, spc, uint, n, n_steps, dt, bkind, bp, tables, params, 
             else:
                 _drift_range(0, n, h, pos, vel, spc, sp_radius, bkind, bp, tlast, wall_t,
                              wflag, grid, cell_of, collide)
+            for q in range(n):
+                nev[q] = 0
             if collide:
                 _sort(n, cell_of, cell_start, cell_items)
                 if par:
@@ -665,13 +773,22 @@ def run_tracked(pos, vel, spc, uint, n, n_steps, dt, bkind, bp, tables, params, 
                 for q in range(n):
                     binx[q] = pos[q, 0]
                     biny[q] = pos[q, 1]
+                    partner[q] = -1
             H, size = _queue_initial(n, collide, sp_radius, pos, vel, spc, tlast, stamp,
                                      wall_t, wflag, ncx, ncy, cell_start, cell_items, sx, sy,
                                      sr, ov_n, ov_b, H, icnt)
-            H, n_dead, delta = _events(n, H, size, tables, pos, vel, spc, uint, tlast, stamp,
-                                       lastcol, icnt[IC_SUBSTEPS], binx, biny, collide, has_bi,
-                                       e, kappa, rmax, bkind, bp, grid, cell_start, cell_items,
-                                       icnt, fsum, ch_count)
+            H, n_dead, delta, dropped, vfast = _events(
+                n, H, size, tables, pos, vel, spc, uint, tlast, stamp, lastcol, partner, nev,
+                icnt[IC_SUBSTEPS], binx, biny, collide, has_bi, e, kappa, rmax, h, vfast, bkind,
+                bp, grid, cell_start, cell_items, icnt, fsum, ch_count)
+            if dropped:
+                icnt[IC_EVENTS_CAPPED] += 1
+                fixes, wdp, lost = resolve(n, pos, vel, spc, sp_radius, tables[1], e, collide,
+                                           bkind, bp, grid, cell_start, cell_items, cell_of)
+                icnt[IC_RESOLVED] += fixes
+                fsum[FS_WALL_MOMENTUM] += wdp
+                fsum[FS_DISSIPATED] += lost
+                delta = 0.0  # resolve() leaves the grid built at the final positions
             if has_uni:
                 pos, vel, spc, uint, ids, n = _first_order(
                     n, h, tables, pos, vel, spc, uint, ids, idctr, collide, fission_possible,

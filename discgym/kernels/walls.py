@@ -168,6 +168,114 @@ def circle_next(x, y, vx, vy, r, b0, b1, b2):
     return (-b + math.sqrt(disc)) / vv, 0
 
 
+GLIDE_CHORDS = 8  # a disc that would reflect more often than this in the rest of a step glides
+
+
+@njit(cache=True)
+def circle_chord(xc, yc, vx, vy, r, b0, b1, b2):
+    """The chord a disc just reflected at (xc, yc) off the circle wall (centre (b0, b1),
+    radius b2) crosses with velocity (vx, vy): ``(tau, psi, vn)``, the time it takes
+    (2 L v_n / |v|^2, L = b2 - r), the angle it turns the disc about the centre, and the
+    inward speed v_n. ``tau`` is inf for a disc at rest."""
+    vv = vx * vx + vy * vy
+    dx = xc - b0
+    dy = yc - b1
+    L = b2 - r
+    if vv == 0.0 or L <= 0.0:
+        return INF, 0.0, 0.0
+    vn = -(dx * vx + dy * vy) / L  # inward speed (>= 0 after a reflection, up to round-off)
+    if vn < 0.0:
+        vn = 0.0
+    tau = 2.0 * L * vn / vv
+    ex = dx + tau * vx
+    ey = dy + tau * vy
+    psi = math.atan2(dx * ey - dy * ex, dx * ex + dy * ey)
+    return tau, psi, vn
+
+
+@njit(cache=True)
+def circle_glide(xc, yc, vx, vy, r, b0, b1, b2, tau, psi, vn, s):
+    """A disc grazing the circle wall, advanced in closed form through its reflections.
+
+    The disc has just been reflected at (xc, yc) on the wall of the circle of centre (b0, b1),
+    radius b2, and moves with (vx, vy) along a chord ``(tau, psi, vn)`` of
+    :func:`circle_chord`. Each chord turns its position and velocity by the same angle psi
+    about the centre (the circle billiard is integrable), so after a time s it has crossed
+    m = floor(s / tau) chords: its position and velocity are turned by m psi, followed by a
+    straight flight of s - m tau. As v_n -> 0 (a disc sliding along the wall) this tends to
+    sliding at constant speed along the wall, turned by |v| s / L, which is used when m
+    would be astronomically large.
+
+    Returns ``(x, y, vx, vy, rest, impulse)`` at time s after the contact: ``rest`` = s - m
+    tau, the time since its last reflection, and the momentum per unit mass the m
+    reflections gave the wall, 2 v_n m (-> |v|^2 s / L, the centripetal impulse, sliding).
+    """
+    vv = vx * vx + vy * vy
+    dx = xc - b0
+    dy = yc - b1
+    L = b2 - r
+    m = math.floor(s / tau) if tau > 0.0 else INF
+    if m < 1e15:
+        ang = m * psi
+        rest = s - m * tau
+        impulse = 2.0 * vn * m
+    else:  # sliding: the limit of infinitely many vanishing chords
+        turn = 1.0 if dx * vy - dy * vx >= 0.0 else -1.0  # sense of rotation
+        ang = turn * math.sqrt(vv) * s / L
+        rest = 0.0
+        impulse = vv * s / L
+    c = math.cos(ang)
+    sn = math.sin(ang)
+    px = c * dx - sn * dy
+    py = sn * dx + c * dy
+    ux = c * vx - sn * vy
+    uy = sn * vx + c * vy
+    px += rest * ux
+    py += rest * uy
+    d2 = px * px + py * py
+    if d2 > L * L:  # on the wall up to round-off: keep it inside
+        k = L / math.sqrt(d2) * (1.0 - 4e-16)
+        px *= k
+        py *= k
+    return b0 + px, b1 + py, ux, uy, rest, impulse
+
+
+GRAZE = 4.5e-5  # least inward angle (radians) of a reflection off the circle, event-driven
+
+
+@njit(cache=True)
+def graze_floor(x, y, vx, vy, b0, b1):
+    """The velocity of a disc just reflected at (x, y) off the circle of centre (b0, b1),
+    turned (speed kept) so that it leaves the wall at an angle of at least ``GRAZE``.
+
+    For the event-driven integrator: a disc moving exactly along the curved wall would meet
+    it again at once, forever, and one grazing it meets it again after ever shorter chords.
+    With this floor the chords are never shorter than 2 GRAZE (R_m - R_c): the disc follows
+    a polygon inscribed in the wall whose sides stray at most GRAZE^2 / 2 (1e-9) of the
+    circle's radius from it, its kinetic energy is unchanged, and the wall takes the change
+    of momentum. (The time-stepped integrator glides such discs in closed form instead.)
+    """
+    nx = x - b0
+    ny = y - b1
+    d = math.sqrt(nx * nx + ny * ny)
+    if d == 0.0:
+        return vx, vy
+    nx /= d
+    ny /= d
+    speed = math.sqrt(vx * vx + vy * vy)
+    vin = -(vx * nx + vy * ny)  # inward speed
+    a = GRAZE * speed
+    if vin >= a or speed == 0.0:
+        return vx, vy
+    tx = vx + vin * nx  # the tangential part
+    ty = vy + vin * ny
+    t = math.sqrt(tx * tx + ty * ty)
+    if t == 0.0:
+        return vx, vy
+    b = math.sqrt(speed * speed - a * a) / t
+    return -a * nx + b * tx, -a * ny + b * ty
+
+
 @njit(cache=True)
 def reflect(i, t, axis, pos, vel, m, bkind, bp):
     """Reflect disc i at its contact time t; returns the momentum delivered to the wall."""
@@ -200,6 +308,42 @@ def push_inside(i, pos, r, bkind, bp):
         if d > L and d > 0.0:
             pos[i, 0] = bp[0] + dx * (L / d)
             pos[i, 1] = bp[1] + dy * (L / d)
+
+
+FIT_TOL = 1e-9  # a free gap below this fraction of the radius counts as an exact fit
+
+
+@njit(cache=True)
+def settle_after_reflection(i, axis, pos, r, bkind, bp):
+    """After a reflection, hold a disc that fits its bounds exactly where it must be; returns
+    True if it was moved.
+
+    A disc with no room to move along the reflected axis (box: ``hi - lo`` below ``FIT_TOL``
+    radii, a disc as wide as the box) or at all (circle: ``R_m - R_c`` below ``FIT_TOL``
+    radii) is put in the middle of that axis / at the centre: winding it forward from the
+    contact would carry it past the opposite wall at once, and the next contact would be at
+    the same instant, forever. Any other disc is left where the reflection put it, even if
+    that is beyond a wall: a corner (the other axis' wall) or a grazing disc that meets the
+    curved circle wall again within the step; that contact is its next event.
+    """
+    if bkind == 0:
+        k = 0 if axis == 0 else 1
+        lo = bp[k] + r
+        hi = bp[k + 2] - r
+        if hi - lo > FIT_TOL * r:
+            return False
+        mid = 0.5 * (lo + hi)
+        if pos[i, k] == mid:
+            return False
+        pos[i, k] = mid
+        return True
+    if bp[2] - r > FIT_TOL * r:
+        return False
+    if pos[i, 0] == bp[0] and pos[i, 1] == bp[1]:
+        return False
+    pos[i, 0] = bp[0]
+    pos[i, 1] = bp[1]
+    return True
 
 
 @njit(cache=True)

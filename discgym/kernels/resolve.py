@@ -1,0 +1,134 @@
+"""The fallback past the event bound: resolve what is left of a substep without time order.
+
+The time-stepped integrator processes a substep's contacts one by one in time order (see
+:mod:`.step`). Two configurations have no finite event sequence in exact hard-disc dynamics,
+or one too long to follow: a disc wedged between the curved circle wall and another disc
+while sliding along the wall (its reflections come at the same instant, forever), and
+clusters whose collisions pile up faster than the per-disc event bound allows. When a disc
+exhausts its events of a substep, its remaining contacts in that substep are dropped and the
+state at the end of the substep is repaired here instead, so the invariants still hold:
+
+- every disc outside the bounds is moved back inside (along the wall normal) and the
+  outward component of its velocity is reflected (the wall receives 2 m |v_n|);
+- every overlapping pair is pushed apart along its line of centres, each disc moved in
+  inverse proportion to its mass (the centre of mass stays put), and if the pair is
+  approaching it exchanges the impulse of a collision with restitution e (the kinetic energy
+  lost is booked as dissipated).
+
+Positions move but no velocity is scaled, so the energy ledger stays exact; momentum is
+conserved by the pair corrections. The passes repeat until nothing is left to repair or
+``RESOLVE_PASSES`` is reached (a packing too dense to untangle keeps its remaining overlaps,
+which ``Simulation.overlaps`` reports). Each repair is counted.
+"""
+
+import math
+
+from numba import njit
+
+from .celllist import build
+from .walls import inside, push_inside
+
+RESOLVE_PASSES = 64
+_SEP = 1.0 + 1e-12  # pairs are pushed this fraction beyond touching
+
+
+@njit(cache=True)
+def _wall_fix(i, pos, vel, r, m, bkind, bp):
+    """Move disc i inside and reflect its outward velocity; returns the wall momentum."""
+    x0 = pos[i, 0]
+    y0 = pos[i, 1]
+    push_inside(i, pos, r, bkind, bp)
+    dp = 0.0
+    if bkind == 0:
+        if pos[i, 0] > x0 and vel[i, 0] < 0.0 or pos[i, 0] < x0 and vel[i, 0] > 0.0:
+            dp += 2.0 * m * abs(vel[i, 0])
+            vel[i, 0] = -vel[i, 0]
+        if pos[i, 1] > y0 and vel[i, 1] < 0.0 or pos[i, 1] < y0 and vel[i, 1] > 0.0:
+            dp += 2.0 * m * abs(vel[i, 1])
+            vel[i, 1] = -vel[i, 1]
+    else:
+        nx = pos[i, 0] - bp[0]
+        ny = pos[i, 1] - bp[1]
+        d = math.sqrt(nx * nx + ny * ny)
+        if d > 0.0:
+            nx /= d
+            ny /= d
+            vn = vel[i, 0] * nx + vel[i, 1] * ny
+            if vn > 0.0:
+                vel[i, 0] -= 2.0 * vn * nx
+                vel[i, 1] -= 2.0 * vn * ny
+                dp = 2.0 * m * vn
+    return dp
+
+
+@njit(cache=True)
+def resolve(n, pos, vel, spc, sp_radius, sp_mass, e, collide, bkind, bp, grid, cell_start,
+            cell_items, cell_of):
+    """Repair discs [0, n) (see the module docstring). Leaves the cell list built at the final
+    positions. Returns ``(repairs, wall_momentum, dissipated)``."""
+    ncx = int(grid[4])
+    ncy = int(grid[5])
+    repairs = 0
+    wall_dp = 0.0
+    lost = 0.0
+    for _pass in range(RESOLVE_PASSES):
+        fixed = 0
+        for i in range(n):
+            s = spc[i]
+            if s >= 0 and not inside(pos[i, 0], pos[i, 1], sp_radius[s], bkind, bp):
+                wall_dp += _wall_fix(i, pos, vel, sp_radius[s], sp_mass[s], bkind, bp)
+                fixed += 1
+        if collide:
+            build(n, pos, spc, grid, cell_start, cell_items, cell_of)
+            for i in range(n):
+                si = spc[i]
+                if si < 0:
+                    continue
+                c = cell_of[i]
+                cx = c % ncx
+                cy = c // ncx
+                for yy in range(max(cy - 1, 0), min(cy + 2, ncy)):
+                    for xx in range(max(cx - 1, 0), min(cx + 2, ncx)):
+                        cc = xx + ncx * yy
+                        for a in range(cell_start[cc], cell_start[cc + 1]):
+                            j = cell_items[a]
+                            if j <= i:
+                                continue
+                            sj = spc[j]
+                            R = sp_radius[si] + sp_radius[sj]
+                            dx = pos[j, 0] - pos[i, 0]
+                            dy = pos[j, 1] - pos[i, 1]
+                            d2 = dx * dx + dy * dy
+                            if d2 >= R * R:
+                                continue
+                            d = math.sqrt(d2)
+                            if d > 0.0:
+                                nx = dx / d
+                                ny = dy / d
+                            else:
+                                nx = 1.0
+                                ny = 0.0
+                            mi = sp_mass[si]
+                            mj = sp_mass[sj]
+                            M = mi + mj
+                            gap = R * _SEP - d
+                            pos[i, 0] -= gap * mj / M * nx
+                            pos[i, 1] -= gap * mj / M * ny
+                            pos[j, 0] += gap * mi / M * nx
+                            pos[j, 1] += gap * mi / M * ny
+                            vr = (vel[i, 0] - vel[j, 0]) * nx + (vel[i, 1] - vel[j, 1]) * ny
+                            if vr > 0.0:
+                                mu = mi * mj / M
+                                dp = (1.0 + e) * mu * vr
+                                vel[i, 0] -= dp / mi * nx
+                                vel[i, 1] -= dp / mi * ny
+                                vel[j, 0] += dp / mj * nx
+                                vel[j, 1] += dp / mj * ny
+                                lost += 0.5 * (1.0 - e * e) * mu * vr * vr
+                            fixed += 1
+        repairs += fixed
+        if fixed == 0:
+            break
+    if collide:
+        build(n, pos, spc, grid, cell_start, cell_items, cell_of)
+    return repairs, wall_dp, lost
