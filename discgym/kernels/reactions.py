@@ -198,41 +198,79 @@ def exchange(i, j, c, t, xi, yi, xj, yj, nx, ny, tables, pos, vel, spc, uint, bk
 
 
 @njit(cache=True)
-def released_energy(i, c, tables, spc, uint):
-    """Energy a first-order channel c would release from disc i, or -1 if it cannot fire."""
-    sp_form = tables[2]
-    ch_kind, ch_prod, ch_energy = tables[3], tables[5], tables[7]
-    kind = ch_kind[c]
-    a = spc[i]
+def channel_energy(kind, u, f_parent, f_prod1, f_prod2, barrier):
+    """Energy a first-order channel of ``kind`` would release from a disc with internal
+    energy u (formation energies: the parent's and its products'; ``f_prod2`` is ignored by a
+    transformation), or -1 if it cannot fire (the reverse of a combination below its
+    ``barrier``). Scalars only, so it costs nothing to call per disc."""
     if kind == TRANSFORMATION:
-        return uint[i] + sp_form[a] - sp_form[ch_prod[c, 0]]
-    if kind == REVERSE and uint[i] < ch_energy[c]:
+        return u + f_parent - f_prod1
+    if kind == REVERSE and u < barrier:
         return -1.0
-    return uint[i] + sp_form[a] - sp_form[ch_prod[c, 0]] - sp_form[ch_prod[c, 1]]
+    return u + f_parent - f_prod1 - f_prod2
 
 
 @njit(cache=True)
-def first_order_choice(i, h, tables, spc, uint, rng):
-    """Draw whether disc i undergoes one of its first-order channels during a step of length h.
+def released_energy(i, c, tables, spc, uint):
+    """Energy a first-order channel c would release from disc i, or -1 if it cannot fire."""
+    sp_form = tables[2]
+    ch_prod = tables[5]
+    return channel_energy(tables[3][c], uint[i], sp_form[spc[i]], sp_form[ch_prod[c, 0]],
+                          sp_form[ch_prod[c, 1]], tables[7][c])
 
-    Competing channels with rates k_c (only those whose energy condition holds): one fires
-    with probability 1 - exp(-K h), K = sum k_c, channel c with probability k_c / K.
-    Returns the channel or -1.
+
+@njit(cache=True)
+def first_order_draws(n, h, sp_form, ch_kind, ch_prod, ch_rate, ch_energy, uni_start,
+                      uni_chan, spc, uint, rng, out_disc, out_chan):
+    """Draw which discs [0, n) undergo a first-order reaction in a step of length h.
+
+    Each disc's competing channels with rates k_c (only those whose energy condition holds
+    now): one fires with probability 1 - exp(-K h), K = sum k_c, channel c with probability
+    k_c / K. The reacting discs and their channels are written to ``out_disc``,
+    ``out_chan`` (n,); returns how many. One pass taking the arrays once: per-disc helpers
+    taking arrays cost a reference count per array per call (measured: 70-110 ns per disc
+    for a rate computation that takes 7 ns written out, as here).
     """
-    K = first_order_rate(i, tables, spc, uint)
-    if K == 0.0:
-        return -1
-    if rng.random() >= -math.expm1(-K * h):
-        return -1
-    return first_order_pick(i, K, tables, spc, uint, rng)
+    m = 0
+    for i in range(n):
+        s = spc[i]
+        if s < 0:
+            continue
+        q0 = uni_start[s]
+        q1 = uni_start[s + 1]
+        if q0 == q1:  # no channel for this species
+            continue
+        u = uint[i]
+        fs = sp_form[s]
+        K = 0.0
+        for q in range(q0, q1):
+            c = uni_chan[q]
+            if channel_energy(ch_kind[c], u, fs, sp_form[ch_prod[c, 0]],
+                              sp_form[ch_prod[c, 1]], ch_energy[c]) >= 0.0:
+                K += ch_rate[c]
+        if K == 0.0 or rng.random() >= -math.expm1(-K * h):
+            continue
+        x = rng.random() * K
+        pick = -1
+        for q in range(q0, q1):
+            c = uni_chan[q]
+            if channel_energy(ch_kind[c], u, fs, sp_form[ch_prod[c, 0]],
+                              sp_form[ch_prod[c, 1]], ch_energy[c]) >= 0.0:
+                pick = c
+                x -= ch_rate[c]
+                if x < 0.0:
+                    break
+        out_disc[m] = i
+        out_chan[m] = pick
+        m += 1
+    return m
 
 
 @njit(cache=True)
 def first_order_rate(i, tables, spc, uint):
-    """Total rate K of the first-order channels of disc i whose energy condition holds now.
-
-    K changes only when the disc's species or internal energy does (reactions, collisions).
-    """
+    """Total rate K of the first-order channels of disc i whose energy condition holds now
+    (per event, for the event-driven integrator; :func:`first_order_draws` is the per-step
+    pass). K changes only when the disc's species or internal energy does."""
     ch_rate = tables[6]
     uni_start, uni_chan = tables[8], tables[9]
     s = spc[i]

@@ -39,7 +39,7 @@ from .reactions import (
     TRANSFORMATION,
     combine,
     exchange,
-    first_order_choice,
+    first_order_draws,
     fission,
     grow1,
     grow2,
@@ -576,12 +576,13 @@ def _first_order(n, h, tables, pos, vel, spc, uint, ids, idctr, collide, fission
         cell_items = np.empty(pos.shape[0], dtype=INDEX)
         cell_of = np.empty(pos.shape[0], dtype=INDEX)
         build(n, pos, spc, grid, cell_start, cell_items, cell_of)
-    for i in range(n0):
-        if spc[i] < 0:
-            continue
-        c = first_order_choice(i, h, tables, spc, uint, rng)
-        if c < 0:
-            continue
+    react = np.empty(n0, dtype=INDEX)
+    chan = np.empty(n0, dtype=INDEX)
+    m = first_order_draws(n0, h, tables[2], ch_kind, tables[5], tables[6], tables[7],
+                          tables[8], tables[9], spc, uint, rng, react, chan)
+    for q in range(m):
+        i = react[q]
+        c = chan[q]
         if ch_kind[c] == TRANSFORMATION:
             fired = transform(i, c, collide, tables, pos, vel, spc, uint, bkind, bp, grid,
                               cell_start, cell_items, nbin, n, rmax + delta)
