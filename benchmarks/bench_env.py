@@ -69,12 +69,12 @@ def machine_scaling(threads: int, repeat: int) -> float:
 
 
 class KernelTimer:
-    """Times every call of the kernel ``Simulation.step`` makes (run_tracked)."""
+    """Times every call of the kernel ``Simulation.step`` makes (run_tracked_rngs)."""
 
     def __init__(self):
         self.total = 0.0
         self.calls = 0
-        self._orig = kstep.run_tracked
+        self._orig = kstep.run_tracked_rngs
 
     def __enter__(self):
         orig = self._orig
@@ -86,11 +86,11 @@ class KernelTimer:
             self.calls += 1
             return out
 
-        kstep.run_tracked = timed
+        kstep.run_tracked_rngs = timed
         return self
 
     def __exit__(self, *exc):
-        kstep.run_tracked = self._orig
+        kstep.run_tracked_rngs = self._orig
 
 
 def bench_single(steps: int, policy: str = "random") -> dict:

@@ -8,6 +8,7 @@ the compiled step has to run (``CompiledScene.flags``).
 from __future__ import annotations
 
 import math
+from collections import OrderedDict
 from dataclasses import dataclass
 
 import numpy as np
@@ -75,7 +76,26 @@ class CompiledScene:
                 self.bi_table)
 
 
+_CACHE: OrderedDict = OrderedDict()  # id(scene) -> CompiledScene (which holds the scene)
+_CACHE_SIZE = 32
+
+
 def compile_scene(scene: Scene) -> CompiledScene:
+    """The scene's tables, built once per scene object (scenes are immutable): a reactor
+    environment builds a new Simulation of the same scene at every reset."""
+    key = id(scene)
+    cs = _CACHE.get(key)
+    if cs is not None and cs.scene is scene:  # (the cache holds the scene: ids stay unique)
+        _CACHE.move_to_end(key)
+        return cs
+    cs = _compile(scene)
+    _CACHE[key] = cs
+    if len(_CACHE) > _CACHE_SIZE:
+        _CACHE.popitem(last=False)
+    return cs
+
+
+def _compile(scene: Scene) -> CompiledScene:
     names = scene.species_names
     idx = {n: k for k, n in enumerate(names)}
     S = len(names)

@@ -26,6 +26,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from functools import cached_property
 from pathlib import Path
 
 import gymnasium as gym
@@ -122,6 +123,10 @@ class ReactorConfig:
     @property
     def n_species(self) -> int:
         return len(self.scene.species)
+
+    @cached_property
+    def species_names(self) -> list:
+        return self.scene.species_names
 
     @property
     def action_names(self) -> tuple:
@@ -377,7 +382,8 @@ def apply_action(cfg: ReactorConfig, sim: Simulation, a: Sequence[float],
     (from the last observation's sums); ``feed_left`` (F,) is decremented in place by the
     discs placed.
 
-    Returns ``(size, heat_energy, injected (F,), refused (F,), wall_blocked)``; the heat
+    Returns ``(size, heat_energy, injected, refused, wall_blocked)`` (``injected``,
+    ``refused``: lists of F ints); the heat
     energy is ``(factor - 1) * kinetic``.
     """
     # heat: kinetic energy x heat_rate ** a[0], kept inside [t_min, t_max]
@@ -393,7 +399,7 @@ def apply_action(cfg: ReactorConfig, sim: Simulation, a: Sequence[float],
 def wall_and_feed(cfg: ReactorConfig, sim: Simulation, a: Sequence[float],
                   bad: Sequence[bool], size: float, feed_left: np.ndarray) -> tuple:
     """The wall and injection part of :func:`apply_action`; returns
-    ``(size, injected (F,), refused (F,), wall_blocked)``."""
+    ``(size, injected, refused, wall_blocked)`` (lists of F ints)."""
     # wall: move toward the target size by at most wall_speed
     blocked = False
     if not bad[1]:
@@ -408,8 +414,8 @@ def wall_and_feed(cfg: ReactorConfig, sim: Simulation, a: Sequence[float],
                 blocked = True
     # injection: round(a * inject_max) discs of each feed species for a > 0, within budget
     F = len(cfg.feed)
-    injected = np.zeros(F, dtype=np.int64)
-    refused = np.zeros(F, dtype=np.int64)
+    injected = [0] * F
+    refused = [0] * F
     for k in range(F):
         want = int(round(a[2 + k] * cfg.inject_max)) if a[2 + k] > 0.0 else 0
         if want <= 0:
@@ -516,12 +522,12 @@ class DiscReactorEnv(gym.Env):
         product = float(self._stats[0, cfg.product])
         gain = (product - self._product) / n_ref
         cost_heat = cfg.heat_cost * abs(heat) / n_ref
-        cost_feed = cfg.feed_cost * float(injected.sum()) / n_ref
+        cost_feed = cfg.feed_cost * float(sum(injected)) / n_ref
         reward = gain - cost_heat - cost_feed
         self._product = product
         truncated = bool(self._steps[0] >= cfg.episode_steps)
-        names = cfg.scene.species_names
-        counts = self._stats[0, :cfg.n_species]
+        names = cfg.species_names
+        counts = self._stats[0, :cfg.n_species].tolist()
         info = {
             "counts": {nm: int(c) for nm, c in zip(names, counts)},
             "product": int(product),
@@ -580,11 +586,12 @@ class DiscReactorEnv(gym.Env):
     # ------------------------------------------------------------------ helpers
     def _observe(self) -> np.ndarray:
         sim = self.simulation
-        self._n[0] = len(sim)
+        self._n[0] = sim._n
         obs = np.empty((1, len(self.config.obs_names)), dtype=np.float32)
-        observe(self.config, sim.velocities[None], sim.species[None],
-                sim.internal_energy[None], self._n, self._size, self._steps, self._feed_left,
-                self._n_init, self._n_ref, self._stats, self._temp, self._kin, obs)
+        # the simulation's own arrays (padded; the kernel reads discs [0, n)): no copies
+        observe(self.config, sim._vel[None], sim._spc[None], sim._uint[None], self._n,
+                self._size, self._steps, self._feed_left, self._n_init, self._n_ref,
+                self._stats, self._temp, self._kin, obs)
         self._temperature = float(self._temp[0])
         self._kinetic = float(self._kin[0])
         return obs[0]

@@ -428,14 +428,7 @@ class Scene:
                         "one bimolecular reaction per pair of species",
                     )
                 pairs[key] = k
-        counts = {}
-        for nm, c in dict(self.counts).items():
-            if nm not in names:
-                raise SceneError(f"counts.{nm}", f"unknown species {nm!r}")
-            if isinstance(c, bool) or not isinstance(c, int) or c < 0:
-                raise SceneError(f"counts.{nm}", f"expected a count >= 0, got {c!r}")
-            counts[nm] = int(c)
-        check_fits(self.bounds, names, counts, "counts")
+        counts = validated_counts(self.bounds, names, self.counts)
         if not isinstance(self.collisions, bool):
             raise SceneError("collisions", f"expected true or false, got {self.collisions!r}")
         for attr in ("name", "description"):
@@ -574,6 +567,20 @@ class Scene:
             lines += ["", "[[reactions]]"] + [f"{k} = {_toml_value(v)}" for k, v in r.items()]
         lines += ["", "[counts]"] + [f"{k} = {v}" for k, v in d["counts"].items()]
         return "\n".join(lines) + "\n"
+
+
+def validated_counts(bounds, species_by_name: Mapping[str, Species], counts) -> dict:
+    """``counts`` as ``{species name: int}``, checked: known species, whole numbers >= 0,
+    discs that fit the bounds (:func:`check_fits`); else SceneError naming ``counts.X``."""
+    out = {}
+    for nm, c in dict(counts).items():
+        if nm not in species_by_name:
+            raise SceneError(f"counts.{nm}", f"unknown species {nm!r}")
+        if isinstance(c, bool) or not isinstance(c, int) or c < 0:
+            raise SceneError(f"counts.{nm}", f"expected a count >= 0, got {c!r}")
+        out[nm] = int(c)
+    check_fits(bounds, species_by_name, out, "counts")
+    return out
 
 
 def check_fits(bounds, species_by_name: Mapping[str, Species], counts: Mapping[str, int],

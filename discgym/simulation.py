@@ -14,14 +14,17 @@ from collections.abc import Mapping
 
 import numba
 import numpy as np
+from numba import typed
 
 from ._dtypes import COUNT, FLOAT, INDEX
 from .compiled import CIRCLE, bounds_params, compile_scene
+from .compiled import P_RMAX as _P_RMAX
+from .kernels import controls as _controls
 from .kernels import event_driven as _event
 from .kernels import step as _step
 from .kernels import walls as _walls
-from .kernels.placement import overlapping_pairs, place
-from .scene import Box, Circle, Scene, SceneError, check_fits
+from .kernels.placement import overlapping_pairs, place_rngs, relocate_rngs
+from .scene import Box, Circle, Scene, SceneError, _finite, check_fits, validated_counts
 
 __all__ = ["Simulation", "PlacementError"]
 
@@ -76,10 +79,11 @@ class Simulation:
                  temperature: float | None = None, seed=None, integrator: str = "step"):
         integrator = _integrator_name(integrator)
         scene = _as_scene(scene)
-        counts = dict(scene.counts if counts is None else counts)
-        temperature = scene.temperature if temperature is None else temperature
-        # validate through the scene model (names the offending field)
-        scene.replace(counts=counts, temperature=temperature)
+        # validated by the scene model's own rules (errors name the offending field)
+        counts = validated_counts(scene.bounds, {s.name: s for s in scene.species},
+                                  scene.counts if counts is None else counts)
+        temperature = _finite("temperature", scene.temperature if temperature is None
+                              else temperature, nonneg=True)
         self._setup(scene, seed)
         self._integrator = _event_fit(integrator, scene, scene.bounds)
         todo = np.concatenate([np.full(c, scene.species_index(nm), dtype=INDEX)
@@ -110,9 +114,10 @@ class Simulation:
     def _setup(self, scene: Scene, seed) -> None:
         self.scene = scene
         self._cs = compile_scene(scene)
+        self._species_of = {sp.name: k for k, sp in enumerate(scene.species)}
         self._bounds = scene.bounds
         self._bkind, self._bp = bounds_params(scene.bounds)
-        self._rng = _rng(seed)
+        self._set_rng(_rng(seed))
         cap = 16
         self._pos = np.zeros((cap, 2), dtype=FLOAT)
         self._vel = np.zeros((cap, 2), dtype=FLOAT)
@@ -222,6 +227,13 @@ class Simulation:
             raise ValueError(f"{what}: the total energy {self.total_energy()} is not a finite "
                              "number (energies beyond the float range)")
 
+    def _set_rng(self, generator: np.random.Generator) -> None:
+        """Use ``generator`` for all randomness. Kernels receive it inside a one-item
+        ``numba.typed.List`` (same object, same state): far cheaper to pass than the
+        generator itself (see ``kernels.step.run_tracked_rngs``)."""
+        self._rng = generator
+        self._rngs = typed.List([generator])
+
     def _reserve(self, extra: int) -> None:
         need = self._n + extra
         cap = len(self._spc)
@@ -250,9 +262,9 @@ class Simulation:
         if targets is None:
             targets = np.full((len(todo), 2), np.nan)
         self._reserve(len(todo))
-        return place(self._pos, self._spc, self._n, todo,
-                     np.ascontiguousarray(targets, dtype=FLOAT), self._cs.sp_radius,
-                     self._bkind, self._bp, self._rng, _ATTEMPTS)
+        return place_rngs(self._pos, self._spc, self._n, todo,
+                          np.ascontiguousarray(targets, dtype=FLOAT), self._cs.sp_radius,
+                          self._bkind, self._bp, self._rngs, _ATTEMPTS)
 
     def _place_lattice(self, todo: np.ndarray) -> int:
         """Dense initial populations: a hexagonal lattice of the largest diameter."""
@@ -318,14 +330,14 @@ class Simulation:
     def _run(self, n_steps: int, dt: float) -> None:
         cs = self._cs
         if self._integrator == "event":  # exactly n_steps * dt of simulated time
-            pos, vel, spc, uint, ids, n = _event.run_tracked(
+            pos, vel, spc, uint, ids, n = _event.run_tracked_rngs(
                 self._pos, self._vel, self._spc, self._uint, self._ids, self._idctr, self._n,
-                n_steps * dt, self._bkind, self._bp, cs.tables, cs.params, cs.flags, self._rng,
-                self._icnt, self._fsum, self._ch_count)
+                n_steps * dt, self._bkind, self._bp, cs.tables, cs.params, cs.flags,
+                self._rngs, self._icnt, self._fsum, self._ch_count)
         else:
-            pos, vel, spc, uint, ids, n = _step.run_tracked(
+            pos, vel, spc, uint, ids, n = _step.run_tracked_rngs(
                 self._pos, self._vel, self._spc, self._uint, self._n, n_steps, dt, self._bkind,
-                self._bp, cs.tables, cs.params, cs.flags, self._rng, self._icnt, self._fsum,
+                self._bp, cs.tables, cs.params, cs.flags, self._rngs, self._icnt, self._fsum,
                 self._ch_count, self._threads, self._ids, self._idctr, self._steps,
                 _step.REORDER_EVERY)
         self._pos, self._vel, self._spc, self._uint, self._ids = pos, vel, spc, uint, ids
@@ -392,19 +404,24 @@ class Simulation:
         c = np.bincount(self._spc[: self._n], minlength=len(self.scene.species))
         return {s.name: int(k) for s, k in zip(self.scene.species, c)}
 
+    def _energies(self) -> tuple[float, float, float]:
+        cs = self._cs
+        return _controls.energies(self._vel, self._spc, self._uint, cs.sp_mass, cs.sp_form,
+                                  self._n)
+
     def kinetic_energy(self) -> float:
-        v = self._vel[: self._n]
-        return float(0.5 * (self.masses * (v * v).sum(axis=1)).sum())
+        return self._energies()[0]
 
     def internal_energy_total(self) -> float:
-        return float(self._uint[: self._n].sum())
+        return self._energies()[1]
 
     def formation_energy(self) -> float:
-        return float(self._cs.sp_form[self._spc[: self._n]].sum())
+        return self._energies()[2]
 
     def total_energy(self) -> float:
         """Kinetic + internal + formation energy."""
-        return self.kinetic_energy() + self.internal_energy_total() + self.formation_energy()
+        k, u, f = self._energies()
+        return k + u + f
 
     def temperature(self) -> float:
         """kT = kinetic energy per disc (2D, k_B = 1); 0 for an empty reactor."""
@@ -484,11 +501,14 @@ class Simulation:
         if not math.isfinite(factor) or factor < 0:
             raise ValueError(f"scale_temperature(factor): need a finite factor >= 0, got "
                              f"{factor}")
-        self._check_speeds(self._vel[: self._n] * math.sqrt(factor),
-                           f"scale_temperature({factor})")
-        ke = self.kinetic_energy()
-        self._vel[: self._n] *= math.sqrt(factor)
-        self._energy_input += self.kinetic_energy() - ke
+        n = self._n
+        ke0, v2max = _controls.kinetic_and_fastest(self._vel, self._spc, self._cs.sp_mass, n)
+        s = math.sqrt(factor)
+        if not math.sqrt(v2max) * s <= self.speed_limit:
+            self._check_speeds(self._vel[:n] * s, f"scale_temperature({factor})")  # raises
+        _controls.scale(self._vel, n, s)
+        ke1, _ = _controls.kinetic_and_fastest(self._vel, self._spc, self._cs.sp_mass, n)
+        self._energy_input += ke1 - ke0
 
     def inject(self, species: str | int, n: int, temperature: float | None = None,
                near=None) -> int:
@@ -499,7 +519,9 @@ class Simulation:
         Returns how many were placed: fewer than ``n`` when the reactor has no room (never an
         overlap). The energy added is booked in :attr:`energy_input`.
         """
-        s = int(self._species_indices([species], 1)[0])
+        s = self._species_of.get(species) if isinstance(species, str) else None
+        if s is None:
+            s = int(self._species_indices([species], 1)[0])
         if isinstance(n, bool) or not isinstance(n, (int, np.integer, float, np.floating)) \
                 or not math.isfinite(n) or int(n) != n or n < 0:
             raise ValueError(f"inject(n): need a whole number >= 0, got {n!r}")
@@ -547,47 +569,29 @@ class Simulation:
         resize is refused with :class:`PlacementError` and nothing changes."""
         if not isinstance(bounds, (Box, Circle)):
             raise TypeError(f"resize(bounds): expected Box or Circle, got {bounds!r}")
-        names = {s.name: s for s in self.scene.species}
-        too_big = [s.name for s in self.scene.species if s.radius > bounds.max_radius()]
-        if too_big:
+        if self._cs.params[_P_RMAX] > bounds.max_radius():
+            too_big = [s.name for s in self.scene.species if s.radius > bounds.max_radius()]
             raise PlacementError(f"resize: species {too_big} do not fit in {bounds}")
-        try:
-            check_fits(bounds, names, self.counts(), "resize")
-        except SceneError as exc:
-            raise PlacementError(str(exc)) from None
         _event_fit(self._integrator, self.scene, bounds)
         bkind, bp = bounds_params(bounds)
         n = self._n
-        keep = _inside(self._pos[:n], self.radii, bkind, bp)
-        if keep.all():
+        if _controls.all_inside(self._pos, self._spc, self._cs.sp_radius, n, bkind, bp[0],
+                                bp[1], bp[2], bp[3]):  # (e.g. the wall moved out)
             self._bounds, self._bkind, self._bp = bounds, bkind, bp
             return
-        order = np.concatenate([np.flatnonzero(keep), np.flatnonzero(~keep)])
-        pos = self._pos[order].copy()
-        vel = self._vel[order].copy()
-        spc = self._spc[order].copy()
-        uint = self._uint[order].copy()
-        ids = self._ids[order].copy()
-        k = int(keep.sum())
-        todo = spc[k:n].copy()
-        targets = pos[k:n].copy()
-        spc[k:] = -1
+        try:
+            check_fits(bounds, {s.name: s for s in self.scene.species}, self.counts(),
+                       "resize")
+        except SceneError as exc:
+            raise PlacementError(str(exc)) from None
         rng_state = self._rng.bit_generator.state
-        placed = place(pos, spc, k, todo, targets, self._cs.sp_radius, bkind, bp, self._rng,
-                       _ATTEMPTS)
-        if placed < len(todo):
+        failed = relocate_rngs(self._pos, self._spc, n, self._cs.sp_radius, bkind, bp,
+                               self._rngs, _ATTEMPTS)
+        if failed:
             self._rng.bit_generator.state = rng_state  # refused: as if never tried
             raise PlacementError(
-                f"resize to {bounds}: {len(todo) - placed} of the {len(todo)} discs outside "
-                "the new bounds find no free spot inside; resize refused")
-        # restore the original order of the discs
-        inv = np.empty(n, dtype=np.int64)
-        inv[order] = np.arange(n)
-        self._pos[:n] = pos[inv]
-        self._vel[:n] = vel[inv]
-        self._spc[:n] = spc[inv]
-        self._uint[:n] = uint[inv]
-        self._ids[:n] = ids[inv]
+                f"resize to {bounds}: {failed} of the discs outside the new bounds find no "
+                "free spot inside; resize refused")
         self._bounds, self._bkind, self._bp = bounds, bkind, bp
 
     # ------------------------------------------------------------------ state
@@ -661,7 +665,7 @@ class Simulation:
         self._time = float(state["time"])
         if not isinstance(self._rng.bit_generator, np.random.PCG64) or \
                 self._rng.bit_generator.state["bit_generator"] != state["rng"]["bit_generator"]:
-            self._rng = np.random.Generator(np.random.PCG64())
+            self._set_rng(np.random.Generator(np.random.PCG64()))
         self._rng.bit_generator.state = state["rng"]
         self._icnt[:] = state["icnt"]
         self._fsum[:] = state["fsum"]

@@ -867,6 +867,15 @@ def run_tracked(pos, vel, spc, uint, ids, idctr, n, duration, bkind, bp, tables,
 
 
 @njit(cache=True)
+def run_tracked_rngs(pos, vel, spc, uint, ids, idctr, n, duration, bkind, bp, tables, params,
+                     flags, rngs, icnt, fsum, ch_count):
+    """:func:`run_tracked` with its generator passed as ``rngs[0]`` (a ``numba.typed.List``;
+    see :func:`discgym.kernels.step.run_tracked_rngs`)."""
+    return run_tracked(pos, vel, spc, uint, ids, idctr, n, duration, bkind, bp, tables, params,
+                       flags, rngs[0], icnt, fsum, ch_count)
+
+
+@njit(cache=True)
 def run(pos, vel, spc, uint, n, duration, bkind, bp, tables, params, flags, rng, icnt, fsum,
         ch_count):
     """:func:`run_tracked` without disc identities. Returns ``(pos, vel, spc, uint, n)``."""

@@ -11,6 +11,7 @@ from numba import njit
 
 from .._dtypes import INDEX
 from .celllist import cell_coord, make_grid
+from .walls import inside
 
 
 @njit(cache=True)
@@ -68,14 +69,37 @@ def _clamp_inside(x, y, r, bkind, bp):
 
 
 @njit(cache=True)
+def _place_one(tx, ty, r, pos, spc, sp_radius, bkind, bp, grid, head, nxt, rmax, rng,
+               attempts):
+    """A free spot for a disc of radius r: at the target (tx, ty) clamped inside if free,
+    then at random points ever farther around it, then anywhere in the bounds (NaN target:
+    anywhere), ``attempts`` tries in all. Returns ``(found, x, y)``."""
+    x = tx
+    y = ty
+    for a in range(attempts):
+        if not math.isnan(tx) and a < attempts // 2:
+            if a == 0:
+                x, y = _clamp_inside(tx, ty, r, bkind, bp)
+            else:
+                spread = r * (1.0 + 0.25 * a)
+                ang = 2.0 * math.pi * rng.random()
+                x, y = _clamp_inside(tx + spread * math.cos(ang), ty + spread * math.sin(ang),
+                                     r, bkind, bp)
+        else:
+            x, y = _sample(r, bkind, bp, rng)
+        if _free(x, y, r, pos, spc, sp_radius, grid, head, nxt, rmax):
+            return True, x, y
+    return False, x, y
+
+
+@njit(cache=True)
 def place(pos, spc, n, todo, targets, sp_radius, bkind, bp, rng, attempts):
     """Place discs of species ``todo`` (M,) after the n placed ones; returns how many fit.
 
-    ``targets`` (M, 2): where each disc should go if that spot is free (NaN: anywhere). A
-    disc whose target is taken is tried at random points ever farther around it, then
-    anywhere in the bounds, ``attempts`` times in all. Placing stops at the first disc that
-    finds no room (the rest are left for the caller to report). The discs [0, n) must not
-    overlap each other; they are not moved.
+    ``targets`` (M, 2): where each disc should go if that spot is free (NaN: anywhere); see
+    :func:`_place_one`. Placing stops at the first disc that finds no room (the rest are left
+    for the caller to report). The discs [0, n) must not overlap each other; they are not
+    moved.
     """
     m = todo.shape[0]
     rmax = sp_radius.max()
@@ -89,26 +113,10 @@ def place(pos, spc, n, todo, targets, sp_radius, bkind, bp, rng, attempts):
         head[c] = k
     for q in range(m):
         s = todo[q]
-        r = sp_radius[s]
         k = n + q
         spc[k] = s
-        ok = False
-        tx = targets[q, 0]
-        ty = targets[q, 1]
-        for a in range(attempts):
-            if not math.isnan(tx) and a < attempts // 2:
-                if a == 0:
-                    x, y = _clamp_inside(tx, ty, r, bkind, bp)
-                else:
-                    spread = r * (1.0 + 0.25 * a)
-                    ang = 2.0 * math.pi * rng.random()
-                    x, y = _clamp_inside(tx + spread * math.cos(ang),
-                                         ty + spread * math.sin(ang), r, bkind, bp)
-            else:
-                x, y = _sample(r, bkind, bp, rng)
-            if _free(x, y, r, pos, spc, sp_radius, grid, head, nxt, rmax):
-                ok = True
-                break
+        ok, x, y = _place_one(targets[q, 0], targets[q, 1], sp_radius[s], pos, spc, sp_radius,
+                              bkind, bp, grid, head, nxt, rmax, rng, attempts)
         if not ok:
             spc[k] = -1
             return q
@@ -118,6 +126,44 @@ def place(pos, spc, n, todo, targets, sp_radius, bkind, bp, rng, attempts):
         nxt[k] = head[c]
         head[c] = k
     return m
+
+
+@njit(cache=True)
+def relocate(pos, spc, n, sp_radius, bkind, bp, rng, attempts):
+    """Move each disc of [0, n) that lies outside the bounds (after they shrank) to the
+    nearest free spot found inside (:func:`_place_one`, its position as the target), in disc
+    order; the discs inside stay put. Returns the number of discs that found no room: if
+    any, ``pos`` is left unchanged (the caller refuses the resize)."""
+    rmax = sp_radius.max()
+    grid = make_grid(bkind, bp, rmax, n)
+    ncells = int(grid[4]) * int(grid[5])
+    head = np.full(ncells, -1, dtype=INDEX)
+    nxt = np.full(max(n, 1), -1, dtype=INDEX)
+    work = pos[:n].copy()
+    out = np.empty(n, dtype=INDEX)
+    m = 0
+    for k in range(n):
+        r = sp_radius[spc[k]]
+        if inside(work[k, 0], work[k, 1], r, bkind, bp):
+            c = _cell(work[k, 0], work[k, 1], grid)
+            nxt[k] = head[c]
+            head[c] = k
+        else:
+            out[m] = k
+            m += 1
+    for q in range(m):
+        k = out[q]
+        ok, x, y = _place_one(work[k, 0], work[k, 1], sp_radius[spc[k]], work, spc, sp_radius,
+                              bkind, bp, grid, head, nxt, rmax, rng, attempts)
+        if not ok:
+            return m - q
+        work[k, 0] = x
+        work[k, 1] = y
+        c = _cell(x, y, grid)
+        nxt[k] = head[c]
+        head[c] = k
+    pos[:n] = work
+    return 0
 
 
 @njit(cache=True)
@@ -153,3 +199,16 @@ def overlapping_pairs(pos, spc, n, sp_radius, bkind, bp, tol):
         nxt[i] = head[c]
         head[c] = i
     return count
+
+
+@njit(cache=True)
+def place_rngs(pos, spc, n, todo, targets, sp_radius, bkind, bp, rngs, attempts):
+    """:func:`place` with its generator passed as ``rngs[0]`` (a ``numba.typed.List``; see
+    :func:`discgym.kernels.step.run_tracked_rngs`)."""
+    return place(pos, spc, n, todo, targets, sp_radius, bkind, bp, rngs[0], attempts)
+
+
+@njit(cache=True)
+def relocate_rngs(pos, spc, n, sp_radius, bkind, bp, rngs, attempts):
+    """:func:`relocate` with its generator passed as ``rngs[0]`` (a ``numba.typed.List``)."""
+    return relocate(pos, spc, n, sp_radius, bkind, bp, rngs[0], attempts)

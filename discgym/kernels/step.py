@@ -691,6 +691,18 @@ def run(pos, vel, spc, uint, n, n_steps, dt, bkind, bp, tables, params, flags, r
 
 
 @njit(cache=True)
+def run_tracked_rngs(pos, vel, spc, uint, n, n_steps, dt, bkind, bp, tables, params, flags, rngs,
+                     icnt, fsum, ch_count, threads, ids, idctr, step0, reorder_every):
+    """:func:`run_tracked` with its generator passed as ``rngs[0]``, a ``numba.typed.List``:
+    the entry point for calls from Python. Unboxing an ``np.random.Generator`` argument costs
+    ~13 us per call (numba rebuilds its ctypes interface every time), a typed list holding
+    the same generator (same state) ~1 us; a Simulation makes many short calls."""
+    return run_tracked(pos, vel, spc, uint, n, n_steps, dt, bkind, bp, tables, params, flags,
+                       rngs[0], icnt, fsum, ch_count, threads, ids, idctr, step0,
+                       reorder_every)
+
+
+@njit(cache=True)
 def run_tracked(pos, vel, spc, uint, n, n_steps, dt, bkind, bp, tables, params, flags, rng, icnt,
                 fsum, ch_count, threads, ids, idctr, step0, reorder_every):
     """Advance ``n_steps`` steps of length ``dt``.
