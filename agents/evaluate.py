@@ -58,13 +58,13 @@ def load_policy(run: Path):
 
 
 def constant_grid(n_actions: int) -> np.ndarray:
-    """Candidate constant actions: heat x wall x (one injection level for all feeds)."""
-    heat = [-1.0, -0.5, 0.0, 0.5, 1.0]
+    """Candidate constant actions: heat x wall x each feed on or off (120 for the default
+    env). A constant heat action is a constant *rate* of heating, so the heat levels are
+    dense near 0, where the useful ones are (a slow ramp through the activation window)."""
+    heat = [-0.1, -0.02, 0.0, 0.005, 0.01, 0.02, 0.03, 0.05, 0.1, 0.3]
     wall = [-1.0, 0.0, 1.0]
-    inject = [0.0, 1.0] if n_actions > 2 else [None]
-    rows = []
-    for h, w, f in itertools.product(heat, wall, inject):
-        rows.append([h, w] + ([] if f is None else [f] * (n_actions - 2)))
+    feeds = list(itertools.product([0.0, 1.0], repeat=n_actions - 2))
+    rows = [[h, w, *f] for h, w, f in itertools.product(heat, wall, feeds)]
     return np.array(rows, dtype=np.float32)
 
 

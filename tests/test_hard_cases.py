@@ -540,6 +540,23 @@ def test_08_restitution_zero_pair_sticks_and_books_the_loss():
 
 
 # ------------------------------------------------------------------------------------------ 9
+def test_09_cell_radius_follows_the_small_discs_when_the_large_are_few():
+    """Case 9 (no cost cliff). The cell grid is sized by the small discs when the much larger
+    ones are few (``celllist.cell_radius``): 20 discs of radius 5 among 20000 of radius 0.1
+    give cells for r = 0.1 (the large discs go to the big cell, searched by every query), so
+    the cells do not grow 50-fold; when the large discs are many, or the radii are close, the
+    cells are sized by the largest radius as before."""
+    from discgym.kernels.celllist import cell_radius
+
+    radius = np.array([0.1, 5.0])
+    few = np.r_[np.zeros(20000), np.ones(20)].astype(np.int32)
+    many = np.r_[np.zeros(200), np.ones(200)].astype(np.int32)
+    assert cell_radius(few, len(few), radius) == 0.1
+    assert cell_radius(many, len(many), radius) == 5.0
+    assert cell_radius(few, len(few), np.array([0.5, 0.65])) == 0.65  # close radii
+    assert cell_radius(few[:0], 0, radius) == 0.1  # no large disc at all
+
+
 @pytest.mark.parametrize("bounds", [dg.Box(60.0, 60.0), dg.Circle(36.0)])
 def test_09_polydisperse_1_to_50_neighbour_search(bounds):
     """Case 9. Radii 0.1 and 5 (ratio 1:50), 600 small and 20 large discs: after every one

@@ -25,7 +25,7 @@ import math
 
 from numba import njit
 
-from .celllist import build
+from .celllist import build, cell_range
 from .walls import inside, push_inside
 
 RESOLVE_PASSES = 64
@@ -62,12 +62,54 @@ def _wall_fix(i, pos, vel, r, m, bkind, bp):
 
 
 @njit(cache=True)
+def _repair_pair(i, j, pos, vel, spc, sp_radius, sp_mass, e):
+    """Push discs i and j apart if they overlap (see the module docstring); returns
+    ``(repaired, kinetic energy lost)``."""
+    si = spc[i]
+    sj = spc[j]
+    R = sp_radius[si] + sp_radius[sj]
+    dx = pos[j, 0] - pos[i, 0]
+    dy = pos[j, 1] - pos[i, 1]
+    d2 = dx * dx + dy * dy
+    if d2 >= R * R:
+        return False, 0.0
+    d = math.sqrt(d2)
+    if d > 0.0:
+        nx = dx / d
+        ny = dy / d
+    else:
+        nx = 1.0
+        ny = 0.0
+    mi = sp_mass[si]
+    mj = sp_mass[sj]
+    M = mi + mj
+    gap = R * _SEP - d
+    pos[i, 0] -= gap * mj / M * nx
+    pos[i, 1] -= gap * mj / M * ny
+    pos[j, 0] += gap * mi / M * nx
+    pos[j, 1] += gap * mi / M * ny
+    lost = 0.0
+    vr = (vel[i, 0] - vel[j, 0]) * nx + (vel[i, 1] - vel[j, 1]) * ny
+    if vr > 0.0:
+        mu = mi * mj / M
+        dp = (1.0 + e) * mu * vr
+        vel[i, 0] -= dp / mi * nx
+        vel[i, 1] -= dp / mi * ny
+        vel[j, 0] += dp / mj * nx
+        vel[j, 1] += dp / mj * ny
+        lost = 0.5 * (1.0 - e * e) * mu * vr * vr
+    return True, lost
+
+
+@njit(cache=True)
 def resolve(n, pos, vel, spc, sp_radius, sp_mass, e, collide, bkind, bp, grid, cell_start,
             cell_items, cell_of):
     """Repair discs [0, n) (see the module docstring). Leaves the cell list built at the final
     positions. Returns ``(repairs, wall_momentum, dissipated)``."""
     ncx = int(grid[4])
     ncy = int(grid[5])
+    rcell = grid[6]
+    nbc = ncx * ncy
     repairs = 0
     wall_dp = 0.0
     lost = 0.0
@@ -79,56 +121,42 @@ def resolve(n, pos, vel, spc, sp_radius, sp_mass, e, collide, bkind, bp, grid, c
                 wall_dp += _wall_fix(i, pos, vel, sp_radius[s], sp_mass[s], bkind, bp)
                 fixed += 1
         if collide:
-            build(n, pos, spc, grid, cell_start, cell_items, cell_of)
+            build(n, pos, spc, sp_radius, grid, cell_start, cell_items, cell_of)
             for i in range(n):
-                si = spc[i]
-                if si < 0:
+                if spc[i] < 0:
                     continue
+                # cells that can hold an overlapping partner: a small disc's 3 x 3 around
+                # its cell, a big disc's within its radius + rcell; and every big disc
                 c = cell_of[i]
-                cx = c % ncx
-                cy = c // ncx
-                for yy in range(max(cy - 1, 0), min(cy + 2, ncy)):
-                    for xx in range(max(cx - 1, 0), min(cx + 2, ncx)):
+                if c == nbc:
+                    x0, x1, y0, y1 = cell_range(pos[i, 0], pos[i, 1],
+                                                sp_radius[spc[i]] + rcell, grid)
+                    x1 += 1
+                    y1 += 1
+                else:
+                    x0 = max(c % ncx - 1, 0)
+                    x1 = min(c % ncx + 2, ncx)
+                    y0 = max(c // ncx - 1, 0)
+                    y1 = min(c // ncx + 2, ncy)
+                for yy in range(y0, y1):
+                    for xx in range(x0, x1):
                         cc = xx + ncx * yy
                         for a in range(cell_start[cc], cell_start[cc + 1]):
                             j = cell_items[a]
-                            if j <= i:
-                                continue
-                            sj = spc[j]
-                            R = sp_radius[si] + sp_radius[sj]
-                            dx = pos[j, 0] - pos[i, 0]
-                            dy = pos[j, 1] - pos[i, 1]
-                            d2 = dx * dx + dy * dy
-                            if d2 >= R * R:
-                                continue
-                            d = math.sqrt(d2)
-                            if d > 0.0:
-                                nx = dx / d
-                                ny = dy / d
-                            else:
-                                nx = 1.0
-                                ny = 0.0
-                            mi = sp_mass[si]
-                            mj = sp_mass[sj]
-                            M = mi + mj
-                            gap = R * _SEP - d
-                            pos[i, 0] -= gap * mj / M * nx
-                            pos[i, 1] -= gap * mj / M * ny
-                            pos[j, 0] += gap * mi / M * nx
-                            pos[j, 1] += gap * mi / M * ny
-                            vr = (vel[i, 0] - vel[j, 0]) * nx + (vel[i, 1] - vel[j, 1]) * ny
-                            if vr > 0.0:
-                                mu = mi * mj / M
-                                dp = (1.0 + e) * mu * vr
-                                vel[i, 0] -= dp / mi * nx
-                                vel[i, 1] -= dp / mi * ny
-                                vel[j, 0] += dp / mj * nx
-                                vel[j, 1] += dp / mj * ny
-                                lost += 0.5 * (1.0 - e * e) * mu * vr * vr
-                            fixed += 1
+                            if j > i:
+                                ok, dl = _repair_pair(i, j, pos, vel, spc, sp_radius, sp_mass,
+                                                      e)
+                                fixed += ok
+                                lost += dl
+                for a in range(cell_start[nbc], cell_start[nbc + 1]):
+                    j = cell_items[a]
+                    if j > i:
+                        ok, dl = _repair_pair(i, j, pos, vel, spc, sp_radius, sp_mass, e)
+                        fixed += ok
+                        lost += dl
         repairs += fixed
         if fixed == 0:
             break
     if collide:
-        build(n, pos, spc, grid, cell_start, cell_items, cell_of)
+        build(n, pos, spc, sp_radius, grid, cell_start, cell_items, cell_of)
     return repairs, wall_dp, lost

@@ -29,7 +29,7 @@ import numpy as np
 from numba import njit, prange
 
 from .._dtypes import COUNT, FLOAT, INDEX
-from .celllist import build, cell_coord, cell_range, make_grid, overlaps_any
+from .celllist import build, cell_coord, cell_radius, cell_range, make_grid, overlaps_any
 from .collisions import bounce, normal_at, pair_time
 from .heap import new_heap, pop, push, reserve
 from .reactions import (
@@ -88,6 +88,7 @@ PARALLEL_MIN = 65536  # below this many discs a step runs on one thread: waking 
 # 8.0 M disc-steps/s on 2 threads against 12.1 M on one)
 REORDER_MIN = 16384  # from this many discs, discs are periodically put in cell order in memory
 REORDER_EVERY = 8  # steps between reorderings (Simulation's default)
+REORDER_CELLS = 1 << 19  # the reordering grid: cells of 2 r_max, at most about this many
 
 
 
@@ -103,6 +104,8 @@ def _drift_range(lo, hi, h, pos, vel, spc, sp_radius, bkind, bp, tlast, wall_t, 
     x0, y0, icx, icy = grid[0], grid[1], grid[2], grid[3]
     ncx = int(grid[4])
     ncy = int(grid[5])
+    rcell = grid[6]
+    nbc = ncx * ncy  # the big cell (celllist)
     b0, b1, b2, b3 = bp[0], bp[1], bp[2], bp[3]
     for i in range(lo, hi):
         vx = vel[i, 0]
@@ -125,7 +128,10 @@ def _drift_range(lo, hi, h, pos, vel, spc, sp_radius, bkind, bp, tlast, wall_t, 
             x = pos[i, 0]
             y = pos[i, 1]
         if collide:
-            cell_of[i] = cell_coord(x, icx, x0, ncx) + ncx * cell_coord(y, icy, y0, ncy)
+            if r > rcell:
+                cell_of[i] = nbc
+            else:
+                cell_of[i] = cell_coord(x, icx, x0, ncx) + ncx * cell_coord(y, icy, y0, ncy)
 
 
 @njit(cache=True, parallel=True)
@@ -254,8 +260,16 @@ def _try_pair(i, j, sp_radius, pos, vel, spc, tlast, stamp, H, size):
 
 
 @njit(cache=True)
-def _queue_initial(n, collide, sp_radius, pos, vel, spc, tlast, stamp, wall_t, wflag, ncx, ncy,
-                   cell_start, cell_items, sx, sy, sr, ov_n, ov_b, H, icnt):
+def _queue_initial(n, collide, sp_radius, pos, vel, spc, tlast, stamp, wall_t, wflag, grid,
+                   cell_start, cell_items, cell_of, sx, sy, sr, ov_n, ov_b, H, icnt):
+    """Queue every wall contact and every overlapping pair of the substep: the pairs the
+    broad phase found (``ov_n``, ``ov_b``: small discs, half stencil) and those of the big
+    discs (found here: each big disc against the cells within its radius + rcell and the
+    big discs after it)."""
+    ncx = int(grid[4])
+    ncy = int(grid[5])
+    rcell = grid[6]
+    nbc = ncx * ncy
     need = 0
     for i in range(n):
         if wall_t[i] < math.inf:
@@ -263,8 +277,10 @@ def _queue_initial(n, collide, sp_radius, pos, vel, spc, tlast, stamp, wall_t, w
         if wflag[i]:
             icnt[IC_PUSHED_INSIDE] += 1
     if collide:
-        for a in range(n):
+        for a in range(cell_start[nbc]):
             need += ov_n[a]
+        for a in range(cell_start[nbc], cell_start[nbc + 1]):
+            need += _big_candidates(a, sx, sy, sr, rcell, grid, cell_start)
     H = reserve(H, 0, need)
     size = 0
     for i in range(n):
@@ -272,7 +288,7 @@ def _queue_initial(n, collide, sp_radius, pos, vel, spc, tlast, stamp, wall_t, w
             size = push(H, size, wall_t[i], i, -1, stamp[i], 0)
     if not collide:
         return H, size
-    for a in range(n):
+    for a in range(cell_start[nbc]):
         k = ov_n[a]
         if k == 0:
             continue
@@ -283,15 +299,33 @@ def _queue_initial(n, collide, sp_radius, pos, vel, spc, tlast, stamp, wall_t, w
                                  stamp, H, size)
             continue
         # more partners than slots: scan this disc's stencil again
-        c = 0
-        while cell_start[c + 1] <= a:
-            c += 1
-        e1, lo2, hi2 = _strips(c, ncx, ncy, cell_start)
+        e1, lo2, hi2 = _strips(cell_of[i], ncx, ncy, cell_start)
         for b in range(a + 1, e1):
             size = _try_pair(i, cell_items[b], sp_radius, pos, vel, spc, tlast, stamp, H, size)
         for b in range(lo2, hi2):
             size = _try_pair(i, cell_items[b], sp_radius, pos, vel, spc, tlast, stamp, H, size)
+    for a in range(cell_start[nbc], cell_start[nbc + 1]):  # the big discs
+        i = cell_items[a]
+        cx0, cx1, cy0, cy1 = cell_range(sx[a], sy[a], sr[a] + rcell, grid)
+        for cy in range(cy0, cy1 + 1):
+            for b in range(cell_start[cx0 + ncx * cy], cell_start[cx1 + 1 + ncx * cy]):
+                size = _try_pair(i, cell_items[b], sp_radius, pos, vel, spc, tlast, stamp, H,
+                                 size)
+        for b in range(a + 1, cell_start[nbc + 1]):
+            size = _try_pair(i, cell_items[b], sp_radius, pos, vel, spc, tlast, stamp, H, size)
     return H, size
+
+
+@njit(cache=True)
+def _big_candidates(a, sx, sy, sr, rcell, grid, cell_start):
+    """How many discs big disc a (sorted index) is compared with in :func:`_queue_initial`."""
+    ncx = int(grid[4])
+    nbc = ncx * int(grid[5])
+    cx0, cx1, cy0, cy1 = cell_range(sx[a], sy[a], sr[a] + rcell, grid)
+    k = cell_start[nbc + 1] - a - 1
+    for cy in range(cy0, cy1 + 1):
+        k += cell_start[cx1 + 1 + ncx * cy] - cell_start[cx0 + ncx * cy]
+    return k
 
 
 @njit(cache=True)
@@ -314,9 +348,11 @@ def _schedule(d, sp_radius, pos, vel, spc, tlast, stamp, n, collide, bkind, bp, 
         x = pos[d, 0]
         y = pos[d, 1]
     ncx = int(grid[4])
+    nbc = ncx * int(grid[5])
     cx0, cx1, cy0, cy1 = cell_range(x, y, r + reach, grid)
     need = 1 + n - nbin
     if collide:
+        need += cell_start[nbc + 1] - cell_start[nbc]
         for cy in range(cy0, cy1 + 1):
             need += cell_start[cx1 + 1 + ncx * cy] - cell_start[cx0 + ncx * cy]
     H = reserve(H, size, need)
@@ -337,6 +373,10 @@ def _schedule(d, sp_radius, pos, vel, spc, tlast, stamp, n, collide, bkind, bp, 
                     size = push(H, size, tc, d, k, sd, stamp[k])
                 else:
                     size = push(H, size, tc, k, d, stamp[k], sd)
+    for a in range(cell_start[nbc], cell_start[nbc + 1]):  # the big discs (celllist)
+        k = cell_items[a]
+        if k != d and spc[k] >= 0:
+            size = _try_pair(d, k, sp_radius, pos, vel, spc, tlast, stamp, H, size)
     for k in range(nbin, n):
         if k != d and spc[k] >= 0:
             size = _try_pair(d, k, sp_radius, pos, vel, spc, tlast, stamp, H, size)
@@ -393,7 +433,7 @@ def _glide(i, tw, xc, yc, tau, psi, vn, r, mi, pos, vel, spc, sp_radius, tlast, 
 
 @njit(cache=True)
 def _events(n, H, size, tables, pos, vel, spc, uint, tlast, stamp, lastcol, partner, nev,
-            sub_id, binx, biny, collide, has_bi, e, kappa, rmax, h, vfast, bkind, bp, grid,
+            sub_id, binx, biny, collide, has_bi, e, kappa, rcell, h, vfast, bkind, bp, grid,
             cell_start, cell_items, icnt, fsum, ch_count):
     """Process the queue earliest first. Returns (H, n_dead, delta, dropped, vfast):
     ``dropped`` if events were left unprocessed because a disc (``nev``, at most DISC_EVENTS
@@ -464,13 +504,13 @@ def _events(n, H, size, tables, pos, vel, spc, uint, tlast, stamp, lastcol, part
                 if tau * GLIDE_CHORDS < -tw:
                     if not _glide(i, tw, xc, yc, tau, psi, vn, r, mi, pos, vel, spc, sp_radius,
                                   tlast, collide, bp, grid, cell_start, cell_items, nbin, n,
-                                  rmax + delta + h * vfast, icnt, fsum):
+                                  rcell + delta + h * vfast, icnt, fsum):
                         nev[i] = DISC_EVENTS  # wedged: no finite sequence of events frees it
             stamp[i] += 1
             if collide:
                 delta = max(delta, math.hypot(pos[i, 0] - binx[i], pos[i, 1] - biny[i]))
             H, size = _schedule(i, sp_radius, pos, vel, spc, tlast, stamp, n, collide, bkind,
-                                bp, grid, cell_start, cell_items, nbin, rmax + delta, H, size,
+                                bp, grid, cell_start, cell_items, nbin, rcell + delta, H, size,
                                 icnt)
             continue
         vxi = vel[i, 0]
@@ -495,11 +535,11 @@ def _events(n, H, size, tables, pos, vel, spc, uint, tlast, stamp, lastcol, part
                     if ch_kind[c] == COMBINATION:
                         outcome = combine(i, j, c, t, xi, yi, xj, yj, tables, pos, vel, spc,
                                           uint, bkind, bp, grid, cell_start, cell_items, nbin,
-                                          n, rmax + delta + h * vfast)
+                                          n, rcell + delta + h * vfast)
                     else:
                         outcome = exchange(i, j, c, t, xi, yi, xj, yj, nx, ny, tables, pos,
                                            vel, spc, uint, bkind, bp, grid, cell_start,
-                                           cell_items, nbin, n, rmax + delta + h * vfast)
+                                           cell_items, nbin, n, rcell + delta + h * vfast)
                     fired = outcome == FIRED
                     if fired:
                         ch_count[c] += 1
@@ -543,10 +583,10 @@ def _events(n, H, size, tables, pos, vel, spc, uint, tlast, stamp, lastcol, part
             delta = max(delta, math.hypot(pos[j, 0] - binx[j], pos[j, 1] - biny[j]))
             vfast = max(vfast, math.hypot(vel[j, 0], vel[j, 1]))
         H, size = _schedule(i, sp_radius, pos, vel, spc, tlast, stamp, n, collide, bkind, bp,
-                            grid, cell_start, cell_items, nbin, rmax + delta, H, size, icnt)
+                            grid, cell_start, cell_items, nbin, rcell + delta, H, size, icnt)
         if spc[j] >= 0:
             H, size = _schedule(j, sp_radius, pos, vel, spc, tlast, stamp, n, collide, bkind,
-                                bp, grid, cell_start, cell_items, nbin, rmax + delta, H, size,
+                                bp, grid, cell_start, cell_items, nbin, rcell + delta, H, size,
                                 icnt)
     return H, n_dead, delta, dropped, vfast
 
@@ -554,7 +594,7 @@ def _events(n, H, size, tables, pos, vel, spc, uint, tlast, stamp, lastcol, part
 # ------------------------------------------------------------- phase 4: first-order reactions
 @njit(cache=True)
 def _first_order(n, h, tables, pos, vel, spc, uint, ids, idctr, collide, fission_possible, bkind,
-                 bp, grid, cell_start, cell_items, cell_of, delta, rmax, rng, icnt, ch_count):
+                 bp, grid, cell_start, cell_items, cell_of, delta, rcell, rng, icnt, ch_count):
     """Each disc present at the start of the pass draws its first-order reactions.
 
     Capacity for one fission per disc is made before the loop (so no array is reallocated
@@ -575,7 +615,7 @@ def _first_order(n, h, tables, pos, vel, spc, uint, ids, idctr, collide, fission
     if collide and fission_possible and cell_items.shape[0] < pos.shape[0]:
         cell_items = np.empty(pos.shape[0], dtype=INDEX)
         cell_of = np.empty(pos.shape[0], dtype=INDEX)
-        build(n, pos, spc, grid, cell_start, cell_items, cell_of)
+        build(n, pos, spc, tables[0], grid, cell_start, cell_items, cell_of)
     react = np.empty(n0, dtype=INDEX)
     chan = np.empty(n0, dtype=INDEX)
     m = first_order_draws(n0, h, tables[2], ch_kind, tables[5], tables[6], tables[7],
@@ -585,16 +625,16 @@ def _first_order(n, h, tables, pos, vel, spc, uint, ids, idctr, collide, fission
         c = chan[q]
         if ch_kind[c] == TRANSFORMATION:
             fired = transform(i, c, collide, tables, pos, vel, spc, uint, bkind, bp, grid,
-                              cell_start, cell_items, nbin, n, rmax + delta)
+                              cell_start, cell_items, nbin, n, rcell + delta)
         else:
             if collide and n - nbin > REBUILD_UNBINNED:
-                build(n, pos, spc, grid, cell_start, cell_items, cell_of)
+                build(n, pos, spc, tables[0], grid, cell_start, cell_items, cell_of)
                 nbin = n
                 delta = 0.0
             x_old = pos[i, 0]
             y_old = pos[i, 1]
             fired = fission(i, c, n, collide, tables, pos, vel, spc, uint, bkind, bp, grid,
-                            cell_start, cell_items, nbin, rmax + delta, rng)
+                            cell_start, cell_items, nbin, rcell + delta, rng)
             if fired:
                 ids[n] = idctr[0]
                 idctr[0] += 1
@@ -726,23 +766,25 @@ def run_tracked(pos, vel, spc, uint, n, n_steps, dt, bkind, bp, tables, params, 
     e = params[0]
     kappa = params[1]
     maxdisp = params[2] * params[3]
-    rmax = params[4]
     collide = flags[0] != 0
     has_uni = flags[1] != 0
     has_bi = flags[2] != 0
     fission_possible = flags[3] != 0
 
     H = new_heap(256)
-    grid = make_grid(bkind, bp, rmax, max(n, 1))
+    # cells sized by the small discs; the few much larger ones in the big cell (celllist)
+    rcell = cell_radius(spc, n, sp_radius)
+    grid = make_grid(bkind, bp, rcell, max(n, 1))
     ncx = int(grid[4])
     ncy = int(grid[5])
-    cell_start = np.empty(ncx * ncy + 1 if collide else 2, dtype=INDEX)
+    cell_start = np.empty(ncx * ncy + 2 if collide else 3, dtype=INDEX)
+    rgrid = make_grid(bkind, bp, tables[0].max(), REORDER_CELLS)  # (independent of n)
     ws = pos.shape[0]  # per-disc workspace, reallocated when the state grows
     (stamp, lastcol, tlast, wall_t, wflag, cell_of, cell_items, sx, sy, sr, ov_n, ov_b, binx,
      biny, partner, nev) = _workspace(ws)
     for s in range(n_steps):
         if reorder_every > 0 and n >= REORDER_MIN and (step0 + s) % reorder_every == 0:
-            _reorder(n, pos, vel, spc, uint, ids, grid)
+            _reorder(n, pos, vel, spc, uint, ids, rgrid)
         # substeps so that no disc moves more than maxdisp
         v2max = 0.0
         for i in range(n):
@@ -788,12 +830,12 @@ def run_tracked(pos, vel, spc, uint, n, n_steps, dt, bkind, bp, tables, params, 
                     biny[q] = pos[q, 1]
                     partner[q] = -1
             H, size = _queue_initial(n, collide, sp_radius, pos, vel, spc, tlast, stamp,
-                                     wall_t, wflag, ncx, ncy, cell_start, cell_items, sx, sy,
-                                     sr, ov_n, ov_b, H, icnt)
+                                     wall_t, wflag, grid, cell_start, cell_items, cell_of, sx,
+                                     sy, sr, ov_n, ov_b, H, icnt)
             H, n_dead, delta, dropped, vfast = _events(
                 n, H, size, tables, pos, vel, spc, uint, tlast, stamp, lastcol, partner, nev,
-                icnt[IC_SUBSTEPS], binx, biny, collide, has_bi, e, kappa, rmax, h, vfast, bkind,
-                bp, grid, cell_start, cell_items, icnt, fsum, ch_count)
+                icnt[IC_SUBSTEPS], binx, biny, collide, has_bi, e, kappa, rcell, h, vfast,
+                bkind, bp, grid, cell_start, cell_items, icnt, fsum, ch_count)
             if dropped:
                 icnt[IC_EVENTS_CAPPED] += 1
                 fixes, wdp, lost = resolve(n, pos, vel, spc, sp_radius, tables[1], e, collide,
@@ -805,7 +847,7 @@ def run_tracked(pos, vel, spc, uint, n, n_steps, dt, bkind, bp, tables, params, 
             if has_uni:
                 pos, vel, spc, uint, ids, n = _first_order(
                     n, h, tables, pos, vel, spc, uint, ids, idctr, collide, fission_possible,
-                    bkind, bp, grid, cell_start, cell_items, cell_of, delta, rmax, rng, icnt,
+                    bkind, bp, grid, cell_start, cell_items, cell_of, delta, rcell, rng, icnt,
                     ch_count)
             if n_dead:
                 n = _compact(n, pos, vel, spc, uint, ids)
