@@ -55,7 +55,9 @@ class Args:
     clip_range: float = 0.2
     net_arch: list = field(default_factory=lambda: [64, 64])
     normalize: bool = True
-    """normalise observations (VecNormalize); rewards are left as they are"""
+    """normalise observations (VecNormalize)"""
+    normalize_reward: bool = False
+    """also scale rewards by a running estimate of the return's spread (VecNormalize)"""
     threads: int | None = None
     """numba threads for the vector env (None: all cores)"""
     torch_threads: int = 1
@@ -83,7 +85,8 @@ def make_vec_env(args: Args, num_envs: int | None = None, seed: int | None = Non
     venv.seed(args.seed if seed is None else seed)
     venv = VecMonitor(venv)
     if args.normalize:
-        venv = VecNormalize(venv, norm_obs=True, norm_reward=False, clip_obs=10.0)
+        venv = VecNormalize(venv, norm_obs=True, norm_reward=args.normalize_reward,
+                            gamma=args.gamma, clip_obs=10.0)
     return venv
 
 

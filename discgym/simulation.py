@@ -481,7 +481,12 @@ class Simulation:
         self._since_reset = 0.0
 
     def overlaps(self, tol: float = 1e-9) -> int:
-        """Number of pairs overlapping by more than ``tol`` of their contact distance."""
+        """Number of pairs overlapping by more than ``tol`` (in [0, 1)) of their contact
+        distance."""
+        tol = float(tol)
+        if not 0.0 <= tol < 1.0:
+            raise ValueError(f"overlaps(tol): need 0 <= tol < 1 (a fraction of the contact "
+                             f"distance), got {tol}")
         if self._n < 2:
             return 0
         return int(overlapping_pairs(self._pos, self._spc, self._n, self._cs.sp_radius,

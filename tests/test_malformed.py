@@ -476,3 +476,13 @@ def test_huge_radius_is_a_scene_error():
                  counts={"A": 1})
     except SceneError:
         pass
+
+
+@pytest.mark.parametrize("tol", [-0.1, 1.0, float("nan")])
+def test_overlap_counter_refuses_a_tolerance_it_cannot_honour(tol):
+    """``sim.overlaps(tol)`` counts pairs closer than (1 - tol) of their contact distance; a
+    negative tol (closer than touching: its search reach would need widening), tol >= 1 or
+    NaN raise ValueError instead of undercounting."""
+    sim = dg.Simulation(SC.replace(counts={"A": 5}), seed=0)
+    with pytest.raises(ValueError, match="tol"):
+        sim.overlaps(tol)
