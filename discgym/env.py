@@ -2,9 +2,10 @@
 
 An adapter at the edge (the physics never imports gymnasium): it translates an action into
 the :class:`~discgym.Simulation` controls (``scale_temperature``, ``resize``, ``inject``),
-advances the reactor, and translates its state into an observation and a reward. The full
-documentation (action space, observation space, rewards, episode end, arguments, baselines
-and measured speed) is ``docs/env.md``.
+advances the reactor, and translates its state into an observation and a reward. The
+specification (action space, observation space, rewards, episode end, arguments) is the
+README's section on the environment; the vector env, the baselines and the measured speed
+are in ``docs/env.md``.
 
 >>> import gymnasium as gym
 >>> import discgym  # registers DiscReactor-v0
@@ -75,7 +76,7 @@ DEFAULTS = dict(
     feed_cost=0.0,
 )
 
-#: Observations are clipped to these bounds (see docs/env.md).
+#: Observations are clipped to these bounds (see the README, "Observation Space").
 OBS_ENERGY_MAX = 20.0  # per-species kT, mean internal energy, |total energy per disc|
 OBS_DISCS_MAX = 4.0  # discs now / discs at reset
 OBS_YIELD_MAX = 4.0  # product / limiting reactant at reset
@@ -443,15 +444,52 @@ def observe(cfg: ReactorConfig, vel, spc, uint, n, size, steps, feed_left, n_ini
 
 
 class DiscReactorEnv(gym.Env):
-    """A reactor of reacting hard discs to be run for the most product. See docs/env.md.
+    """A reactor of reacting hard discs to be run for the most product.
 
-    Arguments (all optional; they show up in ``env.spec.kwargs`` when given to
-    ``gymnasium.make``): ``scene`` (a built-in name, a TOML path or a :class:`Scene`),
-    ``n_discs``, ``episode_steps``, ``step_time``, ``heat_rate``, ``temperature_range``,
-    ``size_range``, ``wall_speed``, ``feed``, ``inject_max``, ``feed_budget``, ``product``,
-    ``count_jitter``, ``temperature_jitter``, ``heat_cost``, ``feed_cost`` (see
-    :data:`DEFAULTS` and docs/env.md), ``render_mode`` ("rgb_array" or "human") and
-    ``render_size`` (pixels).
+    The full specification, with every slot and default, is the README section "The
+    environment: DiscReactor-v0"; this is its summary.
+
+    ## Description
+    The built-in ``reactor`` scene: ~120 A and ~120 B discs, cold (kT ~0.6), in a 30 x 30
+    box. A + B -> C (activation energy 4) makes the product; C + A -> W + B (activation 8)
+    destroys it, and grows faster with temperature. The agent heats or cools, moves a wall
+    and feeds A and B; the goal is the most C by the end of the episode.
+
+    ## Action Space
+    ``Box(-1, 1, (2 + F,), float32)``: heat (kinetic energy x ``heat_rate ** a``, kT kept in
+    ``temperature_range``), wall (target width ``size_min + (a + 1)/2 (size_max - size_min)``
+    of the scene's, approached by at most ``wall_speed`` per step), then one injection
+    component per feed species (``round(a * inject_max)`` discs for a > 0, within the
+    episode's ``feed_budget``). NaN or infinite components do nothing (counted in
+    ``info["invalid_action"]``); finite values outside [-1, 1] are clipped.
+
+    ## Observation Space
+    ``Box(low, high, (3 S + 5 + F,), float32)``, every slot clipped to finite bounds: the
+    share of each species, each species' kT and mean internal energy, the total energy per
+    disc, discs / discs at reset, product / limiting reactant at reset (the yield), the
+    reactor's size, the fraction of the episode left, and the feed budget left per feed
+    species. Names in ``env.unwrapped.observation_names``.
+
+    ## Rewards
+    ``(C_now - C_before) / n_ref - heat_cost |heat energy| / n_ref - feed_cost injected /
+    n_ref``, n_ref the initial count of the limiting feed species, so an episode's return is
+    the product yield. ``info`` carries the breakdown and the raw counts.
+
+    ## Starting State
+    Counts x U[1 - count_jitter, 1 + count_jitter], kT x U[1 - temperature_jitter,
+    1 + temperature_jitter], positions uniform without overlap, all drawn from the seed.
+
+    ## Episode End
+    Never terminated (no absorbing state); truncated after ``episode_steps`` (100) steps of
+    ``step_time`` (0.5) each.
+
+    ## Arguments
+    All optional, shown in ``env.spec.kwargs`` when given to ``gymnasium.make``: ``scene`` (a
+    built-in name, a TOML path or a :class:`~discgym.Scene`), ``n_discs``, ``episode_steps``,
+    ``step_time``, ``heat_rate``, ``temperature_range``, ``size_range``, ``wall_speed``,
+    ``feed``, ``inject_max``, ``feed_budget``, ``product``, ``count_jitter``,
+    ``temperature_jitter``, ``heat_cost``, ``feed_cost`` (defaults: :data:`DEFAULTS`),
+    ``render_mode`` ("rgb_array" or "human") and ``render_size`` (pixels).
 
     ``env.unwrapped.simulation`` is the underlying :class:`~discgym.Simulation`.
     """

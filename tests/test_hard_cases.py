@@ -516,6 +516,28 @@ def test_08_heated_inelastic_cluster_in_a_circle_stays_inside():
     assert c["events_capped"] < c["substeps"] / 2  # the fallback is the exception
 
 
+def test_08_glide_stops_for_a_neighbour_that_changes_course():
+    """Case 8 (found by the long-mode property test). An e = 0 pair of species in a circle
+    of radius 3.75, cooled to rest, fed, then heated 1000 times: a disc gliding along the
+    wall met a neighbour whose trajectory changed after the glide was computed (an overlap of
+    5e-3 remained). A glide with a disc near now stops at the next queued event. 10 steps,
+    sound after each."""
+    sc = dg.Scene(bounds=dg.Circle(3.75), restitution=0.0, dt=0.0625, internal_relaxation=0.0,
+                  max_displacement=0.25, counts={"S0": 4, "S1": 4},
+                  species=[dg.Species("S0", 0.6796875, 1.0), dg.Species("S1", 0.625, 1.0)])
+    sim = dg.Simulation(sc, seed=0)
+    sim.scale_temperature(0.0)
+    sim.step(10)
+    sim.inject("S0", 4, temperature=1.0)
+    sim.step(26)
+    sim.scale_temperature(0.5)
+    sim.step(22)
+    sim.scale_temperature(1000.0)
+    for _ in range(10):
+        sim.step()
+        assert sound(sim)
+
+
 def test_08_inelastic_cluster_pressed_on_the_circle_wall():
     """Case 8 (found by the long-mode property test). 17 discs at e = 0 in a circle of radius
     3 (packing 0.28), heated 1000 times after 10 steps: 10 more steps with no overlap deeper

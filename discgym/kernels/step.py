@@ -384,23 +384,23 @@ def _schedule(d, sp_radius, pos, vel, spc, tlast, stamp, n, collide, bkind, bp, 
 
 
 @njit(cache=True)
-def _glide(i, tw, xc, yc, tau, psi, vn, r, mi, pos, vel, spc, sp_radius, tlast, collide, bp,
-           grid, cell_start, cell_items, nbin, n, reach, icnt, fsum):
+def _glide(i, tw, T, xc, yc, tau, psi, vn, r, mi, pos, vel, spc, sp_radius, tlast, collide,
+           bp, grid, cell_start, cell_items, nbin, n, reach, icnt, fsum):
     """Disc i, just reflected at (xc, yc) at time tw, grazes the circle wall so closely that
-    more than GLIDE_CHORDS chords ``(tau, psi, vn)`` fit in the rest of the substep: move it
-    through them in closed form (:func:`~discgym.kernels.walls.circle_glide`). If the glide
-    would run into another disc, it stops where the two touch (bisection on the glide time,
-    to 2^-40 of the step), and that collision is the disc's next event. Books the wall
-    momentum and sets ``tlast[i]`` to its last reflection. Returns False (nothing done) for a
-    disc wedged between the wall and a disc it already touches.
+    more than GLIDE_CHORDS chords ``(tau, psi, vn)`` fit in the time T it glides: move it
+    through them in closed form (:func:`~discgym.kernels.walls.circle_glide`) to time
+    tw + T. If the glide would run into another disc, it stops where the two touch
+    (bisection on the glide time, to 2^-40 of T), and that collision is the disc's next
+    event. Books the wall momentum, leaves the disc on its straight chord (``pos`` its
+    extrapolation to the end of the substep, ``tlast[i]`` its last reflection). Returns False
+    (nothing done) for a disc wedged between the wall and a disc it already touches.
     """
-    T = -tw
     b0, b1, b2 = bp[0], bp[1], bp[2]
     vx = vel[i, 0]
     vy = vel[i, 1]
     gx, gy, ux, uy, rest, imp = circle_glide(xc, yc, vx, vy, r, b0, b1, b2, tau, psi, vn, T)
     s = T
-    if collide and overlaps_any(gx, gy, r, 0.0, i, i, pos, vel, spc, sp_radius, grid,
+    if collide and overlaps_any(gx, gy, r, tw + T, i, i, pos, vel, spc, sp_radius, grid,
                                 cell_start, cell_items, nbin, n, reach):
         lo = 0.0
         hi = T
@@ -418,11 +418,9 @@ def _glide(i, tw, xc, yc, tau, psi, vn, r, mi, pos, vel, spc, sp_radius, tlast, 
             return False  # wedged between the wall and a disc it touches
         gx, gy, ux, uy, rest, imp = circle_glide(xc, yc, vx, vy, r, b0, b1, b2, tau, psi, vn,
                                                  s)
-        # position at tw + s -> its straight-line extrapolation to the end of the substep
-        gx -= (tw + s) * ux
-        gy -= (tw + s) * uy
-    pos[i, 0] = gx
-    pos[i, 1] = gy
+    # the position at tw + s -> its straight-line extrapolation to the end of the substep
+    pos[i, 0] = gx - (tw + s) * ux
+    pos[i, 1] = gy - (tw + s) * uy
     vel[i, 0] = ux
     vel[i, 1] = uy
     tlast[i] = tw + s - rest
@@ -501,10 +499,19 @@ def _events(n, H, size, tables, pos, vel, spc, uint, tlast, stamp, lastcol, part
                 yc = pos[i, 1] + tw * vel[i, 1]
                 tau, psi, vn = circle_chord(xc, yc, vel[i, 0], vel[i, 1], r, bp[0], bp[1],
                                             bp[2])
-                if tau * GLIDE_CHORDS < -tw:
-                    if not _glide(i, tw, xc, yc, tau, psi, vn, r, mi, pos, vel, spc, sp_radius,
-                                  tlast, collide, bp, grid, cell_start, cell_items, nbin, n,
-                                  rcell + delta + h * vfast, icnt, fsum):
+                T = -tw  # glide to the end of the substep, ...
+                reach = rcell + delta + h * vfast
+                if collide and size > 0 and tau * GLIDE_CHORDS < T:
+                    # ... but the glide is closed form only while the discs near it keep
+                    # their trajectories: with one near, stop at the next queued event
+                    sweep = (math.hypot(vel[i, 0], vel[i, 1]) + vfast) * T
+                    if overlaps_any(xc, yc, r + sweep, tw, i, i, pos, vel, spc, sp_radius,
+                                    grid, cell_start, cell_items, nbin, n, reach + sweep):
+                        T = min(T, H[0, 0] - tw)
+                if tau * GLIDE_CHORDS < T:
+                    if not _glide(i, tw, T, xc, yc, tau, psi, vn, r, mi, pos, vel, spc,
+                                  sp_radius, tlast, collide, bp, grid, cell_start, cell_items,
+                                  nbin, n, reach, icnt, fsum):
                         nev[i] = DISC_EVENTS  # wedged: no finite sequence of events frees it
             stamp[i] += 1
             if collide:
