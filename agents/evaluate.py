@@ -19,6 +19,9 @@ from __future__ import annotations
 import argparse
 import itertools
 import json
+import os
+import platform
+import time
 from pathlib import Path
 
 import numpy as np
@@ -161,6 +164,16 @@ def animate(run: Path, path: Path, seed: int = 0, env_kwargs=None, every: int = 
     return path
 
 
+def _cpu_name() -> str:
+    try:
+        for line in open("/proc/cpuinfo"):
+            if line.startswith("model name"):
+                return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or "unknown CPU"
+
+
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--run", type=Path, required=True, help="folder written by train_ppo.py")
@@ -168,6 +181,8 @@ def main(argv=None) -> int:
     p.add_argument("--seed", type=int, default=0, help="first evaluation seed")
     p.add_argument("--no-gif", action="store_true", help="skip the animation")
     p.add_argument("--threads", type=int, default=None)
+    p.add_argument("--search-episodes", type=int, default=6,
+                   help="seeds (other than the evaluation's) for the constant-action search")
     a = p.parse_args(argv)
     args_file = a.run / "args.json"
     env_kwargs = {}
@@ -180,9 +195,15 @@ def main(argv=None) -> int:
         if env_kwargs == {"scene": "reactor"}:
             env_kwargs = {}
     res = compare(a.run, episodes=a.episodes, seed=a.seed, env_kwargs=env_kwargs,
-                  threads=a.threads)
+                  threads=a.threads, search_episodes=a.search_episodes)
+    res["_meta"]["date"] = time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime())
+    res["_meta"]["machine"] = f"{platform.machine()}, {os.cpu_count()} CPUs, {_cpu_name()}"
+    summary = a.run / "train_summary.json"
+    if summary.exists():
+        res["_meta"]["train"] = json.loads(summary.read_text())
     (a.run / "evaluation.json").write_text(json.dumps(res, indent=2))
-    md = table(res)
+    md = table(res) + f"\n\n{res['_meta']['episodes']} episodes (seeds {a.seed}.." \
+        f"{a.seed + a.episodes - 1}), {res['_meta']['date']}, {res['_meta']['machine']}"
     (a.run / "evaluation.md").write_text(md + "\n")
     print(md)
     if not a.no_gif:

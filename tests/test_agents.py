@@ -61,3 +61,14 @@ def test_same_seed_same_first_actions(tmp_path):
         acts.append(policy(obs))
         assert json.loads((out / "args.json").read_text())["seed"] == 3
     np.testing.assert_array_equal(acts[0], acts[1])
+
+
+def test_evaluate_main_writes_the_table_with_date_and_machine(tmp_path):
+    out = train_ppo.train(train_ppo.Args(out=str(tmp_path / "run"), **TINY))
+    assert evaluate.main(["--run", str(out), "--episodes", "2", "--no-gif",
+                          "--search-episodes", "1", "--threads", "1"]) == 0
+    md = (out / "evaluation.md").read_text()
+    assert "| PPO |" in md and "CPUs" in md and "UTC" in md
+    res = json.loads((out / "evaluation.json").read_text())
+    assert res["_meta"]["train"]["timesteps"] == TINY["total_timesteps"]
+    assert len(res["best constant"]["action"]) == len(res["_meta"]["action_names"])

@@ -798,6 +798,17 @@ def run_tracked(pos, vel, spc, uint, n, n_steps, dt, bkind, bp, tables, params, 
             v2 = vel[i, 0] * vel[i, 0] + vel[i, 1] * vel[i, 1]
             if v2 > v2max:
                 v2max = v2
+        # first-order reactions run only if some disc has a first-order channel: a scene
+        # whose first-order species are absent pays this lookup, not a pass per substep
+        uni_live = False
+        if has_uni:
+            uni_start = tables[8]
+            for i in range(n):
+                s_i = spc[i]
+                if s_i >= 0 and uni_start[s_i + 1] > uni_start[s_i]:
+                    uni_live = True
+                    break
+            reactive0 = icnt[IC_REACTIVE]
         k = 1
         if v2max > 0.0:
             q = math.sqrt(v2max) * dt / maxdisp  # compared as a float: ceil() of 1e19 or of
@@ -851,7 +862,9 @@ def run_tracked(pos, vel, spc, uint, n, n_steps, dt, bkind, bp, tables, params, 
                 fsum[FS_WALL_MOMENTUM] += wdp
                 fsum[FS_DISSIPATED] += lost
                 delta = 0.0  # resolve() leaves the grid built at the final positions
-            if has_uni:
+            # (a reactive collision may have made a species with first-order channels)
+            if has_uni and (uni_live or icnt[IC_REACTIVE] != reactive0):
+                uni_live = True
                 pos, vel, spc, uint, ids, n = _first_order(
                     n, h, tables, pos, vel, spc, uint, ids, idctr, collide, fission_possible,
                     bkind, bp, grid, cell_start, cell_items, cell_of, delta, rcell, rng, icnt,
