@@ -3,7 +3,7 @@
 One readable script in the spirit of CleanRL: the arguments are a documented dataclass, the
 logic lives in functions a test can call, and ``__main__`` only parses arguments.
 
-    python agents/train_ppo.py                         # the README's main demo (~10 min)
+    python agents/train_ppo.py                         # the README's main demo (~4 min)
     python agents/train_ppo.py --total-timesteps 1000000 --out runs/ppo_long
     python agents/train_ppo.py --scene path/to/my_scene.toml --product C
 
