@@ -80,6 +80,7 @@ from .step import (
     IC_REACTIVE,
     IC_TC_ELASTIC,
     IC_WALL_HITS,
+    _compact,
 )
 from .walls import box_next, circle_next, graze_floor, inside, reflected
 
@@ -797,26 +798,6 @@ def _simulate(pos, vel, spc_ext, uint_ext, ids, idctr, n, t0, t1, bkind, bp, tab
             vel[e, 0] = 0.0
             vel[e, 1] = 0.0
     return n, t, status
-
-
-@njit(cache=True)
-def _compact(n, pos, vel, spc, uint, ids):
-    """Remove discs with spc < 0, keeping the order of the others; returns the new n."""
-    m = 0
-    for i in range(n):
-        if spc[i] >= 0:
-            if m != i:
-                pos[m, 0] = pos[i, 0]
-                pos[m, 1] = pos[i, 1]
-                vel[m, 0] = vel[i, 0]
-                vel[m, 1] = vel[i, 1]
-                spc[m] = spc[i]
-                uint[m] = uint[i]
-                ids[m] = ids[i]
-            m += 1
-    for i in range(m, n):
-        spc[i] = -1
-    return m
 
 
 @njit(cache=True)
