@@ -1,8 +1,11 @@
 """``DiscReactor-v0``: the Gymnasium environment on top of the simulator.
 
 An adapter at the edge (the physics never imports gymnasium): it translates an action into
-the :class:`~discgym.Simulation` controls (``scale_temperature``, ``resize``, ``inject``),
-advances the reactor, and translates its state into an observation and a reward. The
+the controls of a :class:`~discgym.Simulation` (heating, moving a wall, injecting), advances
+the reactor, and translates its state into an observation and a reward. The controls, the
+physics and the observation of a step run in one compiled call
+(:func:`discgym.kernels.batch.env_step`, which does what ``Simulation.scale_temperature``,
+``resize`` and ``inject`` do); the Python here checks the action's shape and builds ``info``. The
 specification (action space, observation space, rewards, episode end, arguments) is the
 README's section on the environment; the vector env, the baselines and the measured speed
 are in ``docs/env.md``.
@@ -17,9 +20,10 @@ are in ``docs/env.md``.
 >>> type(reward).__name__, terminated
 ('float', False)
 
-The per-reactor logic (:class:`ReactorConfig`, :func:`apply_action`, :func:`observe`) is shared
-with the batched :class:`discgym.vector.DiscReactorVectorEnv`, so that a reactor of the batch
-follows exactly the trajectory of a lone environment with the same seed and actions.
+The per-reactor logic (:class:`ReactorConfig` and the compiled
+:func:`~discgym.kernels.batch.reactor_step`) is shared with the batched
+:class:`discgym.vector.DiscReactorVectorEnv`, so that a reactor of the batch follows exactly
+the trajectory of a lone environment with the same seed and actions.
 """
 
 from __future__ import annotations
@@ -27,18 +31,27 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from functools import cached_property
+from functools import cached_property, partial
 from pathlib import Path
 
 import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
-from ._dtypes import FLOAT
-from .compiled import CompiledScene, compile_scene
-from .kernels.batch import observe_batch
-from .scene import Box, Circle, Combination, Exchange, Scene
-from .simulation import PlacementError, Simulation, _as_scene
+from ._dtypes import FLOAT, INDEX
+from .compiled import P_MAXDISP, P_RMIN, CompiledScene, compile_scene
+from .kernels.batch import (
+    O_BLOCKED,
+    O_ENERGY_IN,
+    O_HEAT,
+    O_INVALID,
+    O_STATUS,
+    env_step,
+    observe_batch,
+)
+from .kernels.step import MAX_SUBSTEPS, REORDER_EVERY
+from .scene import HEX_PACKING, Box, Circle, Combination, Exchange, Scene
+from .simulation import PLACEMENT_ATTEMPTS, Simulation, _as_scene
 
 __all__ = [
     "DiscReactorEnv",
@@ -81,7 +94,7 @@ OBS_ENERGY_MAX = 20.0  # per-species kT, mean internal energy, |total energy per
 OBS_DISCS_MAX = 4.0  # discs now / discs at reset
 OBS_YIELD_MAX = 4.0  # product / limiting reactant at reset
 
-_FLOATS = (np.dtype(np.float32), np.dtype(np.float64))
+_ONE = np.ones(1, dtype=bool)  # the "active" mask of a batch of one reactor
 _NON_INTERACTIVE = {"agg", "cairo", "pdf", "pgf", "ps", "svg", "template"}
 
 
@@ -138,6 +151,29 @@ class ReactorConfig:
     def capacity(self) -> int:
         """Disc capacity that keeps a reactor's arrays from ever growing (see kernels.batch)."""
         return 2 * self.max_discs + 16
+
+    @cached_property
+    def kernel_consts(self) -> tuple:
+        """``(cf, ci, feed)``: the constants :func:`discgym.kernels.batch.env_step` reads
+        (float64 (14,), int64 (6,) indexed by its ``C_*`` / ``CI_*``; feed species (F,))."""
+        ref = self.scene.bounds
+        if isinstance(ref, Box):
+            r4 = (ref.origin[0], ref.origin[1], ref.width, ref.height)
+        else:
+            r4 = (ref.center[0], ref.center[1], ref.radius, 0.0)
+        cs = self.compiled
+        speed_limit = MAX_SUBSTEPS * cs.params[P_MAXDISP] * cs.params[P_RMIN] / self.scene.dt
+        cf = np.array([self.heat_rate, self.t_min, self.t_max, self.size_min, self.size_max,
+                       self.wall_speed, speed_limit, *r4, self.scene.temperature,
+                       self.scene.dt, HEX_PACKING], dtype=FLOAT)
+        ci = np.array([self.inject_max, self.steps_per_action, PLACEMENT_ATTEMPTS,
+                       REORDER_EVERY, self.product, self.episode_steps], dtype=np.int64)
+        return cf, ci, np.array(self.feed, dtype=INDEX)
+
+    @cached_property
+    def tables(self) -> tuple:
+        """The compiled scene's tables (one tuple, built once)."""
+        return self.compiled.tables
 
     @classmethod
     def from_kwargs(cls, **kw) -> ReactorConfig:
@@ -349,94 +385,34 @@ def _range(v, name):
 # the per-step logic, shared with the vector env
 
 
-def sanitize_actions(cfg: ReactorConfig, actions) -> tuple[np.ndarray, np.ndarray]:
-    """(R, A) actions -> (clean (R, A) float64 in [-1, 1], invalid (R, A) bool).
-
-    A NaN or infinite component is invalid: its control does nothing this step (see
-    :func:`apply_action`). Finite values outside [-1, 1] are clipped.
-    """
-    a = np.asarray(actions, dtype=FLOAT)
-    A = 2 + len(cfg.feed)
-    if a.ndim != 2 or a.shape[1] != A:
-        raise ValueError(f"action: expected shape ({A},) (heat, wall, one injection per feed "
-                         f"species), got {a.shape[1:] if a.ndim == 2 else a.shape}")
-    bad = ~np.isfinite(a)
-    return np.clip(np.where(bad, 0.0, a), -1.0, 1.0), bad
-
-
-def heat_factor(cfg: ReactorConfig, a0: float, temperature: float) -> float:
-    """The kinetic-energy factor of heat action ``a0`` at kT ``temperature``:
-    ``heat_rate ** a0``, cut so that kT stays in [t_min, t_max] (a reactor already outside
-    can only move back); 1.0 means no change."""
-    T = temperature
-    if a0 == 0.0 or not T > 0.0:
-        return 1.0
-    f = cfg.heat_rate ** a0
-    return min(max(f, min(1.0, cfg.t_min / T)), max(1.0, cfg.t_max / T))
-
-
-def apply_action(cfg: ReactorConfig, sim: Simulation, a: Sequence[float],
-                 bad: Sequence[bool], size: float, feed_left: np.ndarray,
-                 temperature: float, kinetic: float) -> tuple:
-    """Apply one clean action ``a`` (A,) (Python floats) to ``sim``: heat, then the wall,
-    then injection. ``temperature`` and ``kinetic`` are the reactor's kT and kinetic energy
-    (from the last observation's sums); ``feed_left`` (F,) is decremented in place by the
-    discs placed.
-
-    Returns ``(size, heat_energy, injected, refused, wall_blocked)`` (``injected``,
-    ``refused``: lists of F ints); the heat
-    energy is ``(factor - 1) * kinetic``.
-    """
-    # heat: kinetic energy x heat_rate ** a[0], kept inside [t_min, t_max]
-    heat = 0.0
-    f = heat_factor(cfg, a[0], temperature)
-    if f != 1.0:
-        sim.scale_temperature(f)
-        heat = (f - 1.0) * kinetic
-    size, injected, refused, blocked = wall_and_feed(cfg, sim, a, bad, size, feed_left)
-    return size, heat, injected, refused, blocked
-
-
-def wall_and_feed(cfg: ReactorConfig, sim: Simulation, a: Sequence[float],
-                  bad: Sequence[bool], size: float, feed_left: np.ndarray) -> tuple:
-    """The wall and injection part of :func:`apply_action`; returns
-    ``(size, injected, refused, wall_blocked)`` (lists of F ints)."""
-    # wall: move toward the target size by at most wall_speed
-    blocked = False
-    if not bad[1]:
-        target = cfg.size_min + 0.5 * (a[1] + 1.0) * (cfg.size_max - cfg.size_min)
-        step = min(max(target - size, -cfg.wall_speed), cfg.wall_speed)
-        new = min(max(size + step, cfg.size_min), cfg.size_max)
-        if new != size:
-            try:
-                sim.resize(cfg.bounds_of(new))
-                size = new
-            except PlacementError:
-                blocked = True
-    # injection: round(a * inject_max) discs of each feed species for a > 0, within budget
-    F = len(cfg.feed)
-    injected = [0] * F
-    refused = [0] * F
-    for k in range(F):
-        want = int(round(a[2 + k] * cfg.inject_max)) if a[2 + k] > 0.0 else 0
-        if want <= 0:
-            continue
-        n = min(want, int(feed_left[k]))
-        placed = sim.inject(cfg.feed[k], n) if n > 0 else 0
-        feed_left[k] -= placed
-        injected[k] = placed
-        refused[k] = want - placed
-    return size, injected, refused, blocked
-
-
 def observe(cfg: ReactorConfig, vel, spc, uint, n, size, steps, feed_left, n_init, n_ref,
             stats, temperature, kinetic, obs) -> None:
     """Fill ``stats`` (R, 3S+1), ``temperature`` and ``kinetic`` (R,) and ``obs`` (R, D)
-    float32 for R reactors (see :func:`discgym.kernels.batch.observe_batch`)."""
+    float32 for R reactors (see :func:`discgym.kernels.batch.observe_one`); a step observes
+    inside :func:`discgym.kernels.batch.env_step`, this is for resets."""
     cs = cfg.compiled
     observe_batch(vel, spc, uint, n, cs.sp_mass, cs.sp_form, cfg.product, size, steps,
                   cfg.episode_steps, feed_left, cfg.feed_budget, n_init, n_ref, cfg.obs_low,
                   cfg.obs_high, stats, temperature, kinetic, obs)
+
+
+def check_status(cfg: ReactorConfig, iout: np.ndarray) -> None:
+    """Raise if a reactor of the last :func:`~discgym.kernels.batch.env_step` outgrew its
+    arrays (it cannot: the capacity plan bounds every reactor; this would be a bug)."""
+    status = iout[:, O_STATUS]
+    if status.any():
+        bad = np.flatnonzero(status).tolist()
+        raise RuntimeError(f"reactors {bad}: the state outgrew the capacity {cfg.capacity} "
+                           f"(status {status[bad].tolist()}); this is a bug in the capacity "
+                           "plan")
+
+
+def check_action_shape(cfg: ReactorConfig, shape: tuple, batch: int | None = None) -> None:
+    A = 2 + len(cfg.feed)
+    want = (A,) if batch is None else (batch, A)
+    if tuple(shape) != want:
+        raise ValueError(f"action: expected shape {want} (heat, wall, one injection per feed "
+                         f"species), got {tuple(shape)}")
 
 
 # --------------------------------------------------------------------------------------------
@@ -521,6 +497,19 @@ class DiscReactorEnv(gym.Env):
         self._n = np.zeros(1, dtype=np.int64)
         self._temp = np.zeros(1, dtype=FLOAT)
         self._kin = np.zeros(1, dtype=FLOAT)
+        self._ksteps = np.zeros(1, dtype=np.int64)
+        self._bkind = np.zeros(1, dtype=np.int64)
+        self._bp = np.zeros((1, 4), dtype=FLOAT)
+        self._act = np.zeros((1, 2 + F), dtype=FLOAT)
+        self._fout = np.zeros((1, 2), dtype=FLOAT)
+        self._iout = np.zeros((1, 3 + 2 * F), dtype=np.int64)
+        self._obs = np.zeros((1, len(cfg.obs_names)), dtype=np.float32)
+        self._feed_names = [cfg.species_names[f] for f in cfg.feed]
+        self._ashape = (2 + F,)
+        self._n_feed = F
+        self._n_species = S
+        self._step_time = cfg.steps_per_action * cfg.scene.dt  # (as Simulation.step adds it)
+        self._bound: tuple = (None,) * 5
         self._fig = None
 
     # ------------------------------------------------------------------ API
@@ -528,12 +517,15 @@ class DiscReactorEnv(gym.Env):
         super().reset(seed=seed)
         cfg = self.config
         self.simulation = sim = cfg.new_simulation(self.np_random)
+        self._bind(sim)
         self._steps[0] = 0
         self._size[0] = cfg.size_of(sim.bounds)
         self._feed_left[0] = cfg.feed_budget
         self._n_init[0] = len(sim)
         counts = np.bincount(sim.species, minlength=cfg.n_species)
         self._n_ref[0] = cfg.n_ref(counts)
+        self._n_ref_now = float(self._n_ref[0])
+        self._size_now = float(self._size[0])
         obs = self._observe()
         self._product = float(self._stats[0, cfg.product])
         info = {"counts": sim.counts(), "temperature": self._temperature,
@@ -543,48 +535,76 @@ class DiscReactorEnv(gym.Env):
         return obs, info
 
     def step(self, action):
-        if self.simulation is None:
+        sim = self.simulation
+        if sim is None:
             raise gym.error.ResetNeeded("call reset() before step()")
         cfg = self.config
-        sim = self.simulation
-        a, bad = _sanitize_one(cfg, action)
-        size, heat, injected, refused, blocked = apply_action(
-            cfg, sim, a, bad, float(self._size[0]), self._feed_left[0], self._temperature,
-            self._kinetic)
-        self._size[0] = size
-        sim.step(cfg.steps_per_action)
-        self._steps[0] += 1
-        obs = self._observe()
-        # the same arithmetic, in the same order, as rewards() of the vector env
-        n_ref = float(self._n_ref[0])
-        product = float(self._stats[0, cfg.product])
+        act = self._act
+        if type(action) is np.ndarray and action.shape == self._ashape:
+            act[0] = action
+        else:
+            a = np.asarray(action, dtype=FLOAT)
+            check_action_shape(cfg, a.shape)
+            act[0] = a
+        bound = self._bound
+        if sim._pos is not bound[0] or sim._vel is not bound[1] or sim._spc is not bound[2] \
+                or sim._uint is not bound[3] or sim._ids is not bound[4]:
+            self._bind(sim)  # (the simulation's arrays were replaced from outside)
+        # the simulation's scalar state, as the rows of a batch of one reactor
+        self._n[0] = sim._n
+        self._ksteps[0] = sim._steps
+        self._bkind[0] = sim._bkind
+        self._bp[0] = sim._bp
+        size0 = self._size_now
+        env_step(*self._args)
+        fo = self._fout[0].tolist()
+        io = self._iout[0].tolist()
+        if io[O_STATUS]:
+            check_status(cfg, self._iout)
+        # what Simulation.step and its controls book
+        sim._n = self._n.item()
+        sim._steps = self._ksteps.item()
+        sim._time += self._step_time
+        sim._since_reset += self._step_time
+        sim._energy_input += fo[O_ENERGY_IN]
+        self._size_now = size = self._size.item()
+        if size != size0:
+            sim._defer_bounds(partial(cfg.bounds_of, size), self._bp[0].copy())
+        self._temperature = temperature = self._temp.item()
+        self._kinetic = self._kin.item()
+        # rewards: the same arithmetic, in the same order, as the vector env's
+        F = self._n_feed
+        injected = io[3:3 + F]
+        heat = fo[O_HEAT]
+        n_ref = self._n_ref_now
+        counts = self._stats[0, :self._n_species].tolist()
+        product = counts[cfg.product]
         gain = (product - self._product) / n_ref
         cost_heat = cfg.heat_cost * abs(heat) / n_ref
         cost_feed = cfg.feed_cost * float(sum(injected)) / n_ref
         reward = gain - cost_heat - cost_feed
         self._product = product
-        truncated = bool(self._steps[0] >= cfg.episode_steps)
-        names = cfg.species_names
-        counts = self._stats[0, :cfg.n_species].tolist()
+        truncated = self._steps.item() >= cfg.episode_steps
+        feed_names = self._feed_names
         info = {
-            "counts": {nm: int(c) for nm, c in zip(names, counts)},
+            "counts": {nm: int(c) for nm, c in zip(cfg.species_names, counts)},
             "product": int(product),
             "yield": product / n_ref,
             "reward_product": gain,
             "cost_heat": cost_heat,
             "cost_feed": cost_feed,
-            "heat_energy": float(heat),
-            "temperature": self._temperature,
+            "heat_energy": heat,
+            "temperature": temperature,
             "size": size,
-            "injected": {names[f]: int(k) for f, k in zip(cfg.feed, injected)},
-            "inject_refused": {names[f]: int(k) for f, k in zip(cfg.feed, refused)},
-            "wall_blocked": blocked,
-            "invalid_action": sum(bad),
-            "time": sim.time,
+            "injected": dict(zip(feed_names, injected)),
+            "inject_refused": dict(zip(feed_names, io[3 + F:])),
+            "wall_blocked": io[O_BLOCKED] != 0,
+            "invalid_action": io[O_INVALID],
+            "time": sim._time,
         }
         if self.render_mode == "human":
             self.render()
-        return obs, reward, False, truncated, info
+        return self._obs[0].copy(), reward, False, truncated, info
 
     def render(self):
         if self.render_mode is None:
@@ -622,6 +642,25 @@ class DiscReactorEnv(gym.Env):
             self._fig = None
 
     # ------------------------------------------------------------------ helpers
+    def _bind(self, sim: Simulation) -> None:
+        """Give ``sim`` the capacity the compiled step needs (it never grows arrays) and keep
+        the arguments of :func:`~discgym.kernels.batch.env_step`: (1, ...) views of its state
+        arrays (the rows of a batch of one reactor) and this env's episode state."""
+        cfg = self.config
+        cap = cfg.capacity
+        if len(sim._spc) < cap:
+            sim._reserve(cap - sim._n)
+        cs = sim._cs
+        cf, ci, feed = cfg.kernel_consts
+        self._bound = (sim._pos, sim._vel, sim._spc, sim._uint, sim._ids)
+        self._args = (sim._pos[None], sim._vel[None], sim._spc[None], sim._uint[None],
+                      sim._ids[None], sim._idctr[None], self._n, self._ksteps, self._bkind,
+                      self._bp, cfg.tables, cs.params, cs.flags, sim._rngs, sim._icnt[None],
+                      sim._fsum[None], sim._ch_count[None], _ONE, self._act, self._size,
+                      self._feed_left, self._steps, self._n_init, self._n_ref, self._temp,
+                      self._kin, self._stats, self._obs, cf, ci, feed, cfg.feed_budget,
+                      cfg.obs_low, cfg.obs_high, self._fout, self._iout)
+
     def _observe(self) -> np.ndarray:
         sim = self.simulation
         self._n[0] = sim._n
@@ -645,24 +684,11 @@ class DiscReactorEnv(gym.Env):
         d = self.__dict__.copy()
         d["_fig"] = None
         d.pop("_im", None)
+        # views of the simulation's arrays would come back as copies: bind again on the
+        # next step
+        d.pop("_args", None)
+        d["_bound"] = (None,) * 5
         return d
-
-
-def _sanitize_one(cfg: ReactorConfig, action) -> tuple[list, list]:
-    """One action (A,) -> (clean Python floats, invalid flags); same rule as
-    :func:`sanitize_actions`."""
-    A = 2 + len(cfg.feed)
-    if type(action) is np.ndarray and action.shape == (A,) and action.dtype in _FLOATS:
-        vals = action.tolist()  # float32 -> the same float64 values as np.asarray would give
-    else:
-        a = np.asarray(action, dtype=FLOAT)
-        if a.shape != (A,):
-            raise ValueError(f"action: expected shape ({A},) (heat, wall, one injection per "
-                             f"feed species), got {a.shape}")
-        vals = a.tolist()
-    bad = [not math.isfinite(x) for x in vals]
-    clean = [0.0 if b else min(max(x, -1.0), 1.0) for x, b in zip(vals, bad)]
-    return clean, bad
 
 
 def _need_matplotlib():

@@ -10,7 +10,7 @@ True
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 
 import numba
 import numpy as np
@@ -28,7 +28,7 @@ from .scene import Box, Circle, Scene, SceneError, _finite, check_fits, validate
 
 __all__ = ["Simulation", "PlacementError"]
 
-_ATTEMPTS = 2000  # random placement tries per disc before a spot counts as not found
+PLACEMENT_ATTEMPTS = 2000  #: random placement tries per disc before a spot counts as not found
 _SPEC_COUNTERS = {
     "collisions": _step.IC_COLLISIONS,
     "wall_hits": _step.IC_WALL_HITS,
@@ -116,6 +116,7 @@ class Simulation:
         self._cs = compile_scene(scene)
         self._species_of = {sp.name: k for k, sp in enumerate(scene.species)}
         self._bounds = scene.bounds
+        self._bounds_factory = None
         self._bkind, self._bp = bounds_params(scene.bounds)
         self._set_rng(_rng(seed))
         cap = 16
@@ -264,13 +265,13 @@ class Simulation:
         self._reserve(len(todo))
         return place_rngs(self._pos, self._spc, self._n, todo,
                           np.ascontiguousarray(targets, dtype=FLOAT), self._cs.sp_radius,
-                          self._bkind, self._bp, self._rngs, _ATTEMPTS)
+                          self._bkind, self._bp, self._rngs, PLACEMENT_ATTEMPTS)
 
     def _place_lattice(self, todo: np.ndarray) -> int:
         """Dense initial populations: a hexagonal lattice of the largest diameter."""
         rmax = float(self._cs.sp_radius[todo].max())
         a = 2.0 * rmax * (1.0 + 1e-9)
-        x0, y0, x1, y1 = self._bounds.extent
+        x0, y0, x1, y1 = self.bounds.extent
         xs = np.arange(x0 + rmax, x1 - rmax + 1e-12, a)
         ys = np.arange(y0 + rmax, y1 - rmax + 1e-12, a * math.sqrt(3) / 2)
         sites = np.array([(x + (0.5 * a if k % 2 else 0.0), y) for k, y in enumerate(ys)
@@ -278,7 +279,7 @@ class Simulation:
         sites = sites[_inside(sites, np.full(len(sites), rmax), self._bkind, self._bp)]
         if len(sites) < len(todo):
             raise PlacementError(
-                f"counts: {len(todo)} discs do not fit in {self._bounds} (random placement "
+                f"counts: {len(todo)} discs do not fit in {self.bounds} (random placement "
                 f"failed and a hexagonal lattice has only {len(sites)} sites)")
         chosen = sites[self._rng.choice(len(sites), size=len(todo), replace=False)]
         self._pos[: len(todo)] = chosen
@@ -358,7 +359,19 @@ class Simulation:
     @property
     def bounds(self):
         """The current bounds (changed by :meth:`resize`)."""
-        return self._bounds
+        b = self._bounds
+        if b is None:  # (set lazily by the environment's compiled step: see _defer_bounds)
+            b = self._bounds = self._bounds_factory()
+        return b
+
+    def _defer_bounds(self, factory: Callable[[], Box | Circle], bp: np.ndarray) -> None:
+        """The bounds were changed by compiled code to the parameters ``bp`` (4,); the
+        :class:`Box` or :class:`Circle` object is built by ``factory()`` only when asked for
+        (building it costs ~5 us, a tenth of what a reinforcement-learning step may spend in
+        Python)."""
+        self._bounds = None
+        self._bounds_factory = factory
+        self._bp = bp
 
     @property
     def positions(self) -> np.ndarray:
@@ -437,10 +450,10 @@ class Simulation:
         if self._since_reset <= 0:
             return 0.0
         return float(self._fsum[_step.FS_WALL_MOMENTUM] / (self._since_reset *
-                                                           self._bounds.perimeter))
+                                                           self.bounds.perimeter))
 
     def packing_fraction(self) -> float:
-        return float(np.pi * (self.radii ** 2).sum() / self._bounds.area)
+        return float(np.pi * (self.radii ** 2).sum() / self.bounds.area)
 
     @property
     def dissipated_energy(self) -> float:
@@ -591,7 +604,7 @@ class Simulation:
             raise PlacementError(str(exc)) from None
         rng_state = self._rng.bit_generator.state
         failed = relocate_rngs(self._pos, self._spc, n, self._cs.sp_radius, bkind, bp,
-                               self._rngs, _ATTEMPTS)
+                               self._rngs, PLACEMENT_ATTEMPTS)
         if failed:
             self._rng.bit_generator.state = rng_state  # refused: as if never tried
             raise PlacementError(
@@ -612,7 +625,7 @@ class Simulation:
             "next_id": int(self._idctr[0]),
             "steps": self._steps,
             "time": self._time,
-            "bounds": self._bounds,
+            "bounds": self.bounds,
             "rng": self._rng.bit_generator.state,
             "icnt": self._icnt.copy(),
             "fsum": self._fsum.copy(),

@@ -10,20 +10,17 @@ reward code of :mod:`discgym.env`, and the kernel of each reactor is the same
 How it works (and why it touches the private state of :class:`~discgym.Simulation`): the state
 of all reactors lives in padded arrays ``(R, C, 2)`` / ``(R, C)`` with a capacity ``C = 2 *
 max_discs + 16`` that can never run out (``max_discs``: the initial contents at their largest
-plus every feed budget), so :func:`discgym.kernels.batch.run_batch` steps them all in place in
-a ``prange`` over reactors. Each reactor keeps a real ``Simulation`` whose state arrays
-(``_pos``, ``_vel``, ``_spc``, ``_uint``, ``_ids``, ``_idctr``) and counters (``_icnt``,
-``_fsum``, ``_ch_count``) are *views* of row r of those arrays, so the wall and injection
-controls reuse the ``Simulation`` methods (``resize``, ``inject``) unchanged. Heating, the
-control used at nearly every step, scales the velocities of all reactors in one compiled loop
-(:func:`~discgym.kernels.batch.scale_velocities`: the very multiplication
-``Simulation.scale_temperature`` does, so the trajectories stay bit-identical) and books the
-energy added in the ``Simulation`` (``energy_input``; equal to what ``scale_temperature`` books
-up to rounding). After each control the views are checked to still be the batch's (a control
-that reallocated would raise ``RuntimeError``), and after each batched step the
-``Simulation``'s disc count, step count and clocks are advanced exactly as ``Simulation.step``
-does. ``env.simulations[r]`` is reactor r's ``Simulation`` (read it; do not keep it across a
-reset, which builds a new one).
+plus every feed budget), so one compiled call,
+:func:`discgym.kernels.batch.env_step_parallel` (a ``prange`` over reactors), applies every
+reactor's action (heat, wall, injection), advances it and observes it, in place. It runs
+for each reactor the same :func:`~discgym.kernels.batch.reactor_step` as the single env, which
+does bit for bit what ``Simulation.scale_temperature``, ``resize``, ``inject`` and ``step``
+do (``tests/test_env.py`` checks it). Each reactor keeps a real ``Simulation`` whose state
+arrays (``_pos``, ``_vel``, ``_spc``, ``_uint``, ``_ids``, ``_idctr``) and counters
+(``_icnt``, ``_fsum``, ``_ch_count``) are *views* of row r of those arrays; after each step its
+disc count, step count, clocks, energy input and bounds are updated exactly as those methods
+update them. ``env.simulations[r]`` is reactor r's ``Simulation`` (read it; do not keep it
+across a reset, which builds a new one).
 
 Autoreset: ``autoreset_mode`` ("NextStep", the Gymnasium default; "SameStep", with
 ``info["final_obs"]`` and ``info["final_info"]``; or "Disabled", then reset finished reactors
@@ -32,7 +29,7 @@ with ``reset(options={"reset_mask": mask})``); declared in ``metadata["autoreset
 
 from __future__ import annotations
 
-import math
+from functools import partial
 
 import numba
 import numpy as np
@@ -43,9 +40,17 @@ from gymnasium.vector.utils import batch_space
 from numba import typed
 
 from ._dtypes import COUNT, FLOAT, INDEX
-from .env import ReactorConfig, heat_factor, observe, sanitize_actions, wall_and_feed
+from .env import ReactorConfig, check_action_shape, check_status, observe
 from .kernels import step as _step
-from .kernels.batch import GREW, run_batch, scale_velocities
+from .kernels.batch import (
+    O_BLOCKED,
+    O_ENERGY_IN,
+    O_HEAT,
+    O_INVALID,
+    O_STATUS,
+    env_step,
+    env_step_parallel,
+)
 
 __all__ = ["DiscReactorVectorEnv"]
 
@@ -109,7 +114,8 @@ class DiscReactorVectorEnv(VectorEnv):
         self._icnt = np.zeros((R, _step.N_ICOUNTERS), dtype=COUNT)
         self._fsum = np.zeros((R, _step.N_FSUMS), dtype=FLOAT)
         self._chc = np.zeros((R, len(cfg.compiled.labels)), dtype=COUNT)
-        self._status = np.zeros(R, dtype=np.int64)
+        self._fout = np.zeros((R, 2), dtype=FLOAT)
+        self._iout = np.zeros((R, 3 + 2 * F), dtype=np.int64)
         self._stats = np.zeros((R, 3 * S + 1), dtype=FLOAT)
         # one persistent generator per reactor, reseeded at each reset (see env.new_simulation)
         self._gens = [np.random.Generator(np.random.PCG64(0)) for _ in range(R)]
@@ -210,7 +216,12 @@ class DiscReactorVectorEnv(VectorEnv):
             raise error.ResetNeeded("call reset() before step()")
         cfg = self.config
         R = self.num_envs
-        a, bad = sanitize_actions(cfg, np.asarray(actions).reshape(R, -1))
+        act = np.asarray(actions, dtype=FLOAT)
+        if act.shape != (R, 2 + len(cfg.feed)):
+            if act.size and act.size % R == 0:
+                act = act.reshape(R, -1)
+            check_action_shape(cfg, act.shape, R)  # raises unless (R, A)
+        act = np.ascontiguousarray(act)
         F = len(cfg.feed)
         if self.autoreset_mode == AutoresetMode.NEXT_STEP:
             resetting = self._autoreset.copy()
@@ -222,53 +233,36 @@ class DiscReactorVectorEnv(VectorEnv):
                         "them with reset(options={'reset_mask': mask}) (autoreset disabled)")
             resetting = np.zeros(R, dtype=bool)
         active = ~resetting
-        heat = np.zeros(R, dtype=FLOAT)
-        injected = np.zeros((R, F), dtype=np.int64)
-        refused = np.zeros((R, F), dtype=np.int64)
-        blocked = np.zeros(R, dtype=bool)
-        rows, flags = a.tolist(), bad.tolist()
-        idx = np.flatnonzero(active).tolist()
-        # heat: the same factor as DiscReactorEnv, applied to all reactors in one compiled
-        # loop (bit for bit what Simulation.scale_temperature does to the velocities)
-        scale = np.ones(R, dtype=FLOAT)
-        for r in idx:
-            f = heat_factor(cfg, rows[r][0], float(self._temps[r]))
-            if f != 1.0:
-                scale[r] = math.sqrt(f)
-                heat[r] = (f - 1.0) * float(self._kin[r])
-        scale_velocities(self._vel, self._n, scale)
-        for r in idx:
-            sim = self.simulations[r]
-            if scale[r] != 1.0:  # the energy added, as scale_temperature books it (to rounding)
-                sim._energy_input += float(heat[r])
-            size, injected[r], refused[r], blocked[r] = wall_and_feed(
-                cfg, sim, rows[r], flags[r], float(self._size[r]), self._feed_left[r])
-            self._size[r] = size
-            v = self._views[r]
-            if sim._pos is not v[0] or sim._vel is not v[1] or sim._spc is not v[2] \
-                    or sim._uint is not v[3] or sim._ids is not v[4] or sim._idctr is not v[5]:
-                raise RuntimeError(f"reactor {r}: a control reallocated the state arrays "
-                                   f"(capacity {cfg.capacity} too small); this is a bug")
-            self._n[r] = sim._n
-            self._bkind[r] = sim._bkind
-            self._bp[r] = sim._bp
-        self._advance(active)
-        for r in np.flatnonzero(resetting).tolist():
-            self._reset_one(r)
-        self._steps[active] += 1
-        self._observe_all()
+        self._advance(active, act)
+        fout, iout = self._fout, self._iout
+        heat = fout[:, O_HEAT].copy()
+        injected = iout[:, 3:3 + F].copy()
+        refused = iout[:, 3 + F:].copy()
+        blocked = iout[:, O_BLOCKED].astype(bool)
+        invalid = iout[:, O_INVALID].copy()
+        any_reset = bool(resetting.any())
+        if any_reset:  # (their rows of the outputs are from an earlier step)
+            heat[resetting] = 0.0
+            injected[resetting] = 0
+            refused[resetting] = 0
+            blocked[resetting] = False
+            invalid[resetting] = 0
+            for r in np.flatnonzero(resetting).tolist():
+                self._reset_one(r)
+            self._observe_all()
         product = self._stats[:, cfg.product].copy()
         # rewards: the same arithmetic, in the same order, as DiscReactorEnv.step
         gain = (product - self._product) / self._n_ref
         cost_heat = cfg.heat_cost * np.abs(heat) / self._n_ref
         cost_feed = cfg.feed_cost * injected.sum(axis=1).astype(FLOAT) / self._n_ref
         rew = gain - cost_heat - cost_feed
-        rew[resetting] = 0.0
+        if any_reset:
+            rew[resetting] = 0.0
         self._product = product
         terminated = np.zeros(R, dtype=bool)
         truncated = active & (self._steps >= self.limit)
         infos = self._infos(gain, cost_heat, cost_feed, heat, injected, refused, blocked,
-                            bad.sum(axis=1), active)
+                            invalid, active)
         obs = self._obs.copy()
         done = terminated | truncated
         if self.autoreset_mode == AutoresetMode.SAME_STEP and done.any():
@@ -294,7 +288,7 @@ class DiscReactorVectorEnv(VectorEnv):
         """The step's info as arrays (R,) with Gymnasium's ``_key`` masks (False for the
         reactors reset by this step); per-species entries are nested dicts."""
         cfg = self.config
-        names = cfg.scene.species_names
+        names = cfg.species_names
         counts = self._stats[:, :cfg.n_species].astype(np.int64)
         product = counts[:, cfg.product]
         infos = {
@@ -315,36 +309,50 @@ class DiscReactorVectorEnv(VectorEnv):
         }
         return _masked(infos, active)
 
-    def _advance(self, active: np.ndarray) -> None:
+    def _advance(self, active: np.ndarray, act: np.ndarray) -> None:
+        """One compiled call: the actions ``act`` (R, A), the physics and the observation of
+        every active reactor (:func:`discgym.kernels.batch.env_step`), in parallel over the
+        reactors when more than one thread is asked for; then what ``Simulation.step`` and
+        its controls book, for each reactor's ``Simulation``."""
         cfg = self.config
         cs = cfg.compiled
+        cf, ci, feed = cfg.kernel_consts
+        idx = np.flatnonzero(active).tolist()
+        size0 = self._size.copy()
+        args = (self._pos, self._vel, self._spc, self._uint, self._ids, self._idctr, self._n,
+                self._ksteps, self._bkind, self._bp, cfg.tables, cs.params, cs.flags,
+                self._rngs, self._icnt, self._fsum, self._chc, active, act, self._size,
+                self._feed_left, self._steps, self._n_init, self._n_ref, self._temps,
+                self._kin, self._stats, self._obs, cf, ci, feed, cfg.feed_budget, cfg.obs_low,
+                cfg.obs_high, self._fout, self._iout)
+        if len(idx) <= 1 or self.threads == 1:  # (a lone reactor runs on the calling thread)
+            env_step(*args)
+        elif self.threads is None:  # numba's current number of threads
+            env_step_parallel(*args)
+        else:
+            old = numba.get_num_threads()
+            want = min(self.threads, numba.config.NUMBA_NUM_THREADS)
+            numba.set_num_threads(want)
+            try:
+                env_step_parallel(*args)
+            finally:
+                numba.set_num_threads(old)
+        if self._iout[:, O_STATUS].any():
+            check_status(cfg, self._iout)
         k = cfg.steps_per_action
         dt = cfg.scene.dt
-        # never more threads than reactors to step (a lone reactor runs on the calling thread)
-        old = numba.get_num_threads()
-        want = old if self.threads is None else min(self.threads, numba.config.NUMBA_NUM_THREADS)
-        want = max(1, min(want, int(active.sum())))
-        if want != old:
-            numba.set_num_threads(want)
-        try:
-            run_batch(self._pos, self._vel, self._spc, self._uint, self._ids, self._idctr,
-                      self._n, self._ksteps, k, dt, self._bkind, self._bp, cs.tables,
-                      cs.params, cs.flags, self._rngs, self._icnt, self._fsum, self._chc,
-                      _step.REORDER_EVERY, active, self._status)
-        finally:
-            if want != old:
-                numba.set_num_threads(old)
-        if self._status.any():
-            bad = np.flatnonzero(self._status == GREW).tolist()
-            raise RuntimeError(f"reactors {bad}: the state outgrew the capacity "
-                               f"{cfg.capacity}; this is a bug in the capacity plan")
-        for r in np.flatnonzero(active):
+        moved = self._size != size0
+        n, e_in = self._n.tolist(), self._fout[:, O_ENERGY_IN].tolist()
+        for r in idx:
             sim = self.simulations[r]
-            # exactly what Simulation._run does after the kernel
-            sim._n = int(self._n[r])
+            # exactly what Simulation.step and its controls book
+            sim._n = n[r]
             sim._steps += k
             sim._time += k * dt
             sim._since_reset += k * dt
+            sim._energy_input += e_in[r]
+            if moved[r]:
+                sim._defer_bounds(partial(cfg.bounds_of, float(self._size[r])), self._bp[r])
 
     # ------------------------------------------------------------------ misc
     def render(self):
@@ -359,10 +367,14 @@ class DiscReactorVectorEnv(VectorEnv):
         pass
 
 
-def _masked(infos: dict, mask: np.ndarray) -> dict:
-    """Add Gymnasium's ``_key`` masks (``mask``) to every entry, recursively."""
+def _masked(infos: dict, mask: np.ndarray, _shared: np.ndarray | None = None) -> dict:
+    """Add Gymnasium's ``_key`` masks (``mask``) to every entry, recursively: one read-only
+    copy of ``mask``, shared by all the keys (a copy per key cost ~30 us a step)."""
+    if _shared is None:
+        _shared = mask.copy()
+        _shared.flags.writeable = False
     out = {}
     for k, v in infos.items():
-        out[k] = _masked(v, mask) if isinstance(v, dict) else v
-        out[f"_{k}"] = mask.copy()
+        out[k] = _masked(v, mask, _shared) if isinstance(v, dict) else v
+        out[f"_{k}"] = _shared
     return out

@@ -304,6 +304,142 @@ def test_injection_rate_budget_and_report():
     assert len(env.simulation) <= n0 + 5
 
 
+def _same_state(a, b):
+    sa, sb = a.get_state(), b.get_state()
+    assert sa.keys() == sb.keys()
+    for k in sa:
+        if isinstance(sa[k], np.ndarray):
+            assert np.array_equal(sa[k], sb[k]), k
+        else:
+            assert sa[k] == sb[k], k
+
+
+def test_the_compiled_step_is_the_simulation_controls_bit_for_bit():
+    """One compiled call per env step (kernels.batch.env_step) does exactly what the
+    Simulation methods do: scale_temperature, resize (pushing discs in), inject, step; same
+    state, same generator state, same energy bookkeeping, to the last bit."""
+    import copy
+
+    env = DiscReactorEnv(n_discs=300, episode_steps=40, feed_budget=[200, 200],
+                         wall_speed=0.2)
+    env.reset(seed=3)
+    cfg, sim = env.config, env.simulation
+    rng = np.random.default_rng(5)
+    pushed = 0
+    for k in range(24):
+        a = rng.uniform(-1, 1, 4).astype(np.float32)
+        if k % 4 == 0:
+            a[1] = -1.0  # shrink: discs near the wall must be pushed in
+        twin = copy.deepcopy(sim)
+        T = env._temperature
+        *_, info = env.step(a)
+        x = a.tolist()  # the float32 values, as float64
+        twin.scale_temperature(min(max(cfg.heat_rate ** x[0], min(1.0, cfg.t_min / T)),
+                                   max(1.0, cfg.t_max / T)))
+        new = cfg.bounds_of(info["size"])
+        if new != twin.bounds:
+            before = twin.positions
+            twin.resize(new)
+            pushed += int((twin.positions != before).any())
+        for j, f in enumerate(cfg.feed):
+            want = int(round(max(x[2 + j], 0.0) * cfg.inject_max))
+            if want:
+                assert twin.inject(f, want) == info["injected"][cfg.species_names[f]]
+        twin.step(cfg.steps_per_action)
+        _same_state(sim, twin)
+        assert sim.bounds == twin.bounds and sim.time == twin.time
+    assert pushed >= 2  # the relocation path ran
+
+
+def test_heating_stops_at_the_speed_limit():
+    """Simulation.scale_temperature refuses a factor that would push a disc past the speed
+    limit; the env's heat control instead heats only up to it (documented)."""
+    dt = dg.scenes.load("reactor").dt
+    env = DiscReactorEnv(n_discs=4, count_jitter=0.0, temperature_range=(0.2, 1e30),
+                         step_time=dt, episode_steps=3)
+    env.reset(seed=0)
+    sim = env.simulation
+    st = sim.get_state()
+    st["velocities"][:] = 0.0
+    st["velocities"][0] = (0.8 * sim.speed_limit, 0.0)
+    sim.set_state(st)
+    env.unwrapped._observe()  # (the heat control reads the last observation's kT)
+    with pytest.raises(ValueError, match="speed limit"):
+        copy_ = pickle.loads(pickle.dumps(sim))
+        copy_.scale_temperature(2.0)
+    ke = sim.kinetic_energy()
+    *_, info = env.step(np.array([1, 0, 0, 0], np.float32))
+    speeds = np.hypot(*sim.velocities.T)
+    assert speeds.max() <= sim.speed_limit
+    assert speeds.max() == pytest.approx(sim.speed_limit, rel=1e-9)
+    # the energy put in: the factor that was applied, (limit / 0.8 limit)^2 = 1.5625
+    assert info["heat_energy"] == pytest.approx(0.5625 * ke, rel=1e-9)
+    assert sim.energy_input == pytest.approx(info["heat_energy"], rel=1e-9)
+
+
+def test_injections_that_would_pass_the_speed_limit_are_refused():
+    """kT so high that Maxwell-Boltzmann draws can pass the speed limit: such an injection
+    is refused whole (counted in inject_refused), exactly when Simulation.inject refuses it
+    (with ValueError)."""
+    import copy
+
+    # no reactions (their heat could change kT), two discs, one step
+    scene = dg.Scene(bounds=dg.Box(30.0, 30.0),
+                     species=[dg.Species("A", radius=0.5, mass=1.0),
+                              dg.Species("B", radius=0.5, mass=1.0)],
+                     counts={"A": 1, "B": 1})
+    refused = 0
+    for seed in range(8):
+        env = DiscReactorEnv(scene=scene, feed=("A",), product="B", count_jitter=0.0,
+                             temperature_range=(0.2, 1e30), step_time=scene.dt,
+                             episode_steps=3, feed_budget=[50])
+        env.reset(seed=seed)
+        sim = env.simulation
+        st = sim.get_state()
+        st["velocities"][:] = (0.0, 0.95 * sim.speed_limit)
+        sim.set_state(st)
+        env.unwrapped._observe()
+        twin = copy.deepcopy(sim)
+        try:
+            twin.inject("A", 4)
+            expect = 0
+        except ValueError as exc:
+            assert "speed limit" in str(exc)
+            expect = 4
+        e0 = sim.total_energy()
+        *_, info = env.step(np.array([0, 0, 1], np.float32))
+        assert info["inject_refused"]["A"] == expect
+        assert info["injected"]["A"] == 4 - expect
+        if expect:  # refused: nothing was added
+            assert sim.energy_input == 0.0 and len(sim) == 2
+            assert sim.total_energy() == pytest.approx(e0, rel=1e-9)
+        refused += expect > 0
+    assert 0 < refused < 8  # both outcomes occurred
+
+
+def test_the_simulation_may_be_changed_between_steps():
+    """``env.unwrapped.simulation`` is the live reactor: what a user does to it between steps
+    (inject, resize, set_state with fewer discs) is what the next step starts from."""
+    env = DiscReactorEnv(**SHORT)
+    env.reset(seed=2)
+    sim = env.simulation
+    env.step(np.zeros(4, np.float32))
+    assert sim.inject("A", 7) == 7
+    n = len(sim)
+    *_, info = env.step(np.zeros(4, np.float32))
+    assert sum(info["counts"].values()) == n == len(sim)
+    sim.resize(dg.Box(28.0, 30.0))
+    env.step(np.zeros(4, np.float32))
+    assert sim.bounds == dg.Box(28.0, 30.0) and sim.outside() == 0 and sim.overlaps() == 0
+    st = sim.get_state()
+    for key in ("positions", "velocities", "species", "internal_energy", "ids"):
+        st[key] = st[key][:20]
+    sim.set_state(st)
+    *_, info = env.step(np.zeros(4, np.float32))
+    assert sum(info["counts"].values()) == len(sim) <= 20
+    assert sim.overlaps() == 0 and sim.outside() == 0
+
+
 # ------------------------------------------------------------------ observations, rewards
 
 
