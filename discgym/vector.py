@@ -48,11 +48,16 @@ from .kernels.batch import (
     O_HEAT,
     O_INVALID,
     O_STATUS,
+    balance,
     env_step,
     env_step_parallel,
 )
 
 __all__ = ["DiscReactorVectorEnv"]
+
+# the counters of events (collisions, wall hits, reactive collisions): each costs about as
+# much as 4 disc-substeps
+_EVENTS = [_step.IC_COLLISIONS, _step.IC_WALL_HITS, _step.IC_REACTIVE]
 
 
 class DiscReactorVectorEnv(VectorEnv):
@@ -114,6 +119,9 @@ class DiscReactorVectorEnv(VectorEnv):
         self._icnt = np.zeros((R, _step.N_ICOUNTERS), dtype=COUNT)
         self._fsum = np.zeros((R, _step.N_FSUMS), dtype=FLOAT)
         self._chc = np.zeros((R, len(cfg.compiled.labels)), dtype=COUNT)
+        self._cost = np.ones(R, dtype=FLOAT)  # the cost of each reactor's next step (estimate)
+        self._order = np.zeros(R, dtype=np.int64)
+        self._starts = np.zeros(numba.config.NUMBA_NUM_THREADS + 1, dtype=np.int64)
         self._fout = np.zeros((R, 2), dtype=FLOAT)
         self._iout = np.zeros((R, 3 + 2 * F), dtype=np.int64)
         self._stats = np.zeros((R, 3 * S + 1), dtype=FLOAT)
@@ -195,6 +203,7 @@ class DiscReactorVectorEnv(VectorEnv):
         self._chc[r] = sim._ch_count
         sim._icnt, sim._fsum, sim._ch_count = self._icnt[r], self._fsum[r], self._chc[r]
         self._n[r] = n
+        self._cost[r] = n * cfg.steps_per_action  # (no history yet: one substep a step)
         self._bkind[r] = sim._bkind
         self._bp[r] = sim._bp
         self.simulations[r] = sim
@@ -325,18 +334,28 @@ class DiscReactorVectorEnv(VectorEnv):
                 self._feed_left, self._steps, self._n_init, self._n_ref, self._temps,
                 self._kin, self._stats, self._obs, cf, ci, feed, cfg.feed_budget, cfg.obs_low,
                 cfg.obs_high, self._fout, self._iout)
+        sub0 = self._icnt[:, _step.IC_SUBSTEPS].copy()
+        ev0 = self._icnt[:, _EVENTS].sum(axis=1)
         if len(idx) <= 1 or self.threads == 1:  # (a lone reactor runs on the calling thread)
             env_step(*args)
-        elif self.threads is None:  # numba's current number of threads
-            env_step_parallel(*args)
         else:
             old = numba.get_num_threads()
-            want = min(self.threads, numba.config.NUMBA_NUM_THREADS)
-            numba.set_num_threads(want)
+            want = old if self.threads is None else \
+                min(self.threads, numba.config.NUMBA_NUM_THREADS)
+            # one work list per thread, of about equal cost (the last step's work of each
+            # reactor: disc-substeps + 4 x events)
+            balance(self._cost, active, want, self._order, self._starts[:want + 1])
+            if want != old:
+                numba.set_num_threads(want)
             try:
-                env_step_parallel(*args)
+                env_step_parallel(*args, self._order, self._starts[:want + 1])
             finally:
-                numba.set_num_threads(old)
+                if want != old:
+                    numba.set_num_threads(old)
+        # the work of each reactor in this step, the estimate of its cost in the next
+        cost = self._n * (self._icnt[:, _step.IC_SUBSTEPS] - sub0) + \
+            4 * (self._icnt[:, _EVENTS].sum(axis=1) - ev0)
+        self._cost[active] = cost[active]
         if self._iout[:, O_STATUS].any():
             check_status(cfg, self._iout)
         k = cfg.steps_per_action

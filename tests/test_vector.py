@@ -208,3 +208,21 @@ def test_sb3_ppo_trains_on_the_batched_env():
                     device="cpu")
         model.learn(total_timesteps=64)
     assert model.num_timesteps >= 64
+
+
+def test_balance_splits_the_active_reactors_into_even_work_lists():
+    from discgym.kernels.batch import balance
+
+    rng = np.random.default_rng(0)
+    for R, T in ((1, 2), (7, 2), (64, 2), (33, 4)):
+        cost = rng.exponential(size=R) * rng.integers(1, 5, size=R)
+        active = rng.random(R) < 0.8
+        order = np.full(R, -1, dtype=np.int64)
+        starts = np.zeros(T + 1, dtype=np.int64)
+        balance(cost, active, T, order, starts)
+        m = starts[-1]
+        assert sorted(order[:m].tolist()) == np.flatnonzero(active).tolist()
+        loads = [cost[order[starts[t]:starts[t + 1]]].sum() for t in range(T)]
+        # LPT: the largest load exceeds the mean by at most the largest single cost
+        if active.any():
+            assert max(loads) <= cost[active].sum() / T + cost[active].max() + 1e-12

@@ -71,16 +71,57 @@ def env_step(pos, vel, spc, uint, ids, idctr, n, ksteps, bkind, bp, tables, para
 def env_step_parallel(pos, vel, spc, uint, ids, idctr, n, ksteps, bkind, bp, tables, params,
                       flags, rngs, icnt, fsum, chc, active, act, size, feed_left, steps, n_init,
                       n_ref, temps, kin, stats, obs, cf, ci, feed, feed_budget, low, high, fout,
-                      iout):
-    """:func:`env_step` in a ``prange`` over the reactors (numba's threads). Each reactor
-    touches only its own rows, so there are no races, and the result is the same bits."""
-    for q in prange(pos.shape[0]):
-        r = np.int64(q)  # (prange's index is unsigned)
-        if active[r]:
-            reactor_step(r, pos, vel, spc, uint, ids, idctr, n, ksteps, bkind, bp, tables,
-                         params, flags, rngs, icnt, fsum, chc, act, size, feed_left, steps,
-                         n_init, n_ref, temps, kin, stats, obs, cf, ci, feed, feed_budget,
-                         low, high, fout, iout)
+                      iout, order, starts):
+    """:func:`env_step` in parallel: a ``prange`` over T work lists, list t being the
+    reactors ``order[starts[t]:starts[t + 1]]`` (see :func:`balance`; T = the number of
+    threads gives each thread one list). Each reactor touches only its own rows, so there
+    are no races, and the result is the same bits whatever the lists."""
+    for t in prange(starts.shape[0] - 1):
+        for q in range(starts[t], starts[t + 1]):
+            r = order[q]
+            if active[r]:
+                reactor_step(r, pos, vel, spc, uint, ids, idctr, n, ksteps, bkind, bp,
+                             tables, params, flags, rngs, icnt, fsum, chc, act, size,
+                             feed_left, steps, n_init, n_ref, temps, kin, stats, obs, cf, ci,
+                             feed, feed_budget, low, high, fout, iout)
+
+
+@njit(cache=True)
+def balance(cost, active, T, order, starts):
+    """Split the active reactors into T work lists of about equal total ``cost`` (R,)
+    (longest first, each to the least loaded list: the LPT rule, within 4/3 of the best
+    split). Writes ``order`` (R,) (the reactors list by list) and ``starts`` (T + 1,).
+
+    Why: the reactors of a batch cost very different amounts (a hot, dense reactor has many
+    more collisions and substeps than a cold, wide one), and ``prange``'s equal blocks of
+    reactors left one thread idle for up to a third of a step with random actions (measured
+    at 16 reactors on 2 threads: 1.3x instead of 1.9x)."""
+    R = cost.shape[0]
+    idx = np.argsort(-cost, kind="mergesort")  # (stable: ties in reactor order)
+    load = np.zeros(T)
+    owner = np.zeros(R, dtype=np.int64)
+    count = np.zeros(T, dtype=np.int64)
+    for q in range(R):
+        r = idx[q]
+        if not active[r]:
+            owner[r] = -1
+            continue
+        best = 0
+        for t in range(1, T):
+            if load[t] < load[best]:
+                best = t
+        owner[r] = best
+        load[best] += cost[r]
+        count[best] += 1
+    starts[0] = 0
+    for t in range(T):
+        starts[t + 1] = starts[t] + count[t]
+    fill = starts[:T].copy()
+    for r in range(R):
+        t = owner[r]
+        if t >= 0:
+            order[fill[t]] = r
+            fill[t] += 1
 
 
 @njit(cache=True)
