@@ -342,8 +342,8 @@ class DiscReactorVectorEnv(VectorEnv):
             old = numba.get_num_threads()
             want = old if self.threads is None else \
                 min(self.threads, numba.config.NUMBA_NUM_THREADS)
-            # one work list per thread, of about equal cost (the last step's work of each
-            # reactor: disc-substeps + 4 x events)
+            # one list of consecutive reactors per thread, of about equal cost (the last
+            # step's work of each reactor: disc-substeps + 4 x events)
             balance(self._cost, active, want, self._order, self._starts[:want + 1])
             if want != old:
                 numba.set_num_threads(want)
