@@ -324,7 +324,7 @@ def main():
         print(f"   {'reactors':>8} {'1 thread':>16} {f'{all_cores} threads':>16} "
               f"{'speed-up':>16}")
         for R in sizes:
-            steps = max(4, (200 if not args.quick else 40) // R)
+            steps = max(10, (1000 if not args.quick else 40) // R)
             res = {1: [], all_cores: []}
             for _ in range(args.repeat):
                 for t in res:
