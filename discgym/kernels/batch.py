@@ -14,9 +14,10 @@ state, generator and actions. The physics of a step is
 :func:`discgym.kernels.step.run_tracked`, the kernel :meth:`Simulation.step
 <discgym.Simulation.step>` calls, single-threaded for each reactor.
 
-One call per environment step (measured on the default env, 2026-12-01: the Python around the
-old per-control calls cost 60-75 us of a 320 us step, 18-23%): the environment's Python only
-checks the action's shape and builds ``info``.
+One call per environment step: the environment's Python only checks the action's shape,
+books the ``Simulation``'s clocks and builds ``info`` (measured on the default env,
+2026-12-01, ``benchmarks/bench_env.py``: the Python layer of a step went from 18-23% with one
+compiled call per control to 6-8%).
 
 The capacity C must never be too small: ``run_tracked`` returns new, larger arrays when a
 fission finds ``C < 2 n``, and those could not be written back into the batch; an injection
