@@ -4,8 +4,10 @@ An adapter at the edge (the physics never imports gymnasium): it translates an a
 the controls of a :class:`~discgym.Simulation` (heating, moving a wall, injecting), advances
 the reactor, and translates its state into an observation and a reward. The controls, the
 physics and the observation of a step run in one compiled call
-(:func:`discgym.kernels.batch.env_step`, which does what ``Simulation.scale_temperature``,
-``resize`` and ``inject`` do); the Python here checks the action's shape and builds ``info``. The
+(:func:`discgym.kernels.batch.env_step`, which does bit for bit what
+``Simulation.scale_temperature``, ``resize``, ``inject`` and ``step`` do, except that heating
+stops at the speed limit and that a refused wall move or injection has drawn from the
+generator); the Python here checks the action's shape and builds ``info``. The
 specification (action space, observation space, rewards, episode end, arguments) is the
 README's section on the environment; the vector env, the baselines and the measured speed
 are in ``docs/env.md``.
@@ -42,7 +44,7 @@ from ._dtypes import FLOAT, INDEX
 from .compiled import P_MAXDISP, P_RMIN, CompiledScene, compile_scene
 from .kernels.batch import (
     O_BLOCKED,
-    O_ENERGY_IN,
+    O_ENERGY_HEAT,
     O_HEAT,
     O_INVALID,
     O_STATUS,
@@ -396,10 +398,11 @@ def observe(cfg: ReactorConfig, vel, spc, uint, n, size, steps, feed_left, n_ini
                   cfg.obs_high, stats, temperature, kinetic, obs)
 
 
-def check_status(cfg: ReactorConfig, iout: np.ndarray) -> None:
-    """Raise if a reactor of the last :func:`~discgym.kernels.batch.env_step` outgrew its
-    arrays (it cannot: the capacity plan bounds every reactor; this would be a bug)."""
-    status = iout[:, O_STATUS]
+def check_status(cfg: ReactorConfig, iout: np.ndarray, active: np.ndarray) -> None:
+    """Raise if an ``active`` reactor of the last :func:`~discgym.kernels.batch.env_step`
+    outgrew its arrays (it cannot: the capacity plan bounds every reactor; this would be a
+    bug)."""
+    status = np.where(active, iout[:, O_STATUS], 0)
     if status.any():
         bad = np.flatnonzero(status).tolist()
         raise RuntimeError(f"reactors {bad}: the state outgrew the capacity {cfg.capacity} "
@@ -501,7 +504,7 @@ class DiscReactorEnv(gym.Env):
         self._bkind = np.zeros(1, dtype=np.int64)
         self._bp = np.zeros((1, 4), dtype=FLOAT)
         self._act = np.zeros((1, 2 + F), dtype=FLOAT)
-        self._fout = np.zeros((1, 2), dtype=FLOAT)
+        self._fout = np.zeros((1, 2 + F), dtype=FLOAT)
         self._iout = np.zeros((1, 3 + 2 * F), dtype=np.int64)
         self._obs = np.zeros((1, len(cfg.obs_names)), dtype=np.float32)
         self._feed_names = [cfg.species_names[f] for f in cfg.feed]
@@ -509,6 +512,7 @@ class DiscReactorEnv(gym.Env):
         self._n_feed = F
         self._n_species = S
         self._step_time = cfg.steps_per_action * cfg.scene.dt  # (as Simulation.step adds it)
+        self._n_seen = -1  # the simulation's disc count after the last step
         self._bound: tuple = (None,) * 5
         self._fig = None
 
@@ -517,10 +521,10 @@ class DiscReactorEnv(gym.Env):
         super().reset(seed=seed)
         cfg = self.config
         self.simulation = sim = cfg.new_simulation(self.np_random)
-        self._bind(sim)
         self._steps[0] = 0
         self._size[0] = cfg.size_of(sim.bounds)
         self._feed_left[0] = cfg.feed_budget
+        self._bind(sim)
         self._n_init[0] = len(sim)
         counts = np.bincount(sim.species, minlength=cfg.n_species)
         self._n_ref[0] = cfg.n_ref(counts)
@@ -548,8 +552,9 @@ class DiscReactorEnv(gym.Env):
             act[0] = a
         bound = self._bound
         if sim._pos is not bound[0] or sim._vel is not bound[1] or sim._spc is not bound[2] \
-                or sim._uint is not bound[3] or sim._ids is not bound[4]:
-            self._bind(sim)  # (the simulation's arrays were replaced from outside)
+                or sim._uint is not bound[3] or sim._ids is not bound[4] \
+                or sim._n != self._n_seen:
+            self._bind(sim)  # (the simulation was changed from outside: arrays, disc count)
         # the simulation's scalar state, as the rows of a batch of one reactor
         self._n[0] = sim._n
         self._ksteps[0] = sim._steps
@@ -560,13 +565,16 @@ class DiscReactorEnv(gym.Env):
         fo = self._fout[0].tolist()
         io = self._iout[0].tolist()
         if io[O_STATUS]:
-            check_status(cfg, self._iout)
+            check_status(cfg, self._iout, _ONE)
         # what Simulation.step and its controls book
-        sim._n = self._n.item()
+        sim._n = self._n_seen = self._n.item()
         sim._steps = self._ksteps.item()
         sim._time += self._step_time
         sim._since_reset += self._step_time
-        sim._energy_input += fo[O_ENERGY_IN]
+        e = sim._energy_input + fo[O_ENERGY_HEAT]  # (one control after the other, as
+        for x in fo[2:]:  # the Simulation methods book them)
+            e += x
+        sim._energy_input = e
         self._size_now = size = self._size.item()
         if size != size0:
             sim._defer_bounds(partial(cfg.bounds_of, size), self._bp[0].copy())
@@ -647,9 +655,16 @@ class DiscReactorEnv(gym.Env):
         the arguments of :func:`~discgym.kernels.batch.env_step`: (1, ...) views of its state
         arrays (the rows of a batch of one reactor) and this env's episode state."""
         cfg = self.config
-        cap = cfg.capacity
+        # the compiled step never grows arrays: room for all the discs the contents and the
+        # feed left could ever split into (mass is conserved), twice over (see kernels.batch)
+        cs = sim._cs
+        mass = float(cs.sp_mass[sim._spc[:sim._n]].sum()) + float(
+            (self._feed_left[0] * cs.sp_mass[list(cfg.feed)]).sum())
+        most = int(math.floor(mass / float(cs.sp_mass.min()) * (1.0 + 1e-12)))
+        cap = max(cfg.capacity, 2 * most + 16)
         if len(sim._spc) < cap:
             sim._reserve(cap - sim._n)
+        self._n_seen = sim._n
         cs = sim._cs
         cf, ci, feed = cfg.kernel_consts
         self._bound = (sim._pos, sim._vel, sim._spc, sim._uint, sim._ids)

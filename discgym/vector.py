@@ -15,12 +15,16 @@ plus every feed budget), so one compiled call,
 reactor's action (heat, wall, injection), advances it and observes it, in place. It runs
 for each reactor the same :func:`~discgym.kernels.batch.reactor_step` as the single env, which
 does bit for bit what ``Simulation.scale_temperature``, ``resize``, ``inject`` and ``step``
-do (``tests/test_env.py`` checks it). Each reactor keeps a real ``Simulation`` whose state
-arrays (``_pos``, ``_vel``, ``_spc``, ``_uint``, ``_ids``, ``_idctr``) and counters
-(``_icnt``, ``_fsum``, ``_ch_count``) are *views* of row r of those arrays; after each step its
-disc count, step count, clocks, energy input and bounds are updated exactly as those methods
-update them. ``env.simulations[r]`` is reactor r's ``Simulation`` (read it; do not keep it
-across a reset, which builds a new one).
+do (``tests/test_env.py`` checks it; the exceptions: heating stops at the speed limit, and a
+refused wall move or injection has drawn from the generator). Each reactor keeps a real
+``Simulation`` whose state arrays (``_pos``, ``_vel``, ``_spc``, ``_uint``, ``_ids``,
+``_idctr``) and counters (``_icnt``, ``_fsum``, ``_ch_count``) are *views* of row r of those
+arrays; after each step its disc count, step count, clocks, energy input and bounds are
+updated exactly as those methods update them. ``env.simulations[r]`` is reactor r's
+``Simulation``: its controls and ``set_state`` may be used between steps (the next step reads
+the disc count, clocks and bounds back); more discs than the capacity plan holds, or state
+arrays replaced, raise ``RuntimeError`` at the next step. Do not keep it across a reset,
+which builds a new one.
 
 Autoreset: ``autoreset_mode`` ("NextStep", the Gymnasium default; "SameStep", with
 ``info["final_obs"]`` and ``info["final_info"]``; or "Disabled", then reset finished reactors
@@ -44,7 +48,7 @@ from .env import ReactorConfig, check_action_shape, check_status, observe
 from .kernels import step as _step
 from .kernels.batch import (
     O_BLOCKED,
-    O_ENERGY_IN,
+    O_ENERGY_HEAT,
     O_HEAT,
     O_INVALID,
     O_STATUS,
@@ -122,7 +126,7 @@ class DiscReactorVectorEnv(VectorEnv):
         self._cost = np.ones(R, dtype=FLOAT)  # the cost of each reactor's next step (estimate)
         self._order = np.zeros(R, dtype=np.int64)
         self._starts = np.zeros(numba.config.NUMBA_NUM_THREADS + 1, dtype=np.int64)
-        self._fout = np.zeros((R, 2), dtype=FLOAT)
+        self._fout = np.zeros((R, 2 + F), dtype=FLOAT)
         self._iout = np.zeros((R, 3 + 2 * F), dtype=np.int64)
         self._stats = np.zeros((R, 3 * S + 1), dtype=FLOAT)
         # one persistent generator per reactor, reseeded at each reset (see env.new_simulation)
@@ -327,6 +331,7 @@ class DiscReactorVectorEnv(VectorEnv):
         cs = cfg.compiled
         cf, ci, feed = cfg.kernel_consts
         idx = np.flatnonzero(active).tolist()
+        self._sync(idx)
         size0 = self._size.copy()
         args = (self._pos, self._vel, self._spc, self._uint, self._ids, self._idctr, self._n,
                 self._ksteps, self._bkind, self._bp, cfg.tables, cs.params, cs.flags,
@@ -357,11 +362,11 @@ class DiscReactorVectorEnv(VectorEnv):
             4 * (self._icnt[:, _EVENTS].sum(axis=1) - ev0)
         self._cost[active] = cost[active]
         if self._iout[:, O_STATUS].any():
-            check_status(cfg, self._iout)
+            check_status(cfg, self._iout, active)
         k = cfg.steps_per_action
         dt = cfg.scene.dt
         moved = self._size != size0
-        n, e_in = self._n.tolist(), self._fout[:, O_ENERGY_IN].tolist()
+        n, fo = self._n.tolist(), self._fout.tolist()
         for r in idx:
             sim = self.simulations[r]
             # exactly what Simulation.step and its controls book
@@ -369,9 +374,44 @@ class DiscReactorVectorEnv(VectorEnv):
             sim._steps += k
             sim._time += k * dt
             sim._since_reset += k * dt
-            sim._energy_input += e_in[r]
+            e = sim._energy_input + fo[r][O_ENERGY_HEAT]  # (one control after the other)
+            for x in fo[r][2:]:
+                e += x
+            sim._energy_input = e
             if moved[r]:
                 sim._defer_bounds(partial(cfg.bounds_of, float(self._size[r])), self._bp[r])
+
+    def _sync(self, idx: list) -> None:
+        """Read what a user may have changed through ``env.simulations[r]`` since the last
+        step (its disc count, clocks, bounds) into the batch; refuse what the batch cannot
+        follow (state arrays replaced, or more discs than the capacity plan holds) with
+        ``RuntimeError`` rather than lose it."""
+        cfg = self.config
+        cs = cfg.compiled
+        for r in idx:
+            sim = self.simulations[r]
+            v = self._views[r]
+            if sim._pos is not v[0] or sim._vel is not v[1] or sim._spc is not v[2] \
+                    or sim._uint is not v[3] or sim._ids is not v[4] or sim._idctr is not v[5]:
+                raise RuntimeError(
+                    f"reactor {r}: its Simulation's state arrays were replaced from outside "
+                    "(e.g. an injection beyond the batch's capacity); the vector env "
+                    "keeps every reactor in its own arrays and cannot follow. Change a reactor "
+                    "through its controls (inject, resize, scale_temperature) only, or reset it")
+            m = sim._n
+            if m != self._n[r]:  # discs added or removed from outside: still within the plan?
+                mass = float(cs.sp_mass[sim._spc[:m]].sum()) + float(
+                    (self._feed_left[r] * cs.sp_mass[list(cfg.feed)]).sum())
+                if 2 * int(mass / float(cs.sp_mass.min()) * (1.0 + 1e-12)) + 16 > \
+                        cfg.capacity:
+                    raise RuntimeError(
+                        f"reactor {r}: {m} discs (mass {mass:g}) could split into more discs "
+                        f"than the batch's capacity {cfg.capacity} holds; do not add discs to "
+                        "env.simulations[r] beyond the initial contents and the feed budget")
+                self._n[r] = m
+            self._ksteps[r] = sim._steps
+            self._bkind[r] = sim._bkind
+            self._bp[r] = sim._bp
 
     # ------------------------------------------------------------------ misc
     def render(self):
@@ -386,14 +426,10 @@ class DiscReactorVectorEnv(VectorEnv):
         pass
 
 
-def _masked(infos: dict, mask: np.ndarray, _shared: np.ndarray | None = None) -> dict:
-    """Add Gymnasium's ``_key`` masks (``mask``) to every entry, recursively: one read-only
-    copy of ``mask``, shared by all the keys (a copy per key cost ~30 us a step)."""
-    if _shared is None:
-        _shared = mask.copy()
-        _shared.flags.writeable = False
+def _masked(infos: dict, mask: np.ndarray) -> dict:
+    """Add Gymnasium's ``_key`` masks (``mask``) to every entry, recursively."""
     out = {}
     for k, v in infos.items():
-        out[k] = _masked(v, mask, _shared) if isinstance(v, dict) else v
-        out[f"_{k}"] = _shared
+        out[k] = _masked(v, mask) if isinstance(v, dict) else v
+        out[f"_{k}"] = mask.copy()
     return out

@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 from gymnasium.vector import AutoresetMode
 
+import discgym as dg
 from discgym.env import DiscReactorEnv
 from discgym.vector import DiscReactorVectorEnv
 
@@ -228,3 +229,38 @@ def test_balance_splits_the_active_reactors_into_even_consecutive_work_lists():
         if active.any():
             share = cost[active].sum() / T
             assert max(abs(x - share) for x in loads) <= cost[active].max() + 1e-12
+
+
+def test_reactors_changed_through_their_simulations_are_followed_or_refused():
+    # count_jitter 0.5: the capacity plan holds up to 1.5x the scene's counts, so a reactor
+    # drawn with fewer has room for a few more discs
+    venv = DiscReactorVectorEnv(num_envs=3, n_discs=80, episode_steps=20, count_jitter=0.5)
+    venv.reset(seed=0)
+    zeros = np.zeros((3, 4), np.float32)
+    venv.step(zeros)
+    sim = venv.simulations[1]
+    assert len(sim) < 100
+    assert sim.inject("A", 5) == 5
+    n = len(sim)
+    sim.resize(dg.Box(27.0, 30.0))
+    _, _, _, _, info = venv.step(zeros)
+    assert info["counts"]["A"][1] + info["counts"]["B"][1] + info["counts"]["C"][1] \
+        + info["counts"]["W"][1] == len(sim) == n
+    assert sim.outside() == 0 and sim.overlaps() == 0
+    assert abs(sim.energy_balance()) < 1e-9 * abs(sim.total_energy())
+    # beyond the capacity plan: refused with a clear error, not lost
+    sim.inject("A", 60)
+    with pytest.raises(RuntimeError, match="capacity|replaced from outside"):
+        venv.step(zeros)
+    venv.reset(seed=0)
+    venv.step(zeros)
+    sim = venv.simulations[2]
+    st = sim.get_state()
+    for key in ("positions", "velocities", "species", "internal_energy", "ids"):
+        st[key] = st[key][:30]
+    sim.set_state(st)  # (in place: the batch follows)
+    _, _, _, _, info = venv.step(zeros)
+    assert sum(info["counts"][k][2] for k in "ABCW") == len(sim) <= 30
+    sim._pos = sim._pos.copy()  # arrays replaced: the batch cannot follow
+    with pytest.raises(RuntimeError, match="replaced from outside"):
+        venv.step(zeros)

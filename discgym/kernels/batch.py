@@ -49,8 +49,8 @@ FULL = 2
  C_REF0, C_REF1, C_REF2, C_REF3, C_TEMPERATURE, C_DT, C_PACKING) = range(14)
 # ... and into ``ci``, its integer constants
 CI_INJECT_MAX, CI_STEPS, CI_ATTEMPTS, CI_REORDER, CI_PRODUCT, CI_EPISODE = range(6)
-# Columns of the outputs: ``fout`` (R, 2) and ``iout`` (R, 3 + 2 F)
-O_HEAT, O_ENERGY_IN = range(2)
+# Columns of the outputs: ``fout`` (R, 2 + F) and ``iout`` (R, 3 + 2 F)
+O_HEAT, O_ENERGY_HEAT = range(2)  # then the energy each feed species' injection put in (F)
 O_STATUS, O_BLOCKED, O_INVALID = range(3)  # then injected (F), then refused (F)
 
 
@@ -143,11 +143,14 @@ def reactor_step(r, pos, vel, spc, uint, ids, idctr, n, ksteps, bkind, bp, table
     feed species, ``feed_budget`` (F,), ``low``, ``high`` (D,) the observation bounds.
 
     Outputs (row r overwritten): ``fout[r]`` = (heat energy ``(factor - 1) * kinetic``,
-    energy put in by heating and injection); ``iout[r]`` = (status, wall blocked, invalid
-    components, discs injected per feed species (F), discs refused per feed species (F)).
+    energy put in by heating, then by each feed species' injection (F): the caller adds them
+    to ``Simulation.energy_input`` one by one, as the ``Simulation`` controls do);
+    ``iout[r]`` = (status, wall blocked, invalid components, discs injected per feed species
+    (F), discs refused per feed species (F)).
 
     The controls, in the words of the README: heat multiplies every kinetic energy by
-    ``heat_rate ** a0`` (kT kept within [t_min, t_max], and no disc past the speed limit);
+    ``heat_rate ** a0`` (kT kept within [t_min, t_max], and heating stops where a disc would
+    pass the speed limit);
     the wall moves the size toward ``size_min + (a1 + 1) / 2 (size_max - size_min)`` by at most
     ``wall_speed``, discs left outside moved to free spots inside (if one finds no room, or
     the discs cannot fit, the wall stays: blocked); each feed component a > 0 injects
@@ -160,8 +163,8 @@ def reactor_step(r, pos, vel, spc, uint, ids, idctr, n, ksteps, bkind, bp, table
     sp_radius = tables[0]
     sp_mass = tables[1]
     sp_form = tables[2]
-    fout[r, O_HEAT] = 0.0
-    fout[r, O_ENERGY_IN] = 0.0
+    for k in range(fout.shape[1]):
+        fout[r, k] = 0.0
     for k in range(iout.shape[1]):
         iout[r, k] = 0
     # the action: non-finite components do nothing, the rest clipped to [-1, 1]
@@ -185,25 +188,26 @@ def reactor_step(r, pos, vel, spc, uint, ids, idctr, n, ksteps, bkind, bp, table
     if a[0] != 0.0 and T > 0.0:
         f = cf[C_HEAT_RATE] ** a[0]
         f = min(max(f, min(1.0, cf[C_T_MIN] / T)), max(1.0, cf[C_T_MAX] / T))
+        sc = math.sqrt(f)
+        ke0 = 0.0
         if f != 1.0:
-            ke0 = 0.0
             v2max = 0.0
             for i in range(m):
                 v2 = v[i, 0] * v[i, 0] + v[i, 1] * v[i, 1]
                 ke0 += 0.5 * sp_mass[s[i]] * v2
                 v2max = max(v2max, v2)
-            sc = math.sqrt(f)
             vmax = math.sqrt(v2max)
-            if vmax * sc > cf[C_SPEED_LIMIT]:  # no disc past the speed limit
-                sc = cf[C_SPEED_LIMIT] / vmax
+            if sc > 1.0 and vmax * sc > cf[C_SPEED_LIMIT]:  # heat up to the speed limit
+                sc = max(cf[C_SPEED_LIMIT] / vmax, 1.0)  # (a disc already past it: no heat)
                 f = sc * sc
+        if f != 1.0:
             ke1 = 0.0
             for i in range(m):
                 v[i, 0] *= sc
                 v[i, 1] *= sc
                 ke1 += 0.5 * sp_mass[s[i]] * (v[i, 0] * v[i, 0] + v[i, 1] * v[i, 1])
             fout[r, O_HEAT] = (f - 1.0) * kin[r]
-            fout[r, O_ENERGY_IN] += ke1 - ke0
+            fout[r, O_ENERGY_HEAT] = ke1 - ke0
 
     # wall: toward the target size by at most wall_speed
     if not bad_wall:
@@ -231,7 +235,7 @@ def reactor_step(r, pos, vel, spc, uint, ids, idctr, n, ksteps, bkind, bp, table
             if m + todo > cap:
                 iout[r, O_STATUS] = FULL
                 return
-            placed = _inject(r, feed[k], todo, p, v, s, uint[r], ids[r], idctr[r], m,
+            placed = _inject(r, k, feed[k], todo, p, v, s, uint[r], ids[r], idctr[r], m,
                              bkind[r], bp[r], sp_radius, sp_mass, sp_form, cf, ci, rng, fout)
             m += placed
         feed_left[r, k] -= placed
@@ -312,13 +316,15 @@ def _inside(x, y, q, bkind, bp):
 
 
 @njit(cache=True)
-def _inject(r, sp, todo, pos, vel, spc, uint, ids, idctr, n, bkind, bp, sp_radius, sp_mass,
+def _inject(r, k, sp, todo, pos, vel, spc, uint, ids, idctr, n, bkind, bp, sp_radius, sp_mass,
             sp_form, cf, ci, rng, fout):
     """Place up to ``todo`` discs of species ``sp`` after discs [0, n) (free random spots)
     with Maxwell-Boltzmann velocities at the current kT (the scene's if empty); returns how
     many were placed (all refused if one would pass the speed limit). Books the energy they
-    add in ``fout[r, O_ENERGY_IN]``. The same arithmetic as :meth:`Simulation.inject
-    <discgym.Simulation.inject>` (the same energy sums, the same draws): the same bits."""
+    add in ``fout[r, 2 + k]``. The same arithmetic as :meth:`Simulation.inject
+    <discgym.Simulation.inject>` (the same energy sums, the same draws): the same bits, but for
+    a refused injection, after which the generator has been drawn from (``inject`` puts its
+    state back; compiled code cannot)."""
     ke, ui, fo = energies(vel, spc, uint, sp_mass, sp_form, n)
     e0 = ke + ui + fo
     T = ke / n if n > 0 else cf[C_TEMPERATURE]
@@ -346,7 +352,7 @@ def _inject(r, sp, todo, pos, vel, spc, uint, ids, idctr, n, bkind, bp, sp_radiu
         ids[i] = k0 + (i - n)
     idctr[0] = k0 + placed
     ke, ui, fo = energies(vel, spc, uint, sp_mass, sp_form, n + placed)
-    fout[r, O_ENERGY_IN] += ke + ui + fo - e0
+    fout[r, 2 + k] = ke + ui + fo - e0
     return placed
 
 
