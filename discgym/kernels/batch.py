@@ -38,6 +38,7 @@ from .._dtypes import INDEX
 from .controls import energies
 from .placement import place, relocate
 from .step import run_tracked
+from .walls import inside
 
 #: status of a reactor whose state arrays had to grow in a step (capacity too small).
 GREW = 1
@@ -286,12 +287,12 @@ def _resize(r, size, pos, spc, n, bkind, bp, sp_radius, params, cf, ci, rng):
         area = math.pi * rad * rad
     if params[4] > rfit:  # P_RMAX: the largest species does not fit
         return False
-    inside = True
+    all_in = True
     for i in range(n):
-        if not _inside(pos[i, 0], pos[i, 1], sp_radius[spc[i]], bkind[r], nb):
-            inside = False
+        if not inside(pos[i, 0], pos[i, 1], sp_radius[spc[i]], bkind[r], nb):
+            all_in = False
             break
-    if not inside:
+    if not all_in:
         disc_area = 0.0
         for i in range(n):
             q = sp_radius[spc[i]]
@@ -303,16 +304,6 @@ def _resize(r, size, pos, spc, n, bkind, bp, sp_radius, params, cf, ci, rng):
     for k in range(4):
         bp[r, k] = nb[k]
     return True
-
-
-@njit(cache=True)
-def _inside(x, y, q, bkind, bp):
-    if bkind == 0:
-        return bp[0] + q <= x <= bp[2] - q and bp[1] + q <= y <= bp[3] - q
-    dx = x - bp[0]
-    dy = y - bp[1]
-    L = bp[2] - q
-    return L >= 0.0 and dx * dx + dy * dy <= L * L
 
 
 @njit(cache=True)
