@@ -154,6 +154,15 @@ class ReactorConfig:
         """Disc capacity that keeps a reactor's arrays from ever growing (see kernels.batch)."""
         return 2 * self.max_discs + 16
 
+    def capacity_for(self, spc: np.ndarray, feed_left: np.ndarray) -> tuple[int, float]:
+        """``(capacity, mass)``: the capacity a reactor holding the discs of species ``spc``
+        (n,) with ``feed_left`` (F,) still to inject needs so that its arrays never grow (all
+        the discs its mass could ever split into, twice over: mass is conserved), and that
+        mass."""
+        m = self.compiled.sp_mass
+        mass = float(m[spc].sum()) + float((feed_left * m[list(self.feed)]).sum())
+        return 2 * _most_discs(mass, float(m.min())) + 16, mass
+
     @cached_property
     def kernel_consts(self) -> tuple:
         """``(cf, ci, feed)``: the constants :func:`discgym.kernels.batch.env_step` reads
@@ -264,7 +273,7 @@ class ReactorConfig:
         most = [int(math.floor(t * (1.0 + cj) + 0.5)) for t in template]
         total_mass = sum(c * m for c, m in zip(most, mass)) + \
             sum(int(b) * mass[f] for b, f in zip(feed_budget, feed))
-        max_discs = int(math.floor(total_mass / min(mass) * (1.0 + 1e-12)))
+        max_discs = _most_discs(total_mass, min(mass))
 
         obs_names, lo, hi = [], [], []
 
@@ -347,6 +356,11 @@ class ReactorConfig:
         if isinstance(ref, Box):
             return Box(ref.width * size, ref.height, ref.origin)
         return Circle(ref.radius * size, ref.center)
+
+
+def _most_discs(mass: float, lightest: float) -> int:
+    """The most discs a total ``mass`` can be split into (discs of mass ``lightest``)."""
+    return int(math.floor(mass / lightest * (1.0 + 1e-12)))
 
 
 def _whole(v, name, lo):
@@ -579,7 +593,6 @@ class DiscReactorEnv(gym.Env):
         if size != size0:
             sim._defer_bounds(partial(cfg.bounds_of, size), self._bp[0].copy())
         self._temperature = temperature = self._temp.item()
-        self._kinetic = self._kin.item()
         # rewards: the same arithmetic, in the same order, as the vector env's
         F = self._n_feed
         injected = io[3:3 + F]
@@ -658,10 +671,7 @@ class DiscReactorEnv(gym.Env):
         # the compiled step never grows arrays: room for all the discs the contents and the
         # feed left could ever split into (mass is conserved), twice over (see kernels.batch)
         cs = sim._cs
-        mass = float(cs.sp_mass[sim._spc[:sim._n]].sum()) + float(
-            (self._feed_left[0] * cs.sp_mass[list(cfg.feed)]).sum())
-        most = int(math.floor(mass / float(cs.sp_mass.min()) * (1.0 + 1e-12)))
-        cap = max(cfg.capacity, 2 * most + 16)
+        cap = max(cfg.capacity, cfg.capacity_for(sim._spc[:sim._n], self._feed_left[0])[0])
         if len(sim._spc) < cap:
             sim._reserve(cap - sim._n)
         self._n_seen = sim._n
@@ -685,7 +695,6 @@ class DiscReactorEnv(gym.Env):
                 self._size, self._steps, self._feed_left, self._n_init, self._n_ref,
                 self._stats, self._temp, self._kin, obs)
         self._temperature = float(self._temp[0])
-        self._kinetic = float(self._kin[0])
         return obs[0]
 
     def _frame(self) -> np.ndarray:

@@ -387,7 +387,6 @@ class DiscReactorVectorEnv(VectorEnv):
         follow (state arrays replaced, or more discs than the capacity plan holds) with
         ``RuntimeError`` rather than lose it."""
         cfg = self.config
-        cs = cfg.compiled
         for r in idx:
             sim = self.simulations[r]
             v = self._views[r]
@@ -400,10 +399,8 @@ class DiscReactorVectorEnv(VectorEnv):
                     "through its controls (inject, resize, scale_temperature) only, or reset it")
             m = sim._n
             if m != self._n[r]:  # discs added or removed from outside: still within the plan?
-                mass = float(cs.sp_mass[sim._spc[:m]].sum()) + float(
-                    (self._feed_left[r] * cs.sp_mass[list(cfg.feed)]).sum())
-                if 2 * int(mass / float(cs.sp_mass.min()) * (1.0 + 1e-12)) + 16 > \
-                        cfg.capacity:
+                need, mass = cfg.capacity_for(sim._spc[:m], self._feed_left[r])
+                if need > cfg.capacity:
                     raise RuntimeError(
                         f"reactor {r}: {m} discs (mass {mass:g}) could split into more discs "
                         f"than the batch's capacity {cfg.capacity} holds; do not add discs to "

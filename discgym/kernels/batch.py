@@ -35,7 +35,7 @@ import numpy as np
 from numba import njit, prange
 
 from .._dtypes import INDEX
-from .controls import energies
+from .controls import energies, kinetic_and_fastest, scale
 from .placement import place, relocate
 from .step import run_tracked
 from .walls import inside
@@ -191,22 +191,15 @@ def reactor_step(r, pos, vel, spc, uint, ids, idctr, n, ksteps, bkind, bp, table
         f = min(max(f, min(1.0, cf[C_T_MIN] / T)), max(1.0, cf[C_T_MAX] / T))
         sc = math.sqrt(f)
         ke0 = 0.0
-        if f != 1.0:
-            v2max = 0.0
-            for i in range(m):
-                v2 = v[i, 0] * v[i, 0] + v[i, 1] * v[i, 1]
-                ke0 += 0.5 * sp_mass[s[i]] * v2
-                v2max = max(v2max, v2)
+        if f != 1.0:  # (the sums and the scaling of Simulation.scale_temperature)
+            ke0, v2max = kinetic_and_fastest(v, s, sp_mass, m)
             vmax = math.sqrt(v2max)
             if sc > 1.0 and vmax * sc > cf[C_SPEED_LIMIT]:  # heat up to the speed limit
                 sc = max(cf[C_SPEED_LIMIT] / vmax, 1.0)  # (a disc already past it: no heat)
                 f = sc * sc
         if f != 1.0:
-            ke1 = 0.0
-            for i in range(m):
-                v[i, 0] *= sc
-                v[i, 1] *= sc
-                ke1 += 0.5 * sp_mass[s[i]] * (v[i, 0] * v[i, 0] + v[i, 1] * v[i, 1])
+            scale(v, m, sc)
+            ke1, _ = kinetic_and_fastest(v, s, sp_mass, m)
             fout[r, O_HEAT] = (f - 1.0) * kin[r]
             fout[r, O_ENERGY_HEAT] = ke1 - ke0
 
