@@ -41,6 +41,7 @@ _SPEC_COUNTERS = {
     "elastic_repeats": _step.IC_TC_ELASTIC,
     "wall_glides": _step.IC_GLIDES,
     "fallback_repairs": _step.IC_RESOLVED,
+    "graze_repairs": _step.IC_GRAZE_REPAIRS,
 }
 
 

@@ -16,6 +16,9 @@ import math
 
 from numba import njit
 
+SEPARATING_OVERLAP = 1e-10  # a separating pair overlapping deeper than this fraction of its
+# contact distance was left overlapping by a graze the step missed (see contact_time)
+
 
 @njit(cache=True)
 def contact_time(rx, ry, vx, vy, R, lo):
@@ -25,15 +28,21 @@ def contact_time(rx, ry, vx, vy, R, lo):
     (r.v > 0) only had a contact in this step if its closest approach, at t* = -r.v/|v|^2,
     came after ``lo`` (the start of the step, or the pair's latest event): otherwise it has
     been separating all along and is left alone (an overlap left by round-off is not a
-    collision). A contact before ``lo`` is moved to ``lo``. No relative motion: nan.
+    collision): nan, or +inf if it overlaps deeper than ``SEPARATING_OVERLAP`` of R, which
+    round-off cannot do. Such an overlap is left by a graze inside an earlier step or substep
+    (both ends of it outside contact, so not seen) during which an event turned one of the
+    discs; the caller repairs it (:mod:`.resolve`). A contact before ``lo`` is moved to
+    ``lo``. No relative motion: nan.
     """
     vv = vx * vx + vy * vy
     if vv == 0.0:
         return math.nan
     b = rx * vx + ry * vy
-    if b > 0.0 and -b / vv <= lo:
-        return math.nan
     c = rx * rx + ry * ry - R * R
+    if b > 0.0 and -b / vv <= lo:
+        if c < -2.0 * SEPARATING_OVERLAP * R * R:
+            return math.inf
+        return math.nan
     disc = b * b - vv * c
     if disc < 0.0:
         disc = 0.0
@@ -47,7 +56,8 @@ def contact_time(rx, ry, vx, vy, R, lo):
 
 @njit(cache=True)
 def pair_time(xi, yi, vxi, vyi, ri, ti, xj, yj, vxj, vyj, rj, tj):
-    """Contact time of discs i and j if they overlap now and touched in this step, else nan.
+    """Contact time of discs i and j if they overlap now and touched in this step, else nan
+    (+inf: left overlapping, see :func:`contact_time`).
 
     ``ti``, ``tj``: each disc's latest event time (the start of the step if none)."""
     rx = xj - xi

@@ -70,7 +70,9 @@ IC_REACTIVE = 7  # reactive collisions (also counted per channel)
 IC_TC_ELASTIC = 8  # repeat collisions within a substep made elastic (TC model, e < 1 only)
 IC_GLIDES = 9  # grazing discs advanced through many circle-wall reflections at once
 IC_RESOLVED = 10  # discs moved in / pairs pushed apart by the fallback (resolve.py)
-N_ICOUNTERS = 11
+IC_GRAZE_REPAIRS = 11  # substeps repaired because a pair was left overlapping (a missed graze)
+IC_LEFT_OVERLAPPING = 12  # (internal) detections of such pairs: they trigger the repair
+N_ICOUNTERS = 13
 # Float accumulators (fsum)
 FS_WALL_MOMENTUM = 0  # momentum delivered to the walls (for the pressure)
 FS_DISSIPATED = 1  # kinetic energy lost to restitution e < 1
@@ -247,12 +249,16 @@ def _broad_parallel(nch, n, ncx, ncy, cell_start, cell_items, pos, spc, sp_radiu
 
 # ------------------------------------------------------------------ phase 3: event queue
 @njit(cache=True)
-def _try_pair(i, j, sp_radius, pos, vel, spc, tlast, stamp, H, size):
+def _try_pair(i, j, sp_radius, pos, vel, spc, tlast, stamp, H, size, icnt):
     """Queue the contact of i and j if they overlap and touched in this step (room for one
-    event must be reserved); returns the new heap size."""
+    event must be reserved); returns the new heap size. A pair left overlapping while
+    separating (``pair_time`` +inf) is counted in ``icnt[IC_LEFT_OVERLAPPING]``."""
     t = pair_time(pos[i, 0], pos[i, 1], vel[i, 0], vel[i, 1], sp_radius[spc[i]], tlast[i],
                   pos[j, 0], pos[j, 1], vel[j, 0], vel[j, 1], sp_radius[spc[j]], tlast[j])
     if math.isnan(t):
+        return size
+    if t == math.inf:
+        icnt[IC_LEFT_OVERLAPPING] += 1
         return size
     if i < j:
         return push(H, size, t, i, j, stamp[i], stamp[j])
@@ -296,23 +302,26 @@ def _queue_initial(n, collide, sp_radius, pos, vel, spc, tlast, stamp, wall_t, w
         if k <= OV_SLOTS:
             for q in range(k):
                 size = _try_pair(i, cell_items[ov_b[a, q]], sp_radius, pos, vel, spc, tlast,
-                                 stamp, H, size)
+                                 stamp, H, size, icnt)
             continue
         # more partners than slots: scan this disc's stencil again
         e1, lo2, hi2 = _strips(cell_of[i], ncx, ncy, cell_start)
         for b in range(a + 1, e1):
-            size = _try_pair(i, cell_items[b], sp_radius, pos, vel, spc, tlast, stamp, H, size)
+            size = _try_pair(i, cell_items[b], sp_radius, pos, vel, spc, tlast, stamp, H, size,
+                             icnt)
         for b in range(lo2, hi2):
-            size = _try_pair(i, cell_items[b], sp_radius, pos, vel, spc, tlast, stamp, H, size)
+            size = _try_pair(i, cell_items[b], sp_radius, pos, vel, spc, tlast, stamp, H, size,
+                             icnt)
     for a in range(cell_start[nbc], cell_start[nbc + 1]):  # the big discs
         i = cell_items[a]
         cx0, cx1, cy0, cy1 = cell_range(sx[a], sy[a], sr[a] + rcell, grid)
         for cy in range(cy0, cy1 + 1):
             for b in range(cell_start[cx0 + ncx * cy], cell_start[cx1 + 1 + ncx * cy]):
                 size = _try_pair(i, cell_items[b], sp_radius, pos, vel, spc, tlast, stamp, H,
-                                 size)
+                                 size, icnt)
         for b in range(a + 1, cell_start[nbc + 1]):
-            size = _try_pair(i, cell_items[b], sp_radius, pos, vel, spc, tlast, stamp, H, size)
+            size = _try_pair(i, cell_items[b], sp_radius, pos, vel, spc, tlast, stamp, H, size,
+                             icnt)
     return H, size
 
 
@@ -368,7 +377,9 @@ def _schedule(d, sp_radius, pos, vel, spc, tlast, stamp, n, collide, bkind, bp, 
                 continue
             tc = pair_time(x, y, vx, vy, r, td, pos[k, 0], pos[k, 1], vel[k, 0], vel[k, 1],
                            sp_radius[spc[k]], tlast[k])
-            if not math.isnan(tc):
+            if tc == math.inf:
+                icnt[IC_LEFT_OVERLAPPING] += 1
+            elif not math.isnan(tc):
                 if d < k:
                     size = push(H, size, tc, d, k, sd, stamp[k])
                 else:
@@ -376,10 +387,10 @@ def _schedule(d, sp_radius, pos, vel, spc, tlast, stamp, n, collide, bkind, bp, 
     for a in range(cell_start[nbc], cell_start[nbc + 1]):  # the big discs (celllist)
         k = cell_items[a]
         if k != d and spc[k] >= 0:
-            size = _try_pair(d, k, sp_radius, pos, vel, spc, tlast, stamp, H, size)
+            size = _try_pair(d, k, sp_radius, pos, vel, spc, tlast, stamp, H, size, icnt)
     for k in range(nbin, n):
         if k != d and spc[k] >= 0:
-            size = _try_pair(d, k, sp_radius, pos, vel, spc, tlast, stamp, H, size)
+            size = _try_pair(d, k, sp_radius, pos, vel, spc, tlast, stamp, H, size, icnt)
     return H, size
 
 
@@ -847,6 +858,7 @@ def run_tracked(pos, vel, spc, uint, n, n_steps, dt, bkind, bp, tables, params, 
                     binx[q] = pos[q, 0]
                     biny[q] = pos[q, 1]
                     partner[q] = -1
+            left0 = icnt[IC_LEFT_OVERLAPPING]
             H, size = _queue_initial(n, collide, sp_radius, pos, vel, spc, tlast, stamp,
                                      wall_t, wflag, grid, cell_start, cell_items, cell_of, sx,
                                      sy, sr, ov_n, ov_b, H, icnt)
@@ -854,8 +866,12 @@ def run_tracked(pos, vel, spc, uint, n, n_steps, dt, bkind, bp, tables, params, 
                 n, H, size, tables, pos, vel, spc, uint, tlast, stamp, lastcol, partner, nev,
                 icnt[IC_SUBSTEPS], binx, biny, collide, has_bi, e, kappa, rcell, h, vfast,
                 bkind, bp, grid, cell_start, cell_items, icnt, fsum, ch_count)
-            if dropped:
-                icnt[IC_EVENTS_CAPPED] += 1
+            left = icnt[IC_LEFT_OVERLAPPING] != left0
+            if dropped or left:
+                if dropped:
+                    icnt[IC_EVENTS_CAPPED] += 1
+                else:
+                    icnt[IC_GRAZE_REPAIRS] += 1
                 fixes, wdp, lost = resolve(n, pos, vel, spc, sp_radius, tables[1], e, collide,
                                            bkind, bp, grid, cell_start, cell_items, cell_of)
                 icnt[IC_RESOLVED] += fixes
