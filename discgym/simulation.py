@@ -131,6 +131,7 @@ class Simulation:
         self._time = 0.0
         self._steps = 0  # steps taken (times the memory reordering)
         self._icnt = np.zeros(_step.N_ICOUNTERS, dtype=COUNT)
+        self._work = _step.empty_work()  # the stepper's scratch, kept between calls
         self._fsum = np.zeros(_step.N_FSUMS, dtype=FLOAT)
         self._ch_count = np.zeros(len(self._cs.labels), dtype=COUNT)
         self._since_reset = 0.0
@@ -337,11 +338,11 @@ class Simulation:
                 n_steps * dt, self._bkind, self._bp, cs.tables, cs.params, cs.flags,
                 self._rngs, self._icnt, self._fsum, self._ch_count)
         else:
-            pos, vel, spc, uint, ids, n = _step.run_tracked_rngs(
+            pos, vel, spc, uint, ids, n, self._work = _step.run_tracked_rngs(
                 self._pos, self._vel, self._spc, self._uint, self._n, n_steps, dt, self._bkind,
                 self._bp, cs.tables, cs.params, cs.flags, self._rngs, self._icnt, self._fsum,
                 self._ch_count, self._threads, self._ids, self._idctr, self._steps,
-                _step.REORDER_EVERY)
+                _step.REORDER_EVERY, self._work)
         self._pos, self._vel, self._spc, self._uint, self._ids = pos, vel, spc, uint, ids
         self._n = n
         self._steps += n_steps

@@ -181,6 +181,28 @@ def test_from_arrays_rejects_bad_input():
         dg.Simulation(sc).advance(math.nan)
 
 
+def test_scratch_kept_between_calls_changes_nothing_as_the_state_grows():
+    """A Simulation keeps the stepper's scratch buffers between calls (``kernels.step``
+    ``empty_work``): 12 calls of one step give bit for bit what one call of 12 steps gives
+    in a copy (which starts with no scratch), while decompositions double the capacity and
+    the discs (above REORDER_MIN) are reordered in memory with the scratch as their copy."""
+    sc = dg.Scene(bounds=dg.Box(400.0, 400.0),
+                  species=[dg.Species("A", 0.5, 2.0), dg.Species("B", 0.5, 1.0)],
+                  reactions=[dg.Decomposition("A", "B", "B", probability=0.3)],
+                  counts={"A": 17000}, temperature=1.0)
+    a = dg.Simulation(sc, seed=0)
+    cap0 = a._pos.shape[0]
+    b = a.copy()
+    for _ in range(12):
+        a.step()
+    b.step(12)
+    assert a._pos.shape[0] > cap0 and len(a) > 17000  # it grew
+    assert np.array_equal(a.positions, b.positions) and np.array_equal(a.velocities,
+                                                                       b.velocities)
+    assert np.array_equal(a.ids, b.ids) and a.counts() == b.counts()
+    assert a.overlaps() == 0
+
+
 def test_large_populations_are_reordered_in_memory_but_ids_follow_the_discs():
     n = 17000  # above REORDER_MIN: discs are put in cell order every 8 steps
     sc = dg.Scene(bounds=dg.Box(260.0, 260.0), species=[A], counts={"A": n}, dt=0.05)
