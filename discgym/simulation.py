@@ -45,6 +45,9 @@ _SPEC_COUNTERS = {
 }
 
 
+_OLDEST_ICOUNTERS = 11  # counters in states of discgym before graze_repairs (2026-12-01)
+
+
 class PlacementError(ValueError):
     """Discs could not be placed (or kept) without overlap in the bounds."""
 
@@ -643,7 +646,9 @@ class Simulation:
         n = len(state["species"])
         if len(self._cs.labels) != len(state["ch_count"]):
             raise ValueError("set_state: the state belongs to a scene with other reactions")
-        if len(state["icnt"]) != len(self._icnt) or len(state["fsum"]) != len(self._fsum):
+        # counters are only ever appended: a state of an older version has a prefix of them
+        if not _OLDEST_ICOUNTERS <= len(state["icnt"]) <= len(self._icnt) or \
+                len(state["fsum"]) != len(self._fsum):
             raise ValueError("set_state: the state comes from another version of discgym")
         bounds = state["bounds"]
         if not isinstance(bounds, (Box, Circle)):
@@ -687,7 +692,8 @@ class Simulation:
                 self._rng.bit_generator.state["bit_generator"] != state["rng"]["bit_generator"]:
             self._set_rng(np.random.Generator(np.random.PCG64()))
         self._rng.bit_generator.state = state["rng"]
-        self._icnt[:] = state["icnt"]
+        self._icnt[:] = 0
+        self._icnt[:len(state["icnt"])] = state["icnt"]
         self._fsum[:] = state["fsum"]
         self._ch_count[:] = state["ch_count"]
         self._since_reset = float(state["since_reset"])

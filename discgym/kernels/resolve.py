@@ -12,7 +12,8 @@ so by a graze inside an earlier substep, not seen because both of its ends were 
 contact, during which an event turned one of the discs. The repair keeps the invariants:
 
 - every disc outside the bounds is moved back inside (along the wall normal) and the
-  outward component of its velocity is reflected (the wall receives 2 m |v_n|);
+  outward component of its velocity is reflected (the wall receives 2 m |v_n|); a disc held
+  at the wall during a pair push (below) is only moved (its next drift reflects it);
 - every overlapping pair is pushed apart along its line of centres by 1.5 times its overlap
   (over-relaxation), each disc moved in inverse proportion to its mass (the centre of mass
   stays put) unless that would move it out of the bounds: then it is held inside and the
@@ -34,7 +35,8 @@ from .celllist import build, cell_range
 from .walls import inside, push_inside
 
 RESOLVE_PASSES = 4096  # at most this many passes, and at most RESOLVE_WORK / n (but >= 64)
-RESOLVE_WORK = 1 << 20  # disc-passes: the work bound of one repair (~0.05 s)
+RESOLVE_WORK = 1 << 20  # disc-passes: the work bound of one repair below 16384 discs (~0.05 s);
+# above, 64 passes
 _SEP = 1.0 + 1e-12  # pairs are pushed this fraction beyond touching, ...
 _OVER = 1.5  # ... by this multiple of their overlap (over-relaxation: 3x fewer passes where a
 # ring of discs pressed against the circle wall took ~800 passes to untangle)

@@ -70,7 +70,8 @@ IC_REACTIVE = 7  # reactive collisions (also counted per channel)
 IC_TC_ELASTIC = 8  # repeat collisions within a substep made elastic (TC model, e < 1 only)
 IC_GLIDES = 9  # grazing discs advanced through many circle-wall reflections at once
 IC_RESOLVED = 10  # discs moved in / pairs pushed apart by the fallback (resolve.py)
-IC_GRAZE_REPAIRS = 11  # substeps repaired because a pair was left overlapping (a missed graze)
+IC_GRAZE_REPAIRS = 11  # substeps repaired (and not event-capped) because a pair was found
+# overlapping while separating: left by a missed graze, by an earlier repair or by set_state
 IC_LEFT_OVERLAPPING = 12  # (internal) detections of such pairs: they trigger the repair
 N_ICOUNTERS = 13
 # Float accumulators (fsum)
@@ -733,7 +734,7 @@ def _reorder(n, pos, vel, spc, uint, ids, grid, work):
 
 # --------------------------------------------------------------------------------- the driver
 N_FWORK = 7  # float scratch arrays per disc (see _carve)
-N_IWORK = 7 + OV_SLOTS  # INDEX scratch per disc (cell_start comes after them)
+N_IWORK = 6 + OV_SLOTS  # INDEX scratch per disc (cell_start comes after them)
 N_CWORK = 2  # COUNT scratch arrays per disc
 
 
@@ -748,7 +749,7 @@ def empty_work():
 @njit(cache=True)
 def _fit_work(work, ws, nstart):
     """``work`` if its buffers hold ``ws`` discs and a cell index of ``nstart``, else new
-    buffers (with room to grow)."""
+    buffers of exactly that size."""
     fw, iw, cw = work
     if fw.shape[0] >= N_FWORK * ws and iw.shape[0] >= N_IWORK * ws + nstart and \
             cw.shape[0] >= N_CWORK * ws:
@@ -761,7 +762,11 @@ def _fit_work(work, ws, nstart):
 def _carve(work, ws, nstart):
     """The per-disc scratch arrays of a run for ``ws`` discs, and ``cell_start``
     (``nstart``), as views of the buffers ``work`` (see :func:`_fit_work`). ``stamp``,
-    ``lastcol`` and ``nev`` start at zero; the others are written before they are read."""
+    ``lastcol`` and ``nev`` start at zero; the others are written before they are read.
+    Between steps nothing in them is live except ``lastcol``, so :func:`_reorder` may use
+    all of ``fw`` and ``iw`` and the first ws entries of ``cw`` (``stamp``, only ever compared
+    within a substep), never ``lastcol`` (kept at ``cw[ws:2 ws]``: a disc's last collision
+    substep, which must not match a later substep by accident)."""
     fw, iw, cw = work
     stamp = cw[0:ws]
     lastcol = cw[ws:2 * ws]
@@ -781,7 +786,7 @@ def _carve(work, ws, nstart):
     partner = iw[4 * ws:5 * ws]
     nev = iw[5 * ws:6 * ws]
     nev[:] = 0
-    ov_b = iw[7 * ws:(7 + OV_SLOTS) * ws].reshape((ws, OV_SLOTS))
+    ov_b = iw[6 * ws:N_IWORK * ws].reshape((ws, OV_SLOTS))
     cell_start = iw[N_IWORK * ws:N_IWORK * ws + nstart]
     return (stamp, lastcol, tlast, wall_t, wflag, cell_of, cell_items, sx, sy, sr, ov_n, ov_b,
             binx, biny, partner, nev, cell_start)
