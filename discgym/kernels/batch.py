@@ -34,10 +34,10 @@ import math
 import numpy as np
 from numba import njit, prange
 
-from .._dtypes import COUNT, FLOAT, INDEX
+from .._dtypes import INDEX
 from .controls import energies, kinetic_and_fastest, scale
 from .placement import place, relocate
-from .step import run_tracked
+from .step import empty_work, run_tracked
 from .walls import inside
 
 #: status of a reactor whose state arrays had to grow in a step (capacity too small).
@@ -239,11 +239,10 @@ def reactor_step(r, pos, vel, spc, uint, ids, idctr, n, ksteps, bkind, bp, table
 
     # the physics
     n_steps = ci[CI_STEPS]
-    work = (np.empty(0, dtype=FLOAT), np.empty(0, dtype=INDEX), np.empty(0, dtype=COUNT))
     p2, v2_, s2, u2, d2, m2, _w = run_tracked(p, v, s, uint[r], m, n_steps, cf[C_DT], bkind[r],
                                               bp[r], tables, params, flags, rng, icnt[r],
                                               fsum[r], chc[r], 1, ids[r], idctr[r], ksteps[r],
-                                              ci[CI_REORDER], work)
+                                              ci[CI_REORDER], empty_work())
     if p2.shape[0] != cap:
         iout[r, O_STATUS] = GREW
         return

@@ -738,6 +738,7 @@ N_IWORK = 6 + OV_SLOTS  # INDEX scratch per disc (cell_start comes after them)
 N_CWORK = 2  # COUNT scratch arrays per disc
 
 
+@njit(cache=True)
 def empty_work():
     """Scratch buffers of size 0 for :func:`run_tracked`, which makes them as large as needed
     and returns them: a caller that keeps them for its next call saves allocating and
@@ -798,10 +799,10 @@ def run(pos, vel, spc, uint, n, n_steps, dt, bkind, bp, tables, params, flags, r
     """:func:`run_tracked` without disc identities (and so without memory reordering)."""
     ids = np.zeros(pos.shape[0], dtype=COUNT)
     idctr = np.zeros(1, dtype=COUNT)
-    work = (np.empty(0, dtype=FLOAT), np.empty(0, dtype=INDEX), np.empty(0, dtype=COUNT))
     pos, vel, spc, uint, ids, n, work = run_tracked(pos, vel, spc, uint, n, n_steps, dt, bkind,
                                                     bp, tables, params, flags, rng, icnt, fsum,
-                                                    ch_count, threads, ids, idctr, 0, 0, work)
+                                                    ch_count, threads, ids, idctr, 0, 0,
+                                                    empty_work())
     return pos, vel, spc, uint, n
 
 
@@ -863,11 +864,6 @@ def run_tracked(pos, vel, spc, uint, n, n_steps, dt, bkind, bp, tables, params, 
      biny, partner, nev, cell_start) = _carve(work, ws, nstart)
     for s in range(n_steps):
         if reorder_every > 0 and n >= REORDER_MIN and (step0 + s) % reorder_every == 0:
-            if ws < pos.shape[0]:  # (the state grew in the last substep)
-                ws = pos.shape[0]
-                work = _fit_work(work, ws, nstart)
-                (stamp, lastcol, tlast, wall_t, wflag, cell_of, cell_items, sx, sy, sr, ov_n,
-                 ov_b, binx, biny, partner, nev, cell_start) = _carve(work, ws, nstart)
             _reorder(n, pos, vel, spc, uint, ids, rgrid, work)
         # substeps so that no disc moves more than maxdisp
         v2max = 0.0
@@ -898,11 +894,6 @@ def run_tracked(pos, vel, spc, uint, n, n_steps, dt, bkind, bp, tables, params, 
         vfast = math.sqrt(v2max)  # the fastest disc; raised by collisions (see _events)
         for _sub in range(k):
             icnt[IC_SUBSTEPS] += 1
-            if ws < pos.shape[0]:
-                ws = pos.shape[0]
-                work = _fit_work(work, ws, nstart)
-                (stamp, lastcol, tlast, wall_t, wflag, cell_of, cell_items, sx, sy, sr, ov_n,
-                 ov_b, binx, biny, partner, nev, cell_start) = _carve(work, ws, nstart)
             par = threads > 1 and n >= PARALLEL_MIN
             if par:
                 _drift_parallel(threads, n, h, pos, vel, spc, sp_radius, bkind, bp, tlast,
@@ -952,6 +943,11 @@ def run_tracked(pos, vel, spc, uint, n, n_steps, dt, bkind, bp, tables, params, 
                     n, h, tables, pos, vel, spc, uint, ids, idctr, collide, fission_possible,
                     bkind, bp, grid, cell_start, cell_items, cell_of, delta, rcell, rng, icnt,
                     ch_count)
+                if ws < pos.shape[0]:  # the state grew: scratch for the next substep and for
+                    ws = pos.shape[0]  # the next step's reordering
+                    work = _fit_work(work, ws, nstart)
+                    (stamp, lastcol, tlast, wall_t, wflag, cell_of, cell_items, sx, sy, sr,
+                     ov_n, ov_b, binx, biny, partner, nev, cell_start) = _carve(work, ws, nstart)
             if n_dead:
                 n = _compact(n, pos, vel, spc, uint, ids)
     return pos, vel, spc, uint, ids, n, work
