@@ -42,7 +42,7 @@ def bounds_params(bounds) -> tuple[int, np.ndarray]:
 
 
 def rate_from_probability(p: float) -> float:
-    """First-order rate k with 1 - exp(-k t) = 1 - (1 - p)^t (physics.md 2.2)."""
+    """First-order rate k with 1 - exp(-k t) = 1 - (1 - p)^t (docs/physics.md, section 5.1)."""
     if p >= 1.0:
         return _K_MAX
     return -math.log1p(-p)

@@ -9,7 +9,7 @@ back with :meth:`Scene.to_toml`.
 
 Units: k_B = 1, so a temperature is an energy per disc (2D: mean kinetic energy = kT).
 Probabilities of unimolecular reactions are chances per unit of simulated time, in [0, 1]
-(physics.md 2.2): over a step of length dt the chance is ``1 - (1 - p) ** dt``.
+(docs/physics.md, section 5.1): over a step of length dt the chance is ``1 - (1 - p) ** dt``.
 """
 
 from __future__ import annotations

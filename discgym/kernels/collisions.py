@@ -1,4 +1,4 @@
-"""Disc-disc contacts (physics.md 1.2, 1.3).
+"""Disc-disc contacts (docs/physics.md, section 4).
 
 With r = r_j - r_i and v = v_j - v_i at the end of the step, the pair touched at the earlier
 root of |r + t v| = R_i + R_j, computed here in the cancellation-free form

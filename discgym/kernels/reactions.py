@@ -1,4 +1,4 @@
-"""Reactions (physics.md 2, with the energy bookkeeping of notes.md).
+"""Reactions (docs/physics.md, section 5).
 
 Every reaction conserves mass, momentum and total energy = kinetic + internal + formation:
 

@@ -1,4 +1,4 @@
-"""Disc-wall contacts (physics.md 1.1, with the corrections of notes.md).
+"""Disc-wall contacts (docs/physics.md, section 3).
 
 A disc that has crossed a wall during the last step is rewound to its contact time t <= 0,
 reflected specularly and wound forward by -t: for the box this is exactly the document's
@@ -65,7 +65,7 @@ def box_contact(x, y, vx, vy, r, b0, b1, b2, b3):
 def circle_contact(x, y, vx, vy, r, b0, b1, b2):
     """Past contact of a disc with the circle of centre (b0, b1), radius b2: (t, 0, inward).
 
-    t is the root of |d + t v| = L nearer to zero (notes.md), computed without cancellation.
+    t: the root of |d + t v| = L nearer to zero, no cancellation (docs/physics.md, section 3.2).
     """
     dx = x - b0
     dy = y - b1
