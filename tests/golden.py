@@ -1,0 +1,172 @@
+"""Fingerprints of trajectories: hashes of what the public API shows after a run of every
+built-in scene (both integrators, several seeds, growth and reordering) and of env episodes
+(single and vector env, random and heuristic actions).
+
+A change that must keep results bit for bit (a refactoring) records them before and checks
+them after:
+
+    python tests/golden.py --write tests/golden.json   # before
+    python tests/golden.py --check tests/golden.json   # after: exit 1 and a list on any change
+
+Only public observables are hashed (positions, velocities, species, internal energies, ids,
+counters, reactions, time and the energy ledger; observations, rewards, flags and infos), so
+the fingerprints survive a change of internal names. They are exact float bits: they hold on
+the machine, CPU model and library versions they were written with (recorded in the file); on
+another CPU or another numpy/numba they may differ without anything being wrong.
+"""
+
+from __future__ import annotations
+
+import argparse
+import hashlib
+import json
+import platform
+import sys
+from pathlib import Path
+
+import numpy as np
+
+# from a checkout, import the checkout's discgym
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+import discgym as dg  # noqa: E402
+
+SEEDS = (0, 1, 2)
+# steps per run: enough for reactions, decompositions doubling the capacity and one memory
+# reordering where the scene has the discs for it; fewer with the exact integrator (slower)
+STEPS = {"step": 300, "event": 60}
+ENV_STEPS = 120
+
+
+class _Hasher:
+    def __init__(self):
+        self._h = hashlib.sha256()
+
+    def add(self, value) -> None:
+        if isinstance(value, np.ndarray):
+            a = np.ascontiguousarray(value)
+            self._h.update(f"{a.dtype.str}{a.shape}".encode())
+            self._h.update(a.tobytes())
+        elif isinstance(value, dict):
+            for k in sorted(value):
+                self._h.update(str(k).encode())
+                self.add(value[k])
+        elif isinstance(value, (list, tuple)):
+            for v in value:
+                self.add(v)
+        elif isinstance(value, (float, np.floating)):
+            self._h.update(float(value).hex().encode())
+        else:
+            self._h.update(repr(value).encode())
+
+    def hexdigest(self) -> str:
+        return self._h.hexdigest()[:20]
+
+
+def simulation_fingerprint(sim: dg.Simulation) -> str:
+    h = _Hasher()
+    for value in (sim.positions, sim.velocities, sim.species, sim.internal_energy, sim.ids,
+                  sim.counters, sim.reactions(), sim.time, sim.kinetic_energy(),
+                  sim.internal_energy_total(), sim.dissipated_energy(), sim.energy_input(),
+                  sim.energy_balance()):
+        h.add(value)
+    return h.hexdigest()
+
+
+def scene_runs(integrators=("step", "event"), seeds=SEEDS):
+    """{name: fingerprint} of every built-in scene, run in two calls (split runs and a
+    continued copy must agree with one run, so splitting here also pins that)."""
+    out = {}
+    for name in dg.scenes.names():
+        for integ in integrators:
+            for seed in seeds:
+                sim = dg.Simulation(name, seed=seed, integrator=integ)
+                n = STEPS[integ]
+                sim.step(n // 3)
+                sim = sim.copy()
+                sim.step(n - n // 3)
+                out[f"scene/{name}/{integ}/seed{seed}"] = simulation_fingerprint(sim)
+    return out
+
+
+def _episode(env, policy, seed: int) -> str:
+    h = _Hasher()
+    obs, info = env.reset(seed=seed)
+    h.add(obs)
+    h.add(info)
+    for _ in range(ENV_STEPS):
+        obs, reward, term, trunc, info = env.step(policy(obs))
+        h.add((obs, reward, term, trunc, info))
+    return h.hexdigest()
+
+
+def env_runs(seeds=SEEDS):
+    """{name: fingerprint} of env episodes: the single env and the vector env, with random
+    actions from a seeded generator and with the heuristic baseline."""
+    import gymnasium as gym
+
+    from discgym import env as denv
+
+    out = {}
+    for seed in seeds:
+        env = gym.make("DiscReactor-v0")
+        out[f"env/single/random/seed{seed}"] = _episode(
+            env, denv.random_policy(4, seed=100 + seed), seed)
+        out[f"env/single/heuristic/seed{seed}"] = _episode(env, denv.heuristic_policy, seed)
+        env.close()
+    venv = gym.make_vec("DiscReactor-v0", num_envs=4, vectorization_mode="vector_entry_point")
+    for seed in seeds:
+        out[f"env/vector4/random/seed{seed}"] = _episode(
+            venv, denv.random_policy(4, seed=200 + seed), seed)
+        out[f"env/vector4/heuristic/seed{seed}"] = _episode(venv, denv.heuristic_policy, seed)
+    venv.close()
+    return out
+
+
+def platform_key() -> dict:
+    import numba
+
+    return {"machine": platform.machine(), "processor": _cpu_model(),
+            "python": platform.python_version(), "numpy": np.__version__,
+            "numba": numba.__version__}
+
+
+def _cpu_model() -> str:
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor()
+
+
+def all_fingerprints() -> dict:
+    return {**scene_runs(), **env_runs()}
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    group = ap.add_mutually_exclusive_group(required=True)
+    group.add_argument("--write", type=Path, help="record the fingerprints in this file")
+    group.add_argument("--check", type=Path, help="compare with the fingerprints in this file")
+    args = ap.parse_args(argv)
+    prints = all_fingerprints()
+    if args.write:
+        args.write.write_text(json.dumps({"platform": platform_key(), "fingerprints": prints},
+                                         indent=1, sort_keys=True) + "\n")
+        print(f"{len(prints)} fingerprints written to {args.write}")
+        return 0
+    recorded = json.loads(args.check.read_text())
+    if recorded["platform"] != platform_key():
+        print(f"note: recorded on {recorded['platform']}, checking on {platform_key()}")
+    old = recorded["fingerprints"]
+    changed = sorted(k for k in old.keys() | prints.keys() if old.get(k) != prints.get(k))
+    for k in changed:
+        print(f"changed: {k}: {old.get(k)} -> {prints.get(k)}")
+    print(f"{len(prints) - len(changed)} of {len(prints)} fingerprints identical")
+    return 1 if changed else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
