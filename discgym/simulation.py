@@ -916,9 +916,9 @@ def _state_array(state, key: str, shape: tuple, integer: bool = False,
             raise _state_error(key, f"of {item} {k} is {a[k]}: must be in [0, 2**63)")
         return np.ascontiguousarray(a, dtype=COUNT)
     a = np.ascontiguousarray(a, dtype=FLOAT)
-    bad = np.flatnonzero(~np.isfinite(a.reshape(len(a), -1)).all(axis=1)) if a.size else []
-    if len(bad):
-        raise _state_error(key, f"of {item} {bad[0]} is not finite: {a[bad[0]]}")
+    if not np.isfinite(a).all():
+        k = np.flatnonzero(~np.isfinite(a.reshape(len(a), -1)).all(axis=1))[0]
+        raise _state_error(key, f"of {item} {k} is not finite: {a[k]}")
     if nonneg and a.size and a.min() < 0:
         k = int(np.argmin(a))
         raise _state_error(key, f"of {item} {k} is negative: {a[k]}")
