@@ -47,14 +47,15 @@ MAX_OFFSET_RATIO = 1.0e6
 #: box width and height, circle radius), the time step and every mass must lie in
 #: [MIN_MAGNITUDE, MAX_MAGNITUDE]; every energy (temperatures, formation and activation energies,
 #: internal energies) is at most MAX_MAGNITUDE in magnitude; speeds are bounded by the speed
-#: limit, 65536 * max_displacement * r_min / dt <= 6.6e84 (``Simulation.speed_limit``). The
-#: largest products then stay normal doubles: the contact quadratics' (d.v)^2 ~ L^2 v^2 <=
-#: 1e80 * (6.6e84)^2 = 4e249 (1.8e308 is the float64 limit), a disc's kinetic energy
-#: m v^2 / 2 <= 2e209, mass x coordinate <= 1e86, m_i m_j >= 1e-80. Speeds have no lower bound:
-#: a relative speed w whose products underflow (1e-20 L^2 w^2 below 2.2e-308, L >= 1e-40:
-#: w < 1.5e-104) closes at most 1.5e-24 of the smallest radius per step of the largest dt, so
-#: nothing it does is lost. Energies have no lower bound either: a small energy only ever makes
-#: a small speed.
+#: limit, 65536 * max_displacement * r_min / dt <= 3.3e84 (``Simulation.speed_limit``; r_min <=
+#: 5e39 fits bounds <= 1e40). The largest products then stay normal doubles: the contact
+#: quadratics' (d.v)^2 ~ L^2 v^2 <= 1e80 * (3.3e84)^2 = 1.1e249 (1.8e308 is the float64 limit),
+#: a disc's kinetic energy m v^2 / 2 <= 5e208, mass x coordinate <= 1e86, m_i m_j >= 1e-80, and
+#: a reaction's speed sqrt(2 E / m) <= 1.4e40 (why energies are bounded). Speeds have no
+#: lower bound: a relative speed w whose products underflow (1e-20 L^2 w^2 below 2.2e-308,
+#: L >= 1e-40: w < 1.5e-104) closes at most 1.5e-24 of the smallest radius per step of the
+#: largest dt, so nothing it does is lost. Energies have no lower bound either: a small energy
+#: only ever makes a small speed.
 MIN_MAGNITUDE = 1.0e-40
 MAX_MAGNITUDE = 1.0e40
 
@@ -99,8 +100,9 @@ def _finite(name: str, value, *, positive=False, nonneg=False, lo=None, hi=None,
         raise SceneError(name, f"expected a number, got {value!r}")
     try:
         v = float(value)
-    except OverflowError:  # an int beyond the float range
-        raise SceneError(name, f"must be finite, got {value!r}") from None
+    except OverflowError:
+        raise SceneError(name, "must be finite, got an integer beyond the float range") \
+            from None
     if not math.isfinite(v):
         raise SceneError(name, f"must be finite, got {v}")
     if positive and v <= 0.0:
