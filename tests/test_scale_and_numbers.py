@@ -20,6 +20,8 @@ import re
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 import discgym as dg
 from discgym.scene import MAX_COORDINATE_RATIO, MAX_MAGNITUDE, MIN_MAGNITUDE, SceneError
@@ -77,6 +79,24 @@ def test_collision_at_the_edges_of_the_range_is_the_one_at_unit_scale(kind, inte
         np.testing.assert_allclose(got[0], ref[0], rtol=0, atol=1e-12 * 32, err_msg=where)
         np.testing.assert_allclose(got[1], ref[1], rtol=0, atol=1e-12 * 2, err_msg=where)
         np.testing.assert_allclose(got[4:], ref[4:], rtol=1e-12, err_msg=where)
+
+
+@settings(max_examples=40, deadline=None, derandomize=True, database=None)
+@given(kind=st.sampled_from(["box", "circle"]), integrator=st.sampled_from(["step", "event"]),
+       eL=st.floats(math.log10(4e-40) + 1e-9, math.log10(1e40 / 32.0) - 1e-9),
+       eT=st.floats(math.log10(1.6e-39) + 1e-9, math.log10(1.6e41) - 1e-9),
+       eM=st.floats(-40.0 + 1e-9, math.log10(5e39) - 1e-9))
+def test_collision_anywhere_in_the_range_is_the_one_at_unit_scale(kind, integrator, eL, eT,
+                                                                   eM):
+    """The collision of the edge test at random (log-uniform) length, time and mass scales
+    inside the range: the same counts, positions to 1e-12 of the box, velocities and kinetic
+    energy to 1e-12."""
+    ref = _head_on(1.0, 1.0, 1.0, kind, integrator)
+    got = _head_on(10.0 ** eL, 10.0 ** eT, 10.0 ** eM, kind, integrator)
+    assert got[2:4] == ref[2:4]
+    np.testing.assert_allclose(got[0], ref[0], rtol=0, atol=1e-12 * 32)
+    np.testing.assert_allclose(got[1], ref[1], rtol=0, atol=1e-12 * 2)
+    np.testing.assert_allclose(got[4:], ref[4:], rtol=1e-12)
 
 
 @pytest.mark.parametrize("integrator", ["step", "event"])
