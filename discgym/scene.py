@@ -21,6 +21,8 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, fields
 from pathlib import Path
 
+import numpy as np
+
 __all__ = [
     "SceneError",
     "Species",
@@ -41,6 +43,28 @@ HEX_PACKING = math.pi / (2.0 * math.sqrt(3.0))
 #: float64 (an offset of 1e6 sizes leaves ~1e-10 of a size as the resolution): refused.
 MAX_OFFSET_RATIO = 1.0e6
 
+#: The range of magnitudes the float64 arithmetic of the kernels can do. Every length (radii,
+#: box width and height, circle radius), the time step and every mass must lie in
+#: [MIN_MAGNITUDE, MAX_MAGNITUDE]; every energy (temperatures, formation and activation energies,
+#: internal energies) is at most MAX_MAGNITUDE in magnitude; speeds are bounded by the speed
+#: limit, 65536 * max_displacement * r_min / dt <= 3.3e84 (``Simulation.speed_limit``; r_min <=
+#: 5e39 fits bounds <= 1e40). The largest products then stay normal doubles: the contact
+#: quadratics' (d.v)^2 ~ L^2 v^2 <= 1e80 * (3.3e84)^2 = 1.1e249 (1.8e308 is the float64 limit),
+#: a disc's kinetic energy m v^2 / 2 <= 5e208, mass x coordinate <= 1e86, m_i m_j >= 1e-80, and
+#: a reaction's speed sqrt(2 E / m) <= 1.4e40 (why energies are bounded). Speeds have no
+#: lower bound: a relative speed w whose products underflow (1e-20 L^2 w^2 below 2.2e-308,
+#: L >= 1e-40: w < 1.5e-104) closes at most 1.5e-24 of the smallest radius per step of the
+#: largest dt, so nothing it does is lost. Energies have no lower bound either: a small energy
+#: only ever makes a small speed.
+MIN_MAGNITUDE = 1.0e-40
+MAX_MAGNITUDE = 1.0e40
+
+#: Positions are resolved to 2^-52 of their magnitude; bounds reaching farther from the origin
+#: than this many times the smallest radius would resolve contacts to worse than 2.2e-7 of it
+#: (a head-on pair of discs of radius 1e-14 at x = 0.7 loses the oblique part of its collision):
+#: refused, naming the smallest species' radius.
+MAX_COORDINATE_RATIO = 1.0e9
+
 _MASS_RTOL = 1e-9
 
 
@@ -52,10 +76,33 @@ class SceneError(ValueError):
         super().__init__(f"{field_name}: {message}")
 
 
-def _finite(name: str, value, *, positive=False, nonneg=False, lo=None, hi=None) -> float:
+def plain(value):
+    """A numpy scalar as the Python number it is (``np.bool_`` -> bool, ``np.integer`` -> int,
+    ``np.floating`` -> float: a float32 radius becomes ``float(value)``); anything else as
+    given. Applied once where a number enters, so every later check and the values stored are
+    the ones the Python number would give."""
+    if isinstance(value, np.generic):
+        if isinstance(value, np.bool_):
+            return bool(value)
+        if isinstance(value, np.integer):
+            return int(value)
+        if isinstance(value, np.floating):
+            return float(value)
+    return value
+
+
+def _finite(name: str, value, *, positive=False, nonneg=False, lo=None, hi=None,
+            scale=False, energy=False) -> float:
+    """``value`` as a float, checked: a real number (not a bool), finite, and the given
+    bounds; ``scale`` and ``energy``: see :func:`check_magnitude`."""
+    value = plain(value)
     if isinstance(value, bool) or not isinstance(value, (int, float)):
         raise SceneError(name, f"expected a number, got {value!r}")
-    v = float(value)
+    try:
+        v = float(value)
+    except OverflowError:
+        raise SceneError(name, "must be finite, got an integer beyond the float range") \
+            from None
     if not math.isfinite(v):
         raise SceneError(name, f"must be finite, got {v}")
     if positive and v <= 0.0:
@@ -66,6 +113,21 @@ def _finite(name: str, value, *, positive=False, nonneg=False, lo=None, hi=None)
         raise SceneError(name, f"must be in [{lo}, {hi}], got {v}")
     if hi is not None and v > hi:
         raise SceneError(name, f"must be in [{lo}, {hi}], got {v}")
+    return check_magnitude(name, v, scale=scale, energy=energy)
+
+
+def check_magnitude(name: str, v: float, *, scale=False, energy=False) -> float:
+    """``v``, refused (SceneError naming ``name``) outside the range the kernels' float64
+    arithmetic can do: ``scale`` (a length, time or mass) in [MIN_MAGNITUDE, MAX_MAGNITUDE],
+    ``energy`` at most MAX_MAGNITUDE in magnitude."""
+    if scale and not MIN_MAGNITUDE <= abs(v) <= MAX_MAGNITUDE:
+        raise SceneError(name, f"must be in [{MIN_MAGNITUDE:g}, {MAX_MAGNITUDE:g}], got {v}: "
+                               "beyond, the contact arithmetic over- or underflows float64"
+                               "; choose other units")
+    if energy and not abs(v) <= MAX_MAGNITUDE:
+        raise SceneError(name, f"must be at most {MAX_MAGNITUDE:g} in magnitude, got {v}: "
+                               "beyond, the speeds it makes over- or underflow float64"
+                               "; choose other units")
     return v
 
 
@@ -391,11 +453,16 @@ class Scene:
             if s.name in names:
                 raise SceneError(f"species[{k}].name", f"duplicate species name {s.name!r}")
             names[s.name] = s
+        check_bounds_scale(self.bounds, species, "bounds", "species")
+        for k, s in enumerate(species):
             if s.radius > self.bounds.max_radius():
                 raise SceneError(
                     f"species[{k}].radius",
                     f"a disc of radius {s.radius} does not fit in the bounds {self.bounds}",
                 )
+        for k, s in enumerate(species):
+            check_magnitude(f"species[{k}].mass", s.mass, scale=True)
+            check_magnitude(f"species[{k}].formation_energy", s.formation_energy, energy=True)
         reactions = tuple(self.reactions)
         pairs = {}
         labels = {}
@@ -419,6 +486,8 @@ class Scene:
                     where, f"{r.label()} is already reactions[{labels[r.label()]}]; give one "
                     "reaction (with the combined probability) instead of two")
             labels[r.label()] = k
+            if isinstance(r, (Combination, Exchange)):
+                check_magnitude(f"{where}.activation_energy", r.activation_energy, energy=True)
             if len(r.reactants) == 2:
                 key = tuple(sorted(r.reactants))
                 if key in pairs:
@@ -429,6 +498,7 @@ class Scene:
                     )
                 pairs[key] = k
         counts = validated_counts(self.bounds, names, self.counts)
+        _set(self, collisions=plain(self.collisions))
         if not isinstance(self.collisions, bool):
             raise SceneError("collisions", f"expected true or false, got {self.collisions!r}")
         for attr in ("name", "description"):
@@ -440,12 +510,12 @@ class Scene:
             reactions=reactions,
             counts=counts,
             restitution=_finite("restitution", self.restitution, lo=0.0, hi=1.0),
-            dt=_finite("dt", self.dt, positive=True),
+            dt=_finite("dt", self.dt, positive=True, scale=True),
             internal_relaxation=_finite(
                 "internal_relaxation", self.internal_relaxation, lo=0.0, hi=1.0
             ),
             max_displacement=_finite("max_displacement", self.max_displacement, positive=True),
-            temperature=_finite("temperature", self.temperature, nonneg=True),
+            temperature=_finite("temperature", self.temperature, nonneg=True, energy=True),
         )
         if self.max_displacement > 1.0:
             raise SceneError(
@@ -576,11 +646,34 @@ def validated_counts(bounds, species_by_name: Mapping[str, Species], counts) -> 
     for nm, c in dict(counts).items():
         if nm not in species_by_name:
             raise SceneError(f"counts.{nm}", f"unknown species {nm!r}")
+        c = plain(c)
         if isinstance(c, bool) or not isinstance(c, int) or c < 0:
             raise SceneError(f"counts.{nm}", f"expected a count >= 0, got {c!r}")
         out[nm] = int(c)
     check_fits(bounds, species_by_name, out, "counts")
     return out
+
+
+def check_bounds_scale(bounds, species: Sequence[Species], bounds_field: str,
+                       species_field: str) -> None:
+    """Refuse bounds and radii outside the range of :func:`check_magnitude` (SceneError naming
+    ``{bounds_field}.width`` etc. or ``{species_field}[k].radius``), and bounds reaching
+    farther from the origin than MAX_COORDINATE_RATIO times the smallest radius (naming the
+    smallest species' radius)."""
+    sizes = (("width", "height") if isinstance(bounds, Box) else ("radius",))
+    for nm in sizes:
+        check_magnitude(f"{bounds_field}.{nm}", getattr(bounds, nm), scale=True)
+    for k, s in enumerate(species):
+        check_magnitude(f"{species_field}[{k}].radius", s.radius, scale=True)
+    k = min(range(len(species)), key=lambda q: species[q].radius)
+    far = max(abs(c) for c in bounds.extent)
+    if far > MAX_COORDINATE_RATIO * species[k].radius:
+        raise SceneError(
+            f"{species_field}[{k}].radius",
+            f"{species[k].radius} is below {1 / MAX_COORDINATE_RATIO:g} of the farthest "
+            f"coordinate of the bounds {bounds} ({far:g}): float64 positions there are "
+            f"resolved to {2.0 ** -52 * far:.3g}, too coarse for contacts of such discs",
+        )
 
 
 def check_fits(bounds, species_by_name: Mapping[str, Species], counts: Mapping[str, int],

@@ -10,6 +10,7 @@ True
 from __future__ import annotations
 
 import math
+import numbers
 from collections.abc import Callable, Mapping
 
 import numba
@@ -24,7 +25,18 @@ from .kernels import event_driven as _event
 from .kernels import step as _step
 from .kernels import walls as _walls
 from .kernels.placement import overlapping_pairs, place_rngs, relocate_rngs
-from .scene import Box, Circle, Scene, SceneError, _finite, check_fits, validated_counts
+from .scene import (
+    MAX_MAGNITUDE,
+    Box,
+    Circle,
+    Scene,
+    SceneError,
+    _finite,
+    check_bounds_scale,
+    check_fits,
+    plain,
+    validated_counts,
+)
 
 __all__ = ["Simulation", "PlacementError"]
 
@@ -55,7 +67,7 @@ class PlacementError(ValueError):
 def _rng(seed) -> np.random.Generator:
     if isinstance(seed, np.random.Generator):
         return seed
-    return np.random.Generator(np.random.PCG64(seed))
+    return np.random.Generator(np.random.PCG64(plain(seed)))
 
 
 class Simulation:
@@ -87,7 +99,7 @@ class Simulation:
         counts = validated_counts(scene.bounds, {s.name: s for s in scene.species},
                                   scene.counts if counts is None else counts)
         temperature = _finite("temperature", scene.temperature if temperature is None
-                              else temperature, nonneg=True)
+                              else temperature, nonneg=True, energy=True)
         self._setup(scene, seed)
         self._integrator = _event_fit(integrator, scene, scene.bounds)
         todo = np.concatenate([np.full(c, scene.species_index(nm), dtype=INDEX)
@@ -170,6 +182,10 @@ class Simulation:
             raise ValueError(f"internal_energy must be ({n},), got {u.shape}")
         _check_discs(pos, vel, spc, u, self._cs.sp_radius, self._bkind, self._bp,
                      scene.bounds)
+        if n and not u.max() <= MAX_MAGNITUDE:  # (the energy range of scene.MAX_MAGNITUDE)
+            raise ValueError(f"internal_energy of disc {int(np.argmax(u))} is {u.max():g}, "
+                             f"above {MAX_MAGNITUDE:g}: the speeds it would release over- or "
+                             "underflow float64; choose other units")
         self._check_speeds(vel, "velocities")
         self._reserve(n)
         self._pos[:n] = pos
@@ -317,7 +333,7 @@ class Simulation:
     def advance(self, duration: float) -> None:
         """Advance the simulated time by ``duration``: whole steps of ``scene.dt``, then one
         shorter step for the remainder (if more than 1e-9 of a step)."""
-        duration = float(duration)
+        duration = _real("advance(duration)", duration)
         if not math.isfinite(duration) or duration < 0:
             raise ValueError(f"advance(duration): need a finite duration >= 0, got {duration}")
         dt = self.scene.dt
@@ -501,7 +517,7 @@ class Simulation:
     def overlaps(self, tol: float = 1e-9) -> int:
         """Number of pairs overlapping by more than ``tol`` (in [0, 1)) of their contact
         distance."""
-        tol = float(tol)
+        tol = _real("overlaps(tol)", tol)
         if not 0.0 <= tol < 1.0:
             raise ValueError(f"overlaps(tol): need 0 <= tol < 1 (a fraction of the contact "
                              f"distance), got {tol}")
@@ -512,6 +528,9 @@ class Simulation:
 
     def outside(self, tol: float = 1e-9) -> int:
         """Number of discs reaching out of the bounds by more than ``tol`` of their radius."""
+        tol = _real("outside(tol)", tol)
+        if not math.isfinite(tol):
+            raise ValueError(f"outside(tol): need a finite tolerance, got {tol}")
         r = self.radii * (1.0 - tol)
         return int((~_inside(self._pos[: self._n], r, self._bkind, self._bp)).sum())
 
@@ -520,7 +539,7 @@ class Simulation:
         """Multiply every kinetic energy by ``factor`` >= 0 (velocities by sqrt(factor)).
 
         The energy added (or removed) is booked in :attr:`energy_input`."""
-        factor = float(factor)
+        factor = _real("scale_temperature(factor)", factor)
         if not math.isfinite(factor) or factor < 0:
             raise ValueError(f"scale_temperature(factor): need a finite factor >= 0, got "
                              f"{factor}")
@@ -551,16 +570,23 @@ class Simulation:
         n = int(n)
         if n == 0:
             return 0
-        if temperature is None:
+        given = temperature is not None
+        if not given:
             temperature = self.temperature() if self._n else self.scene.temperature
-        temperature = float(temperature)
+        temperature = _real("inject(temperature)", temperature)
         if not math.isfinite(temperature) or temperature < 0:
             raise ValueError(f"inject(temperature): need a finite value >= 0, got "
                              f"{temperature}")
+        if given and temperature > MAX_MAGNITUDE:  # (a default's speeds: see _check_speeds)
+            raise ValueError(f"inject(temperature): must be at most {MAX_MAGNITUDE:g}, got "
+                             f"{temperature}: beyond, the speeds it makes over- or underflow "
+                             "float64; choose other units")
         todo = np.full(n, s, dtype=INDEX)
         targets = np.full((n, 2), np.nan)
         if near is not None:
             try:
+                if any(isinstance(plain(c), bool) for c in near):
+                    raise TypeError  # (a bool is not a coordinate)
                 xy = np.asarray(near, dtype=FLOAT).reshape(2)
             except (TypeError, ValueError):
                 raise ValueError(f"inject(near): expected a point (x, y), got {near!r}") \
@@ -592,6 +618,10 @@ class Simulation:
         resize is refused with :class:`PlacementError` and nothing changes."""
         if not isinstance(bounds, (Box, Circle)):
             raise TypeError(f"resize(bounds): expected Box or Circle, got {bounds!r}")
+        try:
+            check_bounds_scale(bounds, self.scene.species, "bounds", "species")
+        except SceneError as exc:
+            raise ValueError(f"resize(bounds): {exc}") from None
         if self._cs.params[_P_RMAX] > bounds.max_radius():
             too_big = [s.name for s in self.scene.species if s.radius > bounds.max_radius()]
             raise PlacementError(f"resize: species {too_big} do not fit in {bounds}")
@@ -715,6 +745,12 @@ class Simulation:
             raise _state_error("species", f"of disc {k} is {spc[k]}, not an index of the "
                                f"scene's {S} species")
         s["species"] = np.ascontiguousarray(spc, dtype=INDEX)
+        u = s["internal_energy"]
+        if n and not u.max() <= MAX_MAGNITUDE:
+            k = int(np.argmax(u))
+            raise _state_error("internal_energy", f"of disc {k} is {u[k]:g}, above "
+                               f"{MAX_MAGNITUDE:g}: the speeds it would release over- or "
+                               "underflow float64")
         ids = s["ids"]
         if n > 1:
             srt = np.sort(ids)
@@ -731,6 +767,10 @@ class Simulation:
         bounds = state["bounds"]
         if not isinstance(bounds, (Box, Circle)):
             raise _state_error("bounds", f"must be a Box or Circle, got {_short(bounds)}")
+        try:
+            check_bounds_scale(bounds, self.scene.species, "bounds", "species")
+        except SceneError as e:
+            raise _state_error("bounds", str(e)) from None
         s["bounds"] = bounds
         s["bkind"], s["bp"] = bounds_params(bounds)
         integrator = state.get("integrator", self._integrator)
@@ -997,6 +1037,21 @@ def _checked_rng(value) -> np.random.BitGenerator:
     if not ok:
         raise _state_error("rng", f"is not a state numpy restores as given: {_short(value)}")
     return bg
+
+
+def _real(what: str, value) -> float:
+    """A real-number argument as a float: numpy scalars (and 0-d arrays) as the Python
+    numbers they are; bools and non-numbers raise ValueError naming ``what``."""
+    if isinstance(value, np.ndarray) and value.shape == ():
+        value = value.item()
+    value = plain(value)
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+        raise ValueError(f"{what}: expected a number, got {value!r}")
+    try:
+        return float(value)
+    except OverflowError:  # an int beyond the float range
+        return math.inf if value > 0 else -math.inf
+
 
 def _inside(pos: np.ndarray, r: np.ndarray, bkind: int, bp: np.ndarray) -> np.ndarray:
     if bkind == CIRCLE:

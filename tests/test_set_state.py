@@ -587,3 +587,24 @@ def test_random_mutations_are_refused_unchanged_or_accepted_and_run(bad):
     again = dg.Simulation(SC, seed=0)
     again.set_state(sim.get_state())  # what was accepted leads to states that are too
     same_state(again.get_state(), sim.get_state())
+
+
+def test_state_outside_the_arithmetic_range_is_refused_and_changes_nothing():
+    """The scale range of scenes (lengths 1e-40..1e40, internal energies <= 1e40) holds for
+    restored states too: bounds too large, or too far from the origin for the smallest disc,
+    and a larger internal energy are refused naming the key."""
+    sim = dg.Simulation("ideal_gas", seed=0)
+    before = sim.get_state()
+    cases = [("bounds", dg.Box(1e41, 1e41), "bounds.width"),
+             ("bounds", dg.Box(1000.0, 1000.0, origin=(6e8, 0.0)), "farthest coordinate"),
+             ("internal_energy", np.full(len(sim), 1e41), "above 1e\\+40")]
+    for key, value, why in cases:
+        bad = dict(before, **{key: value})
+        with pytest.raises(ValueError, match=rf"state\['{key}'\].*{why}"):
+            sim.set_state(bad)
+        after = sim.get_state()
+        for k in before:
+            if isinstance(before[k], np.ndarray):
+                assert np.array_equal(before[k], after[k]), k
+            else:
+                assert before[k] == after[k], k
