@@ -319,6 +319,11 @@ class Simulation:
 
     @threads.setter
     def threads(self, value: int) -> None:
+        value = plain(value)
+        if isinstance(value, float) and value.is_integer():
+            value = int(value)
+        if not isinstance(value, numbers.Integral):
+            raise ValueError(f"threads: expected a whole number, got {value!r}")
         self._threads = max(int(value), 1)
 
     def step(self, n: int = 1) -> None:

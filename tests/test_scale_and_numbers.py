@@ -583,3 +583,18 @@ def test_a_disc_at_the_speed_limit_at_the_largest_scale_is_the_one_at_unit_scale
     assert c0 > 500 and w0 > 500
     assert (c1, w1) == (c0, w0)
     np.testing.assert_allclose(p1, p0, rtol=0, atol=1e-9 * 10)
+
+
+@pytest.mark.parametrize("value", [math.inf, math.nan, 1.5, "2", None])
+def test_threads_refuses_what_is_not_a_whole_number(value):
+    sim = dg.Simulation("ideal_gas", seed=0)
+    with pytest.raises(ValueError, match="threads"):
+        sim.threads = value
+    assert sim.threads >= 1
+
+
+@pytest.mark.parametrize("value", [np.int64(2), np.int32(1), 2.0, 0])
+def test_threads_takes_whole_numbers_of_any_type(value):
+    sim = dg.Simulation("ideal_gas", seed=0)
+    sim.threads = value
+    assert sim.threads == max(int(value), 1) and type(sim.threads) is int
