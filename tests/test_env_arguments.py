@@ -126,6 +126,7 @@ def _check_refused(route, name, value, exc, starts):
     assert msg.startswith(starts), msg  # (make appends its own words after ours)
 
 
+@pytest.mark.filterwarnings("ignore:.*not in the possible render_modes:UserWarning")
 @pytest.mark.parametrize("route", ["env", "vector", "make", "make_vec"])
 @pytest.mark.parametrize("name, value, exc, starts", list(_cases(BAD)))
 def test_bad_argument_is_refused_at_construction_naming_it(route, name, value, exc, starts):
