@@ -31,17 +31,18 @@ the trajectory of a lone environment with the same seed and actions.
 from __future__ import annotations
 
 import math
+import numbers
+import os
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from functools import cached_property, partial
-from pathlib import Path
 
 import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
 from ._dtypes import FLOAT, INDEX
-from .compiled import P_MAXDISP, P_RMIN, CompiledScene, compile_scene
+from .compiled import P_MAXDISP, P_RMIN, CompiledScene, bounds_params, compile_scene
 from .kernels.batch import (
     O_BLOCKED,
     O_ENERGY_HEAT,
@@ -52,8 +53,8 @@ from .kernels.batch import (
     observe_batch,
 )
 from .kernels.step import MAX_SUBSTEPS, REORDER_EVERY
-from .scene import HEX_PACKING, Box, Circle, Combination, Exchange, Scene
-from .simulation import PLACEMENT_ATTEMPTS, Simulation, _as_scene
+from .scene import HEX_PACKING, Box, Circle, Combination, Exchange, Scene, SceneError
+from .simulation import PLACEMENT_ATTEMPTS, Simulation, _as_scene, _inside
 
 __all__ = [
     "DiscReactorEnv",
@@ -95,6 +96,24 @@ DEFAULTS = dict(
 OBS_ENERGY_MAX = 20.0  # per-species kT, mean internal energy, |total energy per disc|
 OBS_DISCS_MAX = 4.0  # discs now / discs at reset
 OBS_YIELD_MAX = 4.0  # product / limiting reactant at reset
+
+#: The kernels count steps (and discs) in int64.
+INT_MAX = 2**63 - 1
+INT_MAX_TEXT = "2**63 - 1"
+#: Whole numbers a float64 holds exactly (the kernel computes round(a * inject_max) in float64).
+FLOAT_EXACT = 2**53
+#: Largest ``render_size`` (the renderer's scratch is ~40 bytes a pixel: ~0.7 GB at 4096).
+MAX_RENDER_SIZE = 4096
+#: Initial contents covering more of the area than this are not reliably placed by random
+#: addition (its jamming limit for equal discs is 0.547); above it they must also fit the
+#: hexagonal lattice that ``Simulation`` falls back to.
+RANDOM_PLACEMENT_SHARE = 0.5
+_FLOAT32_MAX = float(np.finfo(np.float32).max)
+_COST_SCALE = 1e300  # a step's cost terms stay below this (a margin under the float range)
+# bytes per disc of capacity: the state arrays (52) and the stepper's scratch of a lone
+# Simulation (the single env), or the state arrays only (the vector env, per reactor)
+_SLOT_BYTES_SINGLE = 192
+SLOT_BYTES_BATCH = 64
 
 _ONE = np.ones(1, dtype=bool)  # the "active" mask of a batch of one reactor
 _NON_INTERACTIVE = {"agg", "cairo", "pdf", "pgf", "ps", "svg", "template"}
@@ -188,20 +207,19 @@ class ReactorConfig:
 
     @classmethod
     def from_kwargs(cls, **kw) -> ReactorConfig:
-        unknown = set(kw) - set(DEFAULTS)
-        if unknown:
-            raise TypeError(f"unknown argument(s) {sorted(unknown)}; allowed: "
-                            f"{sorted(DEFAULTS)}")
+        """Validate the keyword arguments of :data:`DEFAULTS` (the ranges are in the
+        docstring of :class:`DiscReactorEnv`, section Arguments): a bad one raises
+        ``TypeError`` (wrong type) or ``ValueError`` (out of range) naming it."""
+        check_keywords("ReactorConfig.from_kwargs", kw, DEFAULTS)
         o = dict(DEFAULTS)
         o.update(kw)
-        scene = o["scene"]
-        if isinstance(scene, Path):
-            scene = str(scene)
-        scene = _as_scene(scene)
+        scene = _scene(o["scene"])
         names = scene.species_names
         S = len(names)
 
         def index(what, nm):
+            if not isinstance(nm, str):
+                raise TypeError(f"{what}: expected a species name, got {nm!r}")
             if nm not in names:
                 raise ValueError(f"{what}: unknown species {nm!r} (scene has {names})")
             return names.index(nm)
@@ -221,59 +239,119 @@ class ReactorConfig:
                 raise ValueError("feed: the scene has no combination or exchange reaction; "
                                  "name the feed species")
             feed = first.reactants
-        if isinstance(feed, str):
+        elif isinstance(feed, str):
             feed = (feed,)
+        elif isinstance(feed, (list, tuple)) or (isinstance(feed, np.ndarray) and
+                                                 feed.ndim == 1):
+            feed = tuple(feed)
+        else:
+            raise TypeError(f"feed: expected a species name or a list of them, got {feed!r}")
+        if not feed:
+            raise ValueError("feed: need at least one feed species (the reward is divided by "
+                             "the initial count of the limiting one)")
         feed = tuple(index("feed", f) for f in feed)
         if len(set(feed)) != len(feed):
             raise ValueError(f"feed: species repeated in {o['feed']!r}")
 
+        cj = _real(o["count_jitter"], "count_jitter", 0.0, 1.0, hi_open=True)
+        tj = _real(o["temperature_jitter"], "temperature_jitter", 0.0, 1.0, hi_open=True)
         template = np.array([scene.counts.get(nm, 0) for nm in names], dtype=np.int64)
+        if template.sum() == 0:
+            raise ValueError("scene: the scene has no initial contents (counts; n_discs "
+                             "only rescales them)")
         n_discs = o["n_discs"]
         if n_discs is not None:
-            if isinstance(n_discs, bool) or int(n_discs) != n_discs or n_discs < 1:
-                raise ValueError(f"n_discs: need a whole number >= 1, got {n_discs!r}")
+            n_discs = _whole(n_discs, "n_discs", 1)
+            # (before the float arithmetic of the rescaling: no more than the densest packing
+            # of the smallest discs present could hold)
+            r_small = min(scene.species[k].radius for k in range(S) if template[k])
+            if n_discs > HEX_PACKING * scene.bounds.area / (math.pi * r_small * r_small):
+                raise ValueError(
+                    f"n_discs: {n_discs} discs cannot fit in the scene's bounds "
+                    f"{scene.bounds} (more than the densest packing of its smallest discs)")
+            template = np.round(template * (n_discs / template.sum())).astype(np.int64)
             if template.sum() == 0:
-                raise ValueError("n_discs: the scene has no initial counts to scale")
-            template = np.round(template * (int(n_discs) / template.sum())).astype(np.int64)
-        if template.sum() == 0:
-            raise ValueError("the scene has no initial contents (counts)")
+                raise ValueError(f"n_discs: {n_discs} disc(s) spread over the scene's counts "
+                                 f"{dict(scene.counts)} round to none")
+        # the largest contents a reset can draw must fit (the placement of Simulation)
+        most = [int(math.floor(t * (1.0 + cj) + 0.5)) for t in template]
+        _check_placeable(scene, most, "n_discs" if n_discs is not None else "count_jitter")
 
         episode_steps = _whole(o["episode_steps"], "episode_steps", 1)
-        step_time = _pos_float(o["step_time"], "step_time")
-        spa = int(round(step_time / scene.dt))
-        if spa < 1 or abs(spa * scene.dt - step_time) > 1e-9 * step_time:
-            raise ValueError(f"step_time: {step_time} must be a whole number of the scene's "
-                             f"time step dt = {scene.dt}")
-        heat_rate = _pos_float(o["heat_rate"], "heat_rate")
-        if heat_rate < 1.0:
-            raise ValueError(f"heat_rate: must be >= 1 (the kinetic-energy factor at action "
-                             f"+1), got {heat_rate}")
-        t_min, t_max = _range(o["temperature_range"], "temperature_range")
-        size_min, size_max = _range(o["size_range"], "size_range")
-        wall_speed = _nonneg_float(o["wall_speed"], "wall_speed")
-        inject_max = _whole(o["inject_max"], "inject_max", 0)
-        cj = _nonneg_float(o["count_jitter"], "count_jitter")
-        tj = _nonneg_float(o["temperature_jitter"], "temperature_jitter")
-        if cj >= 1.0 or tj >= 1.0:
-            raise ValueError("count_jitter and temperature_jitter must be < 1")
+        spa = _steps_per_action(o["step_time"], scene.dt)
+        if spa > INT_MAX // episode_steps:
+            raise ValueError(
+                f"episode_steps, step_time: an episode of {episode_steps} steps of {spa} x dt "
+                f"is more steps than the simulation's step counter holds ({INT_MAX_TEXT}); at "
+                f"this step_time, episode_steps <= {INT_MAX // spa}")
+        heat_rate = _real(o["heat_rate"], "heat_rate", 1.0,
+                          why="the kinetic-energy factor at action +1")
+        t_min, t_max = _pair(o["temperature_range"], "temperature_range")
+        size_min, size_max = _pair(o["size_range"], "size_range")
+        if not size_min <= 1.0 <= size_max:
+            raise ValueError(f"size_range: must contain 1 (the scene's size, at which every "
+                             f"episode starts), got {o['size_range']!r}")
+        if size_max > _FLOAT32_MAX:
+            raise ValueError(f"size_range: the high end {size_max} is beyond float32 (the "
+                             "observation's dtype)")
+        for s in (size_min, size_max):
+            try:
+                b = _bounds_of(scene, s)
+            except SceneError as e:
+                raise ValueError(f"size_range: the reactor at size {s} is not valid bounds: "
+                                 f"{e}") from None
+            if not math.isfinite(b.area):
+                raise ValueError(f"size_range: the reactor at size {s} has an infinite area")
+        wall_speed = _real(o["wall_speed"], "wall_speed", 0.0)
+        inject_max = _whole(o["inject_max"], "inject_max", 0, FLOAT_EXACT,
+                            "2**53: round(a * inject_max) is computed in float64")
         budget = o["feed_budget"]
+        mass = [sp.mass for sp in scene.species]
         if budget is None:
             mean = template.sum() / max(S, 1)
-            budget = [int(math.ceil(0.25 * (template[f] if template[f] else mean)))
-                      for f in feed]
-        elif np.ndim(budget) == 0:
-            budget = [budget] * len(feed)
-        if len(budget) != len(feed):
-            raise ValueError(f"feed_budget: need one budget per feed species ({len(feed)}), "
-                             f"got {budget!r}")
-        feed_budget = np.array([_whole(b, "feed_budget", 0) for b in budget], dtype=np.int64)
+            feed_budget = np.array([int(math.ceil(0.25 * (template[f] if template[f]
+                                                          else mean))) for f in feed],
+                                   dtype=np.int64)
+        else:
+            if isinstance(budget, (list, tuple)) or (isinstance(budget, np.ndarray) and
+                                                     budget.ndim == 1):
+                budget = list(budget)
+                if len(budget) != len(feed):
+                    raise ValueError(f"feed_budget: need one budget per feed species "
+                                     f"({len(feed)}), got {o['feed_budget']!r}")
+            elif isinstance(budget, np.ndarray) and budget.ndim > 1:
+                raise ValueError(f"feed_budget: need a number or one per feed species "
+                                 f"({len(feed)}), got an array of shape {budget.shape}")
+            else:
+                budget = [budget] * len(feed)
+            # a reactor can never hold more mass than discs of the densest mass per area
+            # covering its largest area: a budget beyond that could never be injected
+            m_cap = _bounds_of(scene, size_max).area * max(
+                sp.mass / (math.pi * sp.radius * sp.radius) for sp in scene.species)
+            feed_budget = np.array(
+                [_whole(b, "feed_budget", 0, int(m_cap / mass[f]),
+                        f"more discs of {names[f]} than the reactor can ever hold (its "
+                        f"largest area, size {size_max}, filled at the densest mass per area)")
+                 for b, f in zip(budget, feed)], dtype=np.int64)
         # the most discs a reactor can ever hold: reactions conserve mass, so at most the
         # largest initial contents plus every feed budget, all split into the lightest species
-        mass = [sp.mass for sp in scene.species]
-        most = [int(math.floor(t * (1.0 + cj) + 0.5)) for t in template]
         total_mass = sum(c * m for c, m in zip(most, mass)) + \
             sum(int(b) * mass[f] for b, f in zip(feed_budget, feed))
         max_discs = _most_discs(total_mass, min(mass))
+        capacity = 2 * max_discs + 16
+        _check_memory(capacity * _SLOT_BYTES_SINGLE, "n_discs, feed_budget",
+                      f"a reactor's capacity plan of {capacity} discs")
+        # costs: a step's cost must stay finite (energies bounded by the speed limit, a
+        # disc's chemistry, the capacity; injections by inject_max)
+        cs = compile_scene(scene)
+        v_lim = MAX_SUBSTEPS * cs.params[P_MAXDISP] * cs.params[P_RMIN] / scene.dt
+        e_disc = max(mass) * v_lim * v_lim + 2.0 * max(
+            abs(sp.formation_energy) for sp in scene.species) + 1.0
+        why = "a larger cost could make a step's reward overflow"
+        heat_cost = _real(o["heat_cost"], "heat_cost", 0.0, _COST_SCALE / (capacity * e_disc),
+                          why=why)
+        feed_cost = _real(o["feed_cost"], "feed_cost", 0.0,
+                          _COST_SCALE / (len(feed) * max(inject_max, 1)), why=why)
 
         obs_names, lo, hi = [], [], []
 
@@ -300,11 +378,10 @@ class ReactorConfig:
             steps_per_action=spa, heat_rate=heat_rate, t_min=t_min, t_max=t_max,
             size_min=size_min, size_max=size_max, wall_speed=wall_speed, feed=feed,
             inject_max=inject_max, feed_budget=feed_budget, product=product,
-            count_jitter=cj, temperature_jitter=tj,
-            heat_cost=_nonneg_float(o["heat_cost"], "heat_cost"),
-            feed_cost=_nonneg_float(o["feed_cost"], "feed_cost"), max_discs=max_discs,
-            obs_names=tuple(obs_names), obs_low=np.array(lo, dtype=np.float32),
-            obs_high=np.array(hi, dtype=np.float32), compiled=compile_scene(scene))
+            count_jitter=cj, temperature_jitter=tj, heat_cost=heat_cost, feed_cost=feed_cost,
+            max_discs=max_discs, obs_names=tuple(obs_names),
+            obs_low=np.array(lo, dtype=np.float32), obs_high=np.array(hi, dtype=np.float32),
+            compiled=cs)
 
     # ---------------------------------------------------------------- spaces
     def observation_space(self) -> spaces.Box:
@@ -352,10 +429,7 @@ class ReactorConfig:
         return bounds.radius / ref.radius
 
     def bounds_of(self, size: float):
-        ref = self.scene.bounds
-        if isinstance(ref, Box):
-            return Box(ref.width * size, ref.height, ref.origin)
-        return Circle(ref.radius * size, ref.center)
+        return _bounds_of(self.scene, size)
 
 
 def _most_discs(mass: float, lightest: float) -> int:
@@ -363,38 +437,178 @@ def _most_discs(mass: float, lightest: float) -> int:
     return int(math.floor(mass / lightest * (1.0 + 1e-12)))
 
 
-def _whole(v, name, lo):
-    if isinstance(v, bool) or not isinstance(v, (int, np.integer, float)) or int(v) != v \
-            or v < lo:
-        raise ValueError(f"{name}: need a whole number >= {lo}, got {v!r}")
-    return int(v)
+def check_keywords(owner: str, kw, allowed) -> None:
+    """Refuse an unknown keyword argument with Python's own wording (which TorchRL and
+    others recognise): ``DiscReactorEnv.__init__() got an unexpected keyword argument
+    'frameskip'``."""
+    for k in kw:
+        if k not in allowed:
+            raise TypeError(f"{owner}() got an unexpected keyword argument {k!r}")
 
 
-def _pos_float(v, name):
-    v = _nonneg_float(v, name)
-    if v <= 0:
-        raise ValueError(f"{name}: must be > 0, got {v}")
+def _number(v, name: str, what: str = "a number"):
+    """``v`` if it is a real number (Python or numpy, or a 0-d array of one; not a bool),
+    else ``TypeError`` naming ``name``."""
+    if isinstance(v, np.ndarray) and v.ndim == 0:
+        v = v[()]
+    if isinstance(v, (bool, np.bool_)) or not isinstance(v, numbers.Real):
+        raise TypeError(f"{name}: expected {what}, got {v!r} ({type(v).__name__})")
     return v
 
 
-def _nonneg_float(v, name):
+def _int_text(k: int) -> str:
+    return INT_MAX_TEXT if k == INT_MAX else str(k)
+
+
+def _whole(v, name: str, lo: int, hi: int = INT_MAX, why: str = "") -> int:
+    """``v`` as an int in [lo, hi]: an integer or an integral float (numpy too)."""
+    v = _number(v, name, "a whole number")
+    if isinstance(v, numbers.Integral):
+        k = int(v)
+    else:
+        f = float(v)
+        if not math.isfinite(f) or not f.is_integer():
+            raise ValueError(f"{name}: need a finite whole number, got {v!r}")
+        k = int(f)
+    if not lo <= k <= hi:
+        more = f" ({why})" if why and k > hi else ""
+        raise ValueError(f"{name}: need a whole number in [{lo}, {_int_text(hi)}], got "
+                         f"{v!r}{more}")
+    return k
+
+
+def _real(v, name: str, lo: float = -math.inf, hi: float = math.inf, *,
+          hi_open: bool = False, why: str = "") -> float:
+    """``v`` as a finite float in [lo, hi] (or [lo, hi) with ``hi_open``)."""
+    v = _number(v, name)
     try:
         f = float(v)
-    except (TypeError, ValueError):
-        raise ValueError(f"{name}: expected a number, got {v!r}") from None
-    if not math.isfinite(f) or f < 0:
-        raise ValueError(f"{name}: need a finite number >= 0, got {v!r}")
+    except OverflowError:  # (an int beyond the float range)
+        f = math.inf
+    if not math.isfinite(f):
+        raise ValueError(f"{name}: need a finite number, got {v!r}")
+    if f < lo or f > hi or (hi_open and f == hi):
+        rng = f"[{lo:g}, {hi:g}{')' if hi_open else ']'}" if hi < math.inf else f">= {lo:g}"
+        raise ValueError(f"{name}: need a number {'in ' if hi < math.inf else ''}{rng}, got "
+                         f"{v!r}{f' ({why})' if why else ''}")
     return f
 
 
-def _range(v, name):
-    try:
-        lo, hi = (float(x) for x in v)
-    except (TypeError, ValueError):
-        raise ValueError(f"{name}: expected (low, high), got {v!r}") from None
-    if not (math.isfinite(lo) and math.isfinite(hi) and 0 < lo <= hi):
-        raise ValueError(f"{name}: need finite 0 < low <= high, got {v!r}")
+def _pair(v, name: str) -> tuple[float, float]:
+    """``(low, high)``, finite, 0 < low <= high, from a list, tuple or 1-d array of two."""
+    if isinstance(v, np.ndarray) and v.ndim == 1 or isinstance(v, (list, tuple)):
+        items = list(v)
+    else:
+        raise TypeError(f"{name}: expected a (low, high) pair, got {v!r}")
+    if len(items) != 2:
+        raise ValueError(f"{name}: expected a (low, high) pair, got {len(items)} values {v!r}")
+    lo = _real(items[0], f"{name}[0]")
+    hi = _real(items[1], f"{name}[1]")
+    if not 0 < lo <= hi:
+        raise ValueError(f"{name}: need 0 < low <= high, got {v!r}")
     return lo, hi
+
+
+def _scene(scene) -> Scene:
+    if isinstance(scene, os.PathLike):
+        scene = os.fspath(scene)
+    if not isinstance(scene, (Scene, str)):
+        raise TypeError(f"scene: expected a Scene, a built-in scene name or a TOML path, got "
+                        f"{scene!r}")
+    try:
+        return _as_scene(scene)
+    except OSError as e:
+        raise type(e)(f"scene: cannot read {scene!r}: {e.strerror or e}") from None
+
+
+def _steps_per_action(v, dt: float) -> int:
+    """``step_time`` as a whole number of steps of the scene's ``dt`` (at most the
+    simulation's int64 step counter); a float32 or float16 is taken at its own precision."""
+    raw = _number(v, "step_time")
+    step_time = _real(raw, "step_time", 0.0)
+    if step_time <= 0.0:
+        raise ValueError(f"step_time: must be > 0, got {v!r}")
+    q = step_time / dt
+    if not q < INT_MAX:  # (inf too)
+        raise ValueError(f"step_time: {step_time} is {q:.3g} steps of the scene's dt = {dt}, "
+                         f"more than the simulation's step counter holds ({INT_MAX_TEXT})")
+    spa = int(round(q))
+    exact = abs(spa * dt - step_time) <= 1e-9 * step_time
+    if not exact and isinstance(raw, np.floating) and np.finfo(raw.dtype).eps > 1e-9:
+        exact = raw.dtype.type(spa * dt) == raw
+    if spa < 1 or not exact:
+        raise ValueError(f"step_time: {step_time} must be a whole number of the scene's "
+                         f"time step dt = {dt}")
+    return spa
+
+
+def _bounds_of(scene: Scene, size: float):
+    """The scene's bounds at ``size`` (box: the width scales, origin kept; circle: the
+    radius)."""
+    ref = scene.bounds
+    if isinstance(ref, Box):
+        return Box(ref.width * size, ref.height, ref.origin)
+    return Circle(ref.radius * size, ref.center)
+
+
+def lattice_sites(bounds, radius: float) -> int:
+    """How many discs of ``radius`` the hexagonal lattice of ``Simulation``'s dense
+    placement (``Simulation._place_lattice``: spacing one diameter, rows from the lower left
+    corner) puts inside ``bounds``."""
+    r = float(radius)
+    a = 2.0 * r * (1.0 + 1e-9)
+    x0, y0, x1, y1 = bounds.extent
+    xs = np.arange(x0 + r, x1 - r + 1e-12, a)
+    ys = np.arange(y0 + r, y1 - r + 1e-12, a * math.sqrt(3) / 2)
+    shift = np.where(np.arange(len(ys)) % 2 == 1, 0.5 * a, 0.0)
+    sites = np.empty((len(ys), len(xs), 2))
+    sites[:, :, 0] = xs[None, :] + shift[:, None]
+    sites[:, :, 1] = ys[:, None]
+    sites = sites.reshape(-1, 2)
+    bkind, bp = bounds_params(bounds)
+    return int(_inside(sites, np.full(len(sites), r), bkind, bp).sum())
+
+
+def _check_placeable(scene: Scene, most: list, name: str) -> None:
+    """Refuse contents (the most of each species a reset can draw) that ``Simulation``
+    cannot place in the scene's bounds: more area than the densest packing holds, or, when
+    they cover more than RANDOM_PLACEMENT_SHARE of the area (where random addition is no
+    longer reliable), more discs than the sites of the hexagonal lattice it falls back to."""
+    sp = scene.species
+    area = sum(math.pi * sp[k].radius * sp[k].radius * c for k, c in enumerate(most))
+    total = sum(most)
+    bounds = scene.bounds
+    what = (f"up to {total} discs ({'n_discs' if name == 'n_discs' else 'the scene counts'}"
+            f" x (1 + count_jitter), rounded)")
+    if area > HEX_PACKING * bounds.area:
+        raise ValueError(f"{name}: {what} cannot fit in {bounds}: they cover {area:.4g}, more "
+                         f"than the densest packing ({HEX_PACKING:.4f}) of its area "
+                         f"{bounds.area:.4g}; lower n_discs or count_jitter")
+    if area > RANDOM_PLACEMENT_SHARE * bounds.area:
+        r = max(sp[k].radius for k, c in enumerate(most) if c)
+        sites = lattice_sites(bounds, r)
+        if total > sites:
+            raise ValueError(
+                f"{name}: {what} cannot be placed in {bounds}: they cover "
+                f"{area / bounds.area:.3f} of its area (random placement is unreliable above "
+                f"{RANDOM_PLACEMENT_SHARE}) and the hexagonal lattice the placement falls "
+                f"back to has {sites} sites; lower n_discs or count_jitter")
+
+
+def _physical_memory() -> int | None:
+    try:
+        return os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+    except (AttributeError, ValueError, OSError):
+        return None
+
+
+def _check_memory(need: int, name: str, what: str) -> None:
+    """Refuse state that could not fit in this machine's memory (instead of a MemoryError, or
+    the OOM killer on first touch, at reset)."""
+    have = _physical_memory()
+    if have is not None and need > have:
+        raise ValueError(f"{name}: {what} needs about {need / 2**30:.3g} GiB, more than this "
+                         f"machine's memory ({have / 2**30:.3g} GiB)")
 
 
 # --------------------------------------------------------------------------------------------
@@ -424,12 +638,36 @@ def check_status(cfg: ReactorConfig, iout: np.ndarray, active: np.ndarray) -> No
                            "plan")
 
 
-def check_action_shape(cfg: ReactorConfig, shape: tuple, batch: int | None = None) -> None:
+_REAL_KINDS = frozenset("biuf")  # numpy dtype kinds of actions: bool, integers, floats
+
+
+def as_actions(cfg: ReactorConfig, action, batch: int | None = None) -> np.ndarray:
+    """``action`` as a float64 array of shape (A,), or (batch, A) for a batch (an array,
+    or a list of per-reactor actions): exactly that shape, never reshaped; real numbers only
+    (bool, integer or float dtypes). Anything else raises (``ValueError`` naming the expected
+    and the received shape, ``TypeError`` naming the dtype) before anything is stepped."""
+    what = "action" if batch is None else "actions"
+    try:
+        a = np.asarray(action)
+    except ValueError as e:  # (ragged nested lists)
+        raise ValueError(f"{what}: not an array of one shape ({e})") from None
     A = 2 + len(cfg.feed)
     want = (A,) if batch is None else (batch, A)
-    if tuple(shape) != want:
-        raise ValueError(f"action: expected shape {want} (heat, wall, one injection per feed "
-                         f"species), got {tuple(shape)}")
+    if a.shape != want:
+        raise ValueError(f"{what}: expected shape {want} ({'' if batch is None else 'num_envs, '}"
+                         f"heat, wall, one injection per feed species), got {a.shape}")
+    if a.dtype.kind not in _REAL_KINDS:
+        raise TypeError(f"{what}: expected real numbers, got an array of dtype {a.dtype}")
+    return np.ascontiguousarray(a, dtype=FLOAT)
+
+
+def check_render_mode(render_mode, modes) -> None:
+    if render_mode is None:
+        return
+    if not isinstance(render_mode, str):
+        raise TypeError(f"render_mode: expected one of {modes} or None, got {render_mode!r}")
+    if render_mode not in modes:
+        raise ValueError(f"render_mode: expected one of {modes} or None, got {render_mode!r}")
 
 
 # --------------------------------------------------------------------------------------------
@@ -454,7 +692,11 @@ class DiscReactorEnv(gym.Env):
     of the scene's, approached by at most ``wall_speed`` per step), then one injection
     component per feed species (``round(a * inject_max)`` discs for a > 0, within the
     episode's ``feed_budget``). NaN or infinite components do nothing (counted in
-    ``info["invalid_action"]``); finite values outside [-1, 1] are clipped.
+    ``info["invalid_action"]``); finite values outside [-1, 1] are clipped. ``step`` takes an
+    array (or list) of exactly that shape, of real numbers (bool, integer or float dtypes,
+    converted to float64); any other shape (a scalar, (1, 2 + F), ...) raises ``ValueError``
+    naming the expected and the received shape, any other dtype (complex, str, object)
+    ``TypeError``, before anything is stepped.
 
     ## Observation Space
     ``Box(low, high, (3 S + 5 + F,), float32)``, every slot clipped to finite bounds: the
@@ -477,12 +719,49 @@ class DiscReactorEnv(gym.Env):
     ``step_time`` (0.5) each.
 
     ## Arguments
-    All optional, shown in ``env.spec.kwargs`` when given to ``gymnasium.make``: ``scene`` (a
-    built-in name, a TOML path or a :class:`~discgym.Scene`), ``n_discs``, ``episode_steps``,
-    ``step_time``, ``heat_rate``, ``temperature_range``, ``size_range``, ``wall_speed``,
-    ``feed``, ``inject_max``, ``feed_budget``, ``product``, ``count_jitter``,
-    ``temperature_jitter``, ``heat_cost``, ``feed_cost`` (defaults: :data:`DEFAULTS`),
-    ``render_mode`` ("rgb_array" or "human") and ``render_size`` (pixels).
+    All optional, shown in ``env.spec.kwargs`` when given to ``gymnasium.make`` (defaults:
+    :data:`DEFAULTS`). Each is checked at construction: a wrong type raises ``TypeError``, a
+    value out of its range ``ValueError``, both naming the argument; an unknown keyword
+    raises Python's own ``TypeError: DiscReactorEnv.__init__() got an unexpected keyword
+    argument 'x'``. Numbers may be Python or numpy scalars (``np.int64``, ``np.float32``:
+    taken as the numbers they are); bools are refused where a number is expected; whole
+    numbers may be given as integral floats (``40.0``); pairs and lists may be lists, tuples
+    or 1-d arrays. The ranges:
+
+    - ``scene``: a built-in name, a TOML path (``str`` or ``os.PathLike``) or a
+      :class:`~discgym.Scene` with initial ``counts``.
+    - ``n_discs``: None or a whole number >= 1; the largest contents a reset can draw
+      (each species' share of ``n_discs`` x (1 + ``count_jitter``), rounded) must fit the
+      scene's bounds: no more area than the densest packing (0.9069) and, if they cover more
+      than half the area (random placement is unreliable there), no more discs than the
+      hexagonal lattice ``Simulation`` falls back to has sites (986 for the default scene:
+      ``n_discs`` <= 897 at ``count_jitter`` 0.1). The same holds for the scene's own counts
+      when ``n_discs`` is None.
+    - ``episode_steps``: whole, >= 1, and ``episode_steps x step_time / dt`` <= 2**63 - 1
+      (the simulation's int64 step counter).
+    - ``step_time``: finite, > 0, a whole number (>= 1) of the scene's ``dt`` within 1e-9
+      relative (a float32 or float16 at its own precision: ``np.float32(0.1)`` is 2 x 0.05),
+      at most 2**63 - 1 steps of ``dt``.
+    - ``heat_rate``: finite, >= 1.
+    - ``temperature_range``: (low, high), finite, 0 < low <= high.
+    - ``size_range``: (low, high), finite, 0 < low <= 1 <= high (every episode starts at the
+      scene's size, 1), high within float32 (the observation's dtype), and the bounds at both
+      ends valid bounds of finite area (e.g. a circle's centre within 1e6 diameters).
+    - ``wall_speed``: finite, >= 0 (0: the wall never moves).
+    - ``feed``: None, a species name, or a non-empty list of distinct species names.
+    - ``inject_max``: whole, 0 <= ``inject_max`` <= 2**53.
+    - ``feed_budget``: None, a whole number >= 0 for every feed species, or one per feed
+      species; each at most the discs of that species whose mass the reactor could ever hold
+      (its area at ``size_range``'s high end filled at the scene's densest mass per area:
+      1898 for A and B in the default scene).
+    - ``product``: None or a species name.
+    - ``count_jitter``, ``temperature_jitter``: finite, 0 <= x < 1.
+    - ``heat_cost``, ``feed_cost``: finite, >= 0, and small enough that no step's cost can
+      overflow (about 7e285 and 1.25e299 for the default scene).
+    - ``render_mode``: None, "rgb_array" or "human"; ``render_size``: whole pixels,
+      1 <= ``render_size`` <= 4096.
+
+    The state a reactor's capacity plan needs must fit in the machine's memory.
 
     ``env.unwrapped.simulation`` is the underlying :class:`~discgym.Simulation`.
     """
@@ -490,12 +769,11 @@ class DiscReactorEnv(gym.Env):
     metadata = {"render_modes": ["human", "rgb_array"], "render_fps": 10}
 
     def __init__(self, render_mode: str | None = None, render_size: int = 400, **kwargs):
+        check_keywords("DiscReactorEnv.__init__", kwargs, DEFAULTS)
+        check_render_mode(render_mode, self.metadata["render_modes"])
+        self.render_size = _whole(render_size, "render_size", 1, MAX_RENDER_SIZE)
         self.config = cfg = ReactorConfig.from_kwargs(**kwargs)
-        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
-            raise ValueError(f"render_mode: expected one of {self.metadata['render_modes']} "
-                             f"or None, got {render_mode!r}")
         self.render_mode = render_mode
-        self.render_size = int(render_size)
         if render_mode == "human":
             _need_matplotlib()
         self.observation_space = cfg.observation_space()
@@ -558,12 +836,11 @@ class DiscReactorEnv(gym.Env):
             raise gym.error.ResetNeeded("call reset() before step()")
         cfg = self.config
         act = self._act
-        if type(action) is np.ndarray and action.shape == self._ashape:
+        if type(action) is np.ndarray and action.shape == self._ashape and \
+                action.dtype.kind in _REAL_KINDS:
             act[0] = action
         else:
-            a = np.asarray(action, dtype=FLOAT)
-            check_action_shape(cfg, a.shape)
-            act[0] = a
+            act[0] = as_actions(cfg, action)
         bound = self._bound
         if sim._pos is not bound[0] or sim._vel is not bound[1] or sim._spc is not bound[2] \
                 or sim._uint is not bound[3] or sim._ids is not bound[4] \

@@ -23,6 +23,7 @@ from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
+from gymnasium.vector import AutoresetMode
 
 try:
     from stable_baselines3.common.vec_env.base_vec_env import VecEnv
@@ -41,18 +42,22 @@ class DiscReactorSB3VecEnv(VecEnv):
 
     Keyword arguments go to :class:`~discgym.vector.DiscReactorVectorEnv` (and from there to
     :class:`~discgym.env.DiscReactorEnv`), e.g. ``episode_steps``, ``threads``,
-    ``render_mode="rgb_array"``.
+    ``render_mode="rgb_array"``, with their ranges; ``autoreset_mode`` may only be
+    "SameStep" (SB3's convention). Actions: (``num_envs``, 2 + F), as SB3 passes them.
     """
 
     def __init__(self, num_envs: int = 8, **kwargs):
-        kwargs.pop("autoreset_mode", None)
+        mode = kwargs.pop("autoreset_mode", AutoresetMode.SAME_STEP)
+        if mode not in (AutoresetMode.SAME_STEP, AutoresetMode.SAME_STEP.value):
+            raise ValueError(f"autoreset_mode: SB3's VecEnv resets a finished reactor in the "
+                             f"same step (\"SameStep\", the only mode here), got {mode!r}")
         self.venv = DiscReactorVectorEnv(num_envs=num_envs, autoreset_mode="SameStep",
                                          **kwargs)
         self.render_mode = self.venv.render_mode
-        super().__init__(num_envs, self.venv.single_observation_space,
-                         self.venv.single_action_space)
+        n = self.venv.num_envs  # (validated: a Python int)
+        super().__init__(n, self.venv.single_observation_space, self.venv.single_action_space)
         self._actions = None
-        self.reset_infos = [{} for _ in range(num_envs)]
+        self.reset_infos = [{} for _ in range(n)]
 
     # ------------------------------------------------------------------ core API
     def reset(self) -> np.ndarray:
@@ -70,8 +75,8 @@ class DiscReactorSB3VecEnv(VecEnv):
     def step_wait(self):
         if self._actions is None:
             raise RuntimeError("step_wait() without step_async()")
-        obs, rew, terminated, truncated, info = self.venv.step(self._actions)
-        self._actions = None
+        actions, self._actions = self._actions, None  # (consumed even if refused)
+        obs, rew, terminated, truncated, info = self.venv.step(actions)
         dones = terminated | truncated
         src = info.get("final_info", info)
         infos = []

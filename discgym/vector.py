@@ -44,7 +44,19 @@ from gymnasium.vector.utils import batch_space
 from numba import typed
 
 from ._dtypes import COUNT, FLOAT, INDEX
-from .env import ReactorConfig, check_action_shape, check_status, observe
+from .env import (
+    DEFAULTS,
+    MAX_RENDER_SIZE,
+    SLOT_BYTES_BATCH,
+    ReactorConfig,
+    _check_memory,
+    _whole,
+    as_actions,
+    check_keywords,
+    check_render_mode,
+    check_status,
+    observe,
+)
 from .kernels import step as _step
 from .kernels.batch import (
     O_BLOCKED,
@@ -69,10 +81,30 @@ class DiscReactorVectorEnv(VectorEnv):
     parallel over reactors (on numba's threads; ``threads`` sets how many, default: numba's
     current setting).
 
-    Takes the keyword arguments of :class:`~discgym.env.DiscReactorEnv` (except
-    ``render_mode="human"``) plus ``num_envs``, ``autoreset_mode`` and ``threads``;
-    ``max_episode_steps`` (passed by ``gymnasium.make_vec`` from the registration) caps the
-    episode length like the ``TimeLimit`` wrapper of ``gymnasium.make`` does.
+    Arguments: the keyword arguments of :class:`~discgym.env.DiscReactorEnv`, with the same
+    ranges (its docstring, section Arguments; ``render_mode`` "rgb_array" or None only,
+    ``render_size`` default 200), plus
+
+    - ``num_envs``: whole, >= 1 (numpy integers accepted, bools refused); the reactors' state
+      (``num_envs`` x capacity x 64 bytes) must fit in the machine's memory;
+    - ``max_episode_steps``: None or whole, >= 1 (``gymnasium.make_vec`` passes the
+      registration's 100): caps the episode length like the ``TimeLimit`` wrapper of
+      ``gymnasium.make`` does; it is the episode length if ``episode_steps`` is not given
+      (then with the range of ``episode_steps``);
+    - ``autoreset_mode``: an ``AutoresetMode`` or its value ("NextStep", "SameStep",
+      "Disabled");
+    - ``threads``: None (numba's current setting) or whole, >= 1; more than numba's
+      ``NUMBA_NUM_THREADS`` uses all of them.
+
+    Each is checked at construction (``TypeError`` for a wrong type, ``ValueError`` out of
+    range, naming it); an unknown keyword raises ``TypeError:
+    DiscReactorVectorEnv.__init__() got an unexpected keyword argument 'x'``.
+
+    ``step(actions)`` takes exactly (``num_envs``, 2 + F): an array, or a list of
+    ``num_envs`` per-reactor actions, of real numbers (bool, integer or float dtypes). Any
+    other shape ((2 + F, ``num_envs``), flat, (1, ``num_envs`` (2 + F)), ...) raises
+    ``ValueError`` naming the expected and the received shape, any other dtype ``TypeError``,
+    before any reactor is stepped or reset (never reshaped).
 
     ``reset(seed=s)`` seeds reactor i with ``s + i`` (a list gives one seed per reactor).
     """
@@ -83,23 +115,32 @@ class DiscReactorVectorEnv(VectorEnv):
     def __init__(self, num_envs: int = 1, *, max_episode_steps: int | None = None,
                  autoreset_mode=AutoresetMode.NEXT_STEP, threads: int | None = None,
                  render_mode: str | None = None, render_size: int = 200, **kwargs):
-        if isinstance(num_envs, bool) or int(num_envs) != num_envs or num_envs < 1:
-            raise ValueError(f"num_envs: need a whole number >= 1, got {num_envs!r}")
+        check_keywords("DiscReactorVectorEnv.__init__", kwargs, DEFAULTS)
+        R = _whole(num_envs, "num_envs", 1)
+        if max_episode_steps is not None:
+            max_episode_steps = _whole(max_episode_steps, "max_episode_steps", 1)
+        self.autoreset_mode = _autoreset_mode(autoreset_mode)
+        check_render_mode(render_mode, self.metadata["render_modes"])
+        self.render_size = _whole(render_size, "render_size", 1, MAX_RENDER_SIZE)
+        self.threads = None if threads is None else _whole(threads, "threads", 1)
         if max_episode_steps is not None and "episode_steps" not in kwargs:
             kwargs["episode_steps"] = max_episode_steps
-        self.config = cfg = ReactorConfig.from_kwargs(**kwargs)
+            try:
+                self.config = cfg = ReactorConfig.from_kwargs(**kwargs)
+            except ValueError as e:
+                if not str(e).startswith("episode_steps"):
+                    raise
+                raise ValueError(f"{e} (episode_steps is max_episode_steps here, "
+                                 f"{max_episode_steps}, as it is not given)") from None
+        else:
+            self.config = cfg = ReactorConfig.from_kwargs(**kwargs)
+        _check_memory(R * (cfg.capacity * SLOT_BYTES_BATCH + 4096), "num_envs",
+                      f"{R} reactors of capacity {cfg.capacity} discs")
         self.limit = cfg.episode_steps if max_episode_steps is None else \
-            min(int(max_episode_steps), cfg.episode_steps)
-        self.autoreset_mode = autoreset_mode if isinstance(autoreset_mode, AutoresetMode) \
-            else AutoresetMode(autoreset_mode)
+            min(max_episode_steps, cfg.episode_steps)
         self.metadata = dict(self.metadata, autoreset_mode=self.autoreset_mode)
-        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
-            raise ValueError(f"render_mode: the vector env renders 'rgb_array' only, got "
-                             f"{render_mode!r}")
         self.render_mode = render_mode
-        self.render_size = int(render_size)
-        self.threads = None if threads is None else max(int(threads), 1)
-        self.num_envs = R = int(num_envs)
+        self.num_envs = R
         self.single_observation_space = cfg.observation_space()
         self.single_action_space = cfg.action_space()
         self.observation_space = batch_space(self.single_observation_space, R)
@@ -229,12 +270,7 @@ class DiscReactorVectorEnv(VectorEnv):
             raise error.ResetNeeded("call reset() before step()")
         cfg = self.config
         R = self.num_envs
-        act = np.asarray(actions, dtype=FLOAT)
-        if act.shape != (R, 2 + len(cfg.feed)):
-            if act.size and act.size % R == 0:
-                act = act.reshape(R, -1)
-            check_action_shape(cfg, act.shape, R)  # raises unless (R, A)
-        act = np.ascontiguousarray(act)
+        act = as_actions(cfg, actions, R)
         F = len(cfg.feed)
         if self.autoreset_mode == AutoresetMode.NEXT_STEP:
             resetting = self._autoreset.copy()
@@ -421,6 +457,19 @@ class DiscReactorVectorEnv(VectorEnv):
 
     def close_extras(self, **kwargs):
         pass
+
+
+def _autoreset_mode(mode) -> AutoresetMode:
+    if isinstance(mode, AutoresetMode):
+        return mode
+    modes = [m.value for m in AutoresetMode]
+    if not isinstance(mode, str):
+        raise TypeError(f"autoreset_mode: expected an AutoresetMode or one of {modes}, got "
+                        f"{mode!r}")
+    if mode not in modes:
+        raise ValueError(f"autoreset_mode: expected an AutoresetMode or one of {modes}, got "
+                         f"{mode!r}")
+    return AutoresetMode(mode)
 
 
 def _masked(infos: dict, mask: np.ndarray) -> dict:
