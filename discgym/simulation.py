@@ -54,6 +54,8 @@ _SPEC_COUNTERS = {
     "wall_glides": _step.IC_GLIDES,
     "fallback_repairs": _step.IC_RESOLVED,
     "graze_repairs": _step.IC_GRAZE_REPAIRS,
+    "resplits": _step.IC_RESPLITS,
+    "substeps_cut": _step.IC_CUTS,
 }
 
 

@@ -14,7 +14,11 @@ One (sub)step of length h:
 4. removal of the discs consumed by combinations (stable: the order of the others is kept).
 
 A step is split into k equal substeps when its fastest disc would move more than
-``max_displacement`` times the smallest radius, so no disc can pass through another.
+``max_displacement`` times the smallest radius, so no disc can pass through another. Energy
+released inside the step (a fission, a reactive collision, internal energy released at a
+collision) can make discs faster than that split allows: the rest of the step is then split
+anew, and a reactive collision whose products would outrun the contact checks of their
+substep ends that substep at the collision (:func:`_events`, :func:`_resplit`).
 
 Which effects run is decided once per call from ``flags``; an absent effect is a skipped
 branch per substep, not a per-disc cost (``benchmarks/bench_core.py`` measures it).
@@ -65,7 +69,8 @@ IC_SUBSTEPS = 2
 IC_EVENTS_CAPPED = 3  # substeps finished by the fallback (an event bound was reached)
 IC_PUSHED_INSIDE = 4  # discs overlapping a wall while moving inward, moved inside
 IC_NO_ROOM = 5  # reactions that could not place their products (they wait / bounce)
-IC_SUBSTEPS_CAPPED = 6  # steps that needed more than MAX_SUBSTEPS substeps
+IC_SUBSTEPS_CAPPED = 6  # steps that needed more than MAX_SUBSTEPS substeps (or, when the rest
+# of a step was split anew, substeps shorter than its share of them: see _resplit)
 IC_REACTIVE = 7  # reactive collisions (also counted per channel)
 IC_TC_ELASTIC = 8  # repeat collisions within a substep made elastic (TC model, e < 1 only)
 IC_GLIDES = 9  # grazing discs advanced through many circle-wall reflections at once
@@ -73,7 +78,10 @@ IC_RESOLVED = 10  # discs moved in / pairs pushed apart by the fallback (resolve
 IC_GRAZE_REPAIRS = 11  # substeps repaired (and not event-capped) because a pair was found
 # overlapping while separating: left by a missed graze, by an earlier repair or by set_state
 IC_LEFT_OVERLAPPING = 12  # (internal) detections of such pairs: they trigger the repair
-N_ICOUNTERS = 13
+IC_RESPLITS = 13  # times the rest of a step was split anew: a reaction or a release of internal
+# energy left a disc faster than the current substep allows (see run_tracked)
+IC_CUTS = 14  # substeps ended at such a reaction inside their event phase (each one re-split)
+N_ICOUNTERS = 15
 # Float accumulators (fsum)
 FS_WALL_MOMENTUM = 0  # momentum delivered to the walls (for the pressure)
 FS_DISSIPATED = 1  # kinetic energy lost to restitution e < 1
@@ -444,11 +452,20 @@ def _glide(i, tw, T, xc, yc, tau, psi, vn, r, mi, pos, vel, spc, sp_radius, tlas
 @njit(cache=True)
 def _events(n, H, size, tables, pos, vel, spc, uint, tlast, stamp, lastcol, partner, nev,
             sub_id, binx, biny, collide, has_bi, e, kappa, rcell, h, vfast, bkind, bp, grid,
-            cell_start, cell_items, icnt, fsum, ch_count):
-    """Process the queue earliest first. Returns (H, n_dead, delta, dropped, vfast):
-    ``dropped`` if events were left unprocessed because a disc (``nev``, at most DISC_EVENTS
-    per substep) or the substep (EVENTS_PER_DISC * n + 1024) ran out of events; the caller
-    then repairs the state with :func:`~discgym.kernels.resolve.resolve`.
+            cell_start, cell_items, icnt, fsum, ch_count, maxdisp, cut_after):
+    """Process the queue earliest first. Returns (H, n_dead, delta, dropped, vfast, vrel,
+    t_cut): ``dropped`` if events were left unprocessed because a disc (``nev``, at most
+    DISC_EVENTS per substep) or the substep (EVENTS_PER_DISC * n + 1024) ran out of events;
+    the caller then repairs the state with :func:`~discgym.kernels.resolve.resolve`.
+
+    Energy released inside the substep: ``vrel`` is the largest speed a reactive collision or
+    a collision releasing internal energy (``kappa``) left a disc with (0 if none). When such
+    a disc would move more than ``maxdisp`` in what is left of the substep (-t), and -t >
+    ``cut_after`` (inf: no cut), processing stops at that contact: ``t_cut`` = t (else 0),
+    every disc has its latest event at or before t and the caller ends the substep there
+    (:func:`_rewind`). Queued later events are dropped; they lie after the new end and are
+    found again by the next substep. A disc glided past t (``_glide`` jumps ahead in time)
+    could not be rewound: no cut is made while one has (``t_glide``).
 
     ``h`` is the substep and ``vfast`` the largest speed at its start: a disc is within
     ``delta + h * vfast`` of where it was binned at any time of the substep (``vfast`` is
@@ -479,6 +496,9 @@ def _events(n, H, size, tables, pos, vel, spc, uint, tlast, stamp, lastcol, part
     n_dead = 0
     budget = EVENTS_PER_DISC * n + 1024
     dropped = False
+    vrel = 0.0
+    t_cut = 0.0
+    t_glide = -math.inf  # the latest time a glide took a disc to in this substep
     while size > 0:
         t, i, j, si, sj, size = pop(H, size)
         if stamp[i] != si or (j >= 0 and stamp[j] != sj):
@@ -525,6 +545,8 @@ def _events(n, H, size, tables, pos, vel, spc, uint, tlast, stamp, lastcol, part
                                   sp_radius, tlast, collide, bp, grid, cell_start, cell_items,
                                   nbin, n, reach, icnt, fsum):
                         nev[i] = DISC_EVENTS  # wedged: no finite sequence of events frees it
+                    else:
+                        t_glide = max(t_glide, tlast[i])
             stamp[i] += 1
             if collide:
                 delta = max(delta, math.hypot(pos[i, 0] - binx[i], pos[i, 1] - biny[i]))
@@ -545,6 +567,7 @@ def _events(n, H, size, tables, pos, vel, spc, uint, tlast, stamp, lastcol, part
             continue  # the pair's last events were with each other: straight lines that have
             # just separated cannot meet again (a re-detection by round-off)
         fired = False
+        released = False  # energy went into motion: the speeds it leaves are checked below
         if has_bi:
             c = bi_table[spc[i], spc[j]]
             if c >= 0:
@@ -561,6 +584,7 @@ def _events(n, H, size, tables, pos, vel, spc, uint, tlast, stamp, lastcol, part
                                            cell_items, nbin, n, rcell + delta + h * vfast)
                     fired = outcome == FIRED
                     if fired:
+                        released = True
                         ch_count[c] += 1
                         icnt[IC_REACTIVE] += 1
                         if ch_kind[c] == COMBINATION:
@@ -575,6 +599,7 @@ def _events(n, H, size, tables, pos, vel, spc, uint, tlast, stamp, lastcol, part
                     icnt[IC_TC_ELASTIC] += 1
                 lastcol[i] = sub_id
                 lastcol[j] = sub_id
+            released = kappa > 0.0 and uint[i] + uint[j] > 0.0  # (bounce releases a share)
             vxi, vyi, vxj, vyj, ui, uj, lost = bounce(vxi, vyi, vxj, vyj, sp_mass[spc[i]],
                                                       sp_mass[spc[j]], nx, ny, e_eff, kappa,
                                                       uint[i], uint[j])
@@ -597,17 +622,42 @@ def _events(n, H, size, tables, pos, vel, spc, uint, tlast, stamp, lastcol, part
         partner[i] = j
         partner[j] = i
         delta = max(delta, math.hypot(pos[i, 0] - binx[i], pos[i, 1] - biny[i]))
-        vfast = max(vfast, math.hypot(vel[i, 0], vel[i, 1]))
+        vi = math.hypot(vel[i, 0], vel[i, 1])
+        vfast = max(vfast, vi)
         if spc[j] >= 0:
             delta = max(delta, math.hypot(pos[j, 0] - binx[j], pos[j, 1] - biny[j]))
-            vfast = max(vfast, math.hypot(vel[j, 0], vel[j, 1]))
+            vj = math.hypot(vel[j, 0], vel[j, 1])
+            vfast = max(vfast, vj)
+            vi = max(vi, vj)
+        if released:
+            vrel = max(vrel, vi)
+            if vi * -t > maxdisp and -t > cut_after and t >= t_glide:
+                # the substep's contact checks come too late for it: end the substep here
+                t_cut = t
+                break
         H, size = _schedule(i, sp_radius, pos, vel, spc, tlast, stamp, n, collide, bkind, bp,
                             grid, cell_start, cell_items, nbin, rcell + delta, H, size, icnt)
         if spc[j] >= 0:
             H, size = _schedule(j, sp_radius, pos, vel, spc, tlast, stamp, n, collide, bkind,
                                 bp, grid, cell_start, cell_items, nbin, rcell + delta, H, size,
                                 icnt)
-    return H, n_dead, delta, dropped, vfast
+    return H, n_dead, delta, dropped, vfast, vrel, t_cut
+
+
+@njit(cache=True)
+def _rewind(n, t, pos, vel, spc, binx, biny, collide):
+    """End the substep at time t < 0 (see :func:`_events`): every disc, on its straight
+    trajectory since its latest event (none after t), goes back to where it is at t. Returns
+    the largest distance of a disc from where it was binned (if ``collide``)."""
+    delta = 0.0
+    for q in range(n):
+        if spc[q] < 0:
+            continue
+        pos[q, 0] += t * vel[q, 0]
+        pos[q, 1] += t * vel[q, 1]
+        if collide:
+            delta = max(delta, math.hypot(pos[q, 0] - binx[q], pos[q, 1] - biny[q]))
+    return delta
 
 
 # ------------------------------------------------------------- phase 4: first-order reactions
@@ -618,7 +668,8 @@ def _first_order(n, h, tables, pos, vel, spc, uint, ids, idctr, collide, fission
 
     Capacity for one fission per disc is made before the loop (so no array is reallocated
     inside it). A new disc gets the identity ``idctr[0]`` (then incremented). Returns the
-    state arrays (new ones if they grew) and the new n.
+    state arrays (new ones if they grew), the new n and the largest speed of a fragment made
+    (0 if none).
     """
     ch_kind = tables[3]
     nbin = n if collide else 0
@@ -639,6 +690,7 @@ def _first_order(n, h, tables, pos, vel, spc, uint, ids, idctr, collide, fission
     chan = np.empty(n0, dtype=INDEX)
     m = first_order_draws(n0, h, tables[2], ch_kind, tables[5], tables[6], tables[7],
                           tables[8], tables[9], spc, uint, rng, react, chan)
+    vfrag = 0.0
     for q in range(m):
         i = react[q]
         c = chan[q]
@@ -660,11 +712,13 @@ def _first_order(n, h, tables, pos, vel, spc, uint, ids, idctr, collide, fission
                 n += 1
                 # disc i moved from where it is binned: widen the search (triangle inequality)
                 delta += math.hypot(pos[i, 0] - x_old, pos[i, 1] - y_old)
+                vfrag = max(vfrag, math.hypot(vel[i, 0], vel[i, 1]),
+                            math.hypot(vel[n - 1, 0], vel[n - 1, 1]))
         if fired:
             ch_count[c] += 1
         else:
             icnt[IC_NO_ROOM] += 1
-    return pos, vel, spc, uint, ids, n
+    return pos, vel, spc, uint, ids, n, vfrag
 
 
 # -------------------------------------------------------------------------- phase 5: removal
@@ -730,6 +784,42 @@ def _reorder(n, pos, vel, spc, uint, ids, grid, work):
         spc[a] = s2[i]
         uint[a] = u2[i]
         ids[a] = d2[i]
+
+
+@njit(cache=True)
+def _resplit(n, vel, spc, rem, h, cut, dt, maxdisp, vfast, capped, k, sub, icnt):
+    """Split the time ``rem`` left in a step anew after energy was released in its last
+    substep (of length ``h``; ``cut``: ended early, see :func:`_events`), into substeps of
+    at most ``maxdisp`` for the fastest disc now. As for the first split of a step, the
+    substeps are no shorter than the capped ones (the remainder's share of MAX_SUBSTEPS);
+    a step that needed shorter ones counts once in IC_SUBSTEPS_CAPPED. Nothing changes when
+    the fastest disc is within the current substeps after all (and the substep was not cut).
+    Returns ``(k, h, vfast, capped, sub)`` for the substep loop (unchanged when the
+    substeps are capped already and the last one was not cut)."""
+    if not rem > 0.0:
+        return k, h, vfast, capped, sub
+    v2max = 0.0
+    for i in range(n):
+        if spc[i] >= 0:
+            v2 = vel[i, 0] * vel[i, 0] + vel[i, 1] * vel[i, 1]
+            if v2 > v2max:
+                v2max = v2
+    vmax = math.sqrt(v2max)
+    if not cut and not vmax * h > maxdisp:
+        return k, h, vfast, capped, sub
+    q = vmax * rem / maxdisp
+    qcap = MAX_SUBSTEPS * rem / dt  # (rem <= dt: at most MAX_SUBSTEPS)
+    if not q <= qcap:
+        if capped and not cut:  # the substeps are as short as they may be already
+            return k, h, vfast, capped, sub
+        k = max(int(math.ceil(qcap)), 1)
+        if not capped:
+            icnt[IC_SUBSTEPS_CAPPED] += 1
+            capped = True
+    else:
+        k = max(int(math.ceil(q)), 1)
+    icnt[IC_RESPLITS] += 1
+    return k, rem / k, max(vfast, vmax), capped, 0
 
 
 # --------------------------------------------------------------------------------- the driver
@@ -883,16 +973,20 @@ def run_tracked(pos, vel, spc, uint, n, n_steps, dt, bkind, bp, tables, params, 
                     break
             reactive0 = icnt[IC_REACTIVE]
         k = 1
+        capped = False
         if v2max > 0.0:
             q = math.sqrt(v2max) * dt / maxdisp  # compared as a float: ceil() of 1e19 or of
             if not q <= MAX_SUBSTEPS:  # inf would overflow int64 (and NaN compares false)
                 k = MAX_SUBSTEPS
                 icnt[IC_SUBSTEPS_CAPPED] += 1
+                capped = True
             else:
                 k = max(int(math.ceil(q)), 1)
         h = dt / k
         vfast = math.sqrt(v2max)  # the fastest disc; raised by collisions (see _events)
-        for _sub in range(k):
+        taken = 0  # substeps of this step so far
+        sub = 0
+        while sub < k:
             icnt[IC_SUBSTEPS] += 1
             par = threads > 1 and n >= PARALLEL_MIN
             if par:
@@ -920,10 +1014,21 @@ def run_tracked(pos, vel, spc, uint, n, n_steps, dt, bkind, bp, tables, params, 
             H, size = _queue_initial(n, collide, sp_radius, pos, vel, spc, tlast, stamp,
                                      wall_t, wflag, grid, cell_start, cell_items, cell_of, sx,
                                      sy, sr, ov_n, ov_b, H, icnt)
-            H, n_dead, delta, dropped, vfast = _events(
+            # a substep is cut short (at a reaction, see _events) only while the step has
+            # taken fewer than MAX_SUBSTEPS substeps and not shorter than the capped substep
+            # dt / MAX_SUBSTEPS: a step of a finite number of substeps, each of them useful
+            cut_after = dt / MAX_SUBSTEPS if taken < MAX_SUBSTEPS else math.inf
+            taken += 1
+            H, n_dead, delta, dropped, vfast, vrel, t_cut = _events(
                 n, H, size, tables, pos, vel, spc, uint, tlast, stamp, lastcol, partner, nev,
                 icnt[IC_SUBSTEPS], binx, biny, collide, has_bi, e, kappa, rcell, h, vfast,
-                bkind, bp, grid, cell_start, cell_items, icnt, fsum, ch_count)
+                bkind, bp, grid, cell_start, cell_items, icnt, fsum, ch_count, maxdisp,
+                cut_after)
+            hu = h  # the length of this substep
+            if t_cut < 0.0:
+                icnt[IC_CUTS] += 1
+                delta = _rewind(n, t_cut, pos, vel, spc, binx, biny, collide)
+                hu = h + t_cut
             left = icnt[IC_LEFT_OVERLAPPING] != left0
             if dropped or left:
                 if dropped:
@@ -939,10 +1044,14 @@ def run_tracked(pos, vel, spc, uint, n, n_steps, dt, bkind, bp, tables, params, 
             # (a reactive collision may have made a species with first-order channels)
             if has_uni and (uni_live or icnt[IC_REACTIVE] != reactive0):
                 uni_live = True
-                pos, vel, spc, uint, ids, n = _first_order(
-                    n, h, tables, pos, vel, spc, uint, ids, idctr, collide, fission_possible,
+                pos, vel, spc, uint, ids, n, vfrag = _first_order(
+                    n, hu, tables, pos, vel, spc, uint, ids, idctr, collide, fission_possible,
                     bkind, bp, grid, cell_start, cell_items, cell_of, delta, rcell, rng, icnt,
                     ch_count)
+                # fragments are binned where they end the next substep: the reach of its
+                # room checks must cover their speed
+                vfast = max(vfast, vfrag)
+                vrel = max(vrel, vfrag)
                 if ws < pos.shape[0]:  # the state grew: scratch for the next substep and for
                     ws = pos.shape[0]  # the next step's reordering
                     work = _fit_work(work, ws, nstart)
@@ -950,4 +1059,14 @@ def run_tracked(pos, vel, spc, uint, n, n_steps, dt, bkind, bp, tables, params, 
                      ov_n, ov_b, binx, biny, partner, nev, cell_start) = _carve(work, ws, nstart)
             if n_dead:
                 n = _compact(n, pos, vel, spc, uint, ids)
+            sub += 1
+            # Energy released in this substep may have made a disc faster than the remaining
+            # substeps allow (they were sized by the speeds at the start of the step): the
+            # rest of the step is split anew for the speeds now. Only reactions and releases
+            # of internal energy are checked (vrel, from their products alone), so a substep
+            # without them costs one comparison.
+            if t_cut < 0.0 or vrel * h > maxdisp:
+                k, h, vfast, capped, sub = _resplit(n, vel, spc, (k - sub) * h + (h - hu), h,
+                                                    t_cut < 0.0, dt, maxdisp, vfast, capped,
+                                                    k, sub, icnt)
     return pos, vel, spc, uint, ids, n, work
