@@ -133,6 +133,8 @@ class Simulation:
         self._n = 0
         self._time = 0.0
         self._steps = 0  # steps taken (times the memory reordering)
+        # time origin, whole steps since it; the same for since_reset (see _tick)
+        self._clock = [0.0, 0, 0.0, 0]
         self._icnt = np.zeros(_step.N_ICOUNTERS, dtype=COUNT)
         self._work = _step.empty_work()  # the stepper's scratch, kept between calls
         self._fsum = np.zeros(_step.N_FSUMS, dtype=FLOAT)
@@ -335,10 +337,10 @@ class Simulation:
 
     def _run(self, n_steps: int, dt: float) -> None:
         cs = self._cs
-        if self._integrator == "event":  # exactly n_steps * dt of simulated time
-            pos, vel, spc, uint, ids, n = _event.run_tracked_rngs(
+        if self._integrator == "event":  # n_steps steps of exactly dt, synchronised
+            pos, vel, spc, uint, ids, n = _event.run_steps_rngs(
                 self._pos, self._vel, self._spc, self._uint, self._ids, self._idctr, self._n,
-                n_steps * dt, self._bkind, self._bp, cs.tables, cs.params, cs.flags,
+                n_steps, dt, self._bkind, self._bp, cs.tables, cs.params, cs.flags,
                 self._rngs, self._icnt, self._fsum, self._ch_count)
         else:
             pos, vel, spc, uint, ids, n, self._work = _step.run_tracked_rngs(
@@ -349,8 +351,23 @@ class Simulation:
         self._pos, self._vel, self._spc, self._uint, self._ids = pos, vel, spc, uint, ids
         self._n = n
         self._steps += n_steps
-        self._time += n_steps * dt
-        self._since_reset += n_steps * dt
+        self._tick(n_steps, dt)
+
+    def _tick(self, n_steps: int, dt: float) -> None:
+        """The clocks: ``origin + k * scene.dt`` after k whole steps since ``origin`` (so the
+        time does not depend on how steps are split into calls); a step of another length
+        (the remainder of :meth:`advance`) starts a new origin."""
+        c = self._clock
+        h = self.scene.dt
+        if dt == h:
+            c[1] += n_steps
+            c[3] += n_steps
+        else:
+            c[0] = c[0] + c[1] * h + n_steps * dt
+            c[2] = c[2] + c[3] * h + n_steps * dt
+            c[1] = c[3] = 0
+        self._time = c[0] + c[1] * h
+        self._since_reset = c[2] + c[3] * h
 
     # ------------------------------------------------------------------ state views
     def __len__(self) -> int:
@@ -497,6 +514,7 @@ class Simulation:
         """Restart the pressure average (the momentum delivered to the walls)."""
         self._fsum[_step.FS_WALL_MOMENTUM] = 0.0
         self._since_reset = 0.0
+        self._clock[2:] = [0.0, 0]
 
     def overlaps(self, tol: float = 1e-9) -> int:
         """Number of pairs overlapping by more than ``tol`` (in [0, 1)) of their contact
@@ -636,6 +654,7 @@ class Simulation:
             "fsum": self._fsum.copy(),
             "ch_count": self._ch_count.copy(),
             "since_reset": self._since_reset,
+            "clock": tuple(self._clock),
             "energy_input": self._energy_input,
             "energy_start": self._energy_start,
             "integrator": self._integrator,
@@ -697,6 +716,9 @@ class Simulation:
         self._fsum[:] = state["fsum"]
         self._ch_count[:] = state["ch_count"]
         self._since_reset = float(state["since_reset"])
+        # (a state of an earlier version has no clock: its times are the origins)
+        clock = state.get("clock", (self._time, 0, self._since_reset, 0))
+        self._clock = [float(clock[0]), int(clock[1]), float(clock[2]), int(clock[3])]
         self._energy_input = float(state["energy_input"])
         self._energy_start = float(state["energy_start"])
         self._integrator = integrator
@@ -750,21 +772,28 @@ def _check_discs(pos, vel, spc, u, sp_radius, bkind, bp, bounds, what: str = "")
 
 
 def _event_fit(integrator: str, scene: Scene, bounds) -> str:
-    """The event-driven integrator refuses bounds that a species fits exactly (no room to
-    move along an axis): such a disc would meet both walls at once, forever, an event
-    sequence with no end. (The time-stepped integrator holds such a disc in place.)"""
+    """The event-driven integrator refuses bounds that leave a species less room than
+    ``event_driven.FIT_MARGIN`` (1e-3) of its radius along an axis (box: width or height
+    minus the diameter; circle: radius minus the disc's). A disc that fits exactly would meet
+    both walls at once, forever, an event sequence with no end; one with a free gap g meets
+    them every g / |v| (5e7 wall hits per unit time at g = 1e-8 radii), work without a
+    practical bound. (The time-stepped integrator holds an exactly fitting disc in place.)"""
     if integrator == "event":
         for s in scene.species:
             if isinstance(bounds, Circle):
                 gaps = [bounds.radius - s.radius]
             else:
                 gaps = [bounds.width - 2 * s.radius, bounds.height - 2 * s.radius]
-            if min(gaps) <= _walls.FIT_TOL * s.radius:
+            if not min(gaps) >= _event.FIT_MARGIN * s.radius:
+                what = "exactly" if min(gaps) <= _walls.FIT_TOL * s.radius else \
+                    f"to within {min(gaps) / s.radius:.3g} of its radius"
                 raise ValueError(
                     f"integrator='event': species {s.name!r} (radius {s.radius}) fits "
-                    f"{bounds} exactly, with no room to move: its wall contacts would never "
-                    "end. Use the time-stepped integrator (the default), which holds such a "
-                    "disc in place.")
+                    f"{bounds} {what}, with (almost) no room to move: its wall contacts "
+                    "would (almost) never end. The event-driven integrator needs a free gap "
+                    f"of at least {_event.FIT_MARGIN} of the radius along each axis. Use "
+                    "the time-stepped integrator (the default), which holds such a disc in "
+                    "place.")
     return integrator
 
 
