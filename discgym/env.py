@@ -803,7 +803,7 @@ class DiscReactorEnv(gym.Env):
         self._ashape = (2 + F,)
         self._n_feed = F
         self._n_species = S
-        self._step_time = cfg.steps_per_action * cfg.scene.dt  # (as Simulation.step adds it)
+        self._step_k, self._step_dt = cfg.steps_per_action, cfg.scene.dt  # (Simulation.step)
         self._n_seen = -1  # the simulation's disc count after the last step
         self._bound: tuple = (None,) * 5
         self._fig = None
@@ -860,8 +860,7 @@ class DiscReactorEnv(gym.Env):
         # what Simulation.step and its controls book
         sim._n = self._n_seen = self._n.item()
         sim._steps = self._ksteps.item()
-        sim._time += self._step_time
-        sim._since_reset += self._step_time
+        sim._tick(self._step_k, self._step_dt)
         e = sim._energy_input + fo[O_ENERGY_HEAT]  # (one control after the other, as
         for x in fo[2:]:  # the Simulation methods book them)
             e += x

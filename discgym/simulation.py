@@ -147,6 +147,8 @@ class Simulation:
         self._n = 0
         self._time = 0.0
         self._steps = 0  # steps taken (times the memory reordering)
+        # time origin, whole steps since it; the same for since_reset (see _tick)
+        self._clock = [0.0, 0, 0.0, 0]
         self._icnt = np.zeros(_step.N_ICOUNTERS, dtype=COUNT)
         self._work = _step.empty_work()  # the stepper's scratch, kept between calls
         self._fsum = np.zeros(_step.N_FSUMS, dtype=FLOAT)
@@ -358,10 +360,10 @@ class Simulation:
 
     def _run(self, n_steps: int, dt: float) -> None:
         cs = self._cs
-        if self._integrator == "event":  # exactly n_steps * dt of simulated time
-            pos, vel, spc, uint, ids, n = _event.run_tracked_rngs(
+        if self._integrator == "event":  # n_steps steps of exactly dt, synchronised
+            pos, vel, spc, uint, ids, n = _event.run_steps_rngs(
                 self._pos, self._vel, self._spc, self._uint, self._ids, self._idctr, self._n,
-                n_steps * dt, self._bkind, self._bp, cs.tables, cs.params, cs.flags,
+                n_steps, dt, self._bkind, self._bp, cs.tables, cs.params, cs.flags,
                 self._rngs, self._icnt, self._fsum, self._ch_count)
         else:
             pos, vel, spc, uint, ids, n, self._work = _step.run_tracked_rngs(
@@ -372,8 +374,23 @@ class Simulation:
         self._pos, self._vel, self._spc, self._uint, self._ids = pos, vel, spc, uint, ids
         self._n = n
         self._steps += n_steps
-        self._time += n_steps * dt
-        self._since_reset += n_steps * dt
+        self._tick(n_steps, dt)
+
+    def _tick(self, n_steps: int, dt: float) -> None:
+        """The clocks: ``origin + k * scene.dt`` after k whole steps since ``origin`` (so the
+        time does not depend on how steps are split into calls); a step of another length
+        (the remainder of :meth:`advance`) starts a new origin."""
+        c = self._clock
+        h = self.scene.dt
+        if dt == h:
+            c[1] += n_steps
+            c[3] += n_steps
+        else:
+            c[0] = c[0] + c[1] * h + n_steps * dt
+            c[2] = c[2] + c[3] * h + n_steps * dt
+            c[1] = c[3] = 0
+        self._time = c[0] + c[1] * h
+        self._since_reset = c[2] + c[3] * h
 
     # ------------------------------------------------------------------ state views
     def __len__(self) -> int:
@@ -520,6 +537,7 @@ class Simulation:
         """Restart the pressure average (the momentum delivered to the walls)."""
         self._fsum[_step.FS_WALL_MOMENTUM] = 0.0
         self._since_reset = 0.0
+        self._clock[2:] = [0.0, 0]
 
     def overlaps(self, tol: float = 1e-9) -> int:
         """Number of pairs overlapping by more than ``tol`` (in [0, 1)) of their contact
@@ -660,7 +678,7 @@ class Simulation:
     _STATE_KEYS = ("positions", "velocities", "species", "internal_energy", "ids", "next_id",
                    "steps", "time", "bounds", "rng", "icnt", "fsum", "ch_count", "since_reset",
                    "energy_input", "energy_start")
-    _STATE_OPTIONAL = ("integrator", "scene_fingerprint")
+    _STATE_OPTIONAL = ("integrator", "scene_fingerprint", "clock")
 
     def get_state(self) -> dict:
         """Everything needed to continue bit-identically (copies), and the fingerprint of the
@@ -681,6 +699,7 @@ class Simulation:
             "fsum": self._fsum.copy(),
             "ch_count": self._ch_count.copy(),
             "since_reset": self._since_reset,
+            "clock": tuple(self._clock),
             "energy_input": self._energy_input,
             "energy_start": self._energy_start,
             "integrator": self._integrator,
@@ -771,6 +790,7 @@ class Simulation:
         for key, nonneg in (("time", True), ("since_reset", True), ("energy_input", False),
                             ("energy_start", False)):
             s[key] = _state_real(state, key, nonneg)
+        s["clock"] = self._checked_clock(state, s["time"], s["since_reset"])
         bounds = state["bounds"]
         if not isinstance(bounds, (Box, Circle)):
             raise _state_error("bounds", f"must be a Box or Circle, got {_short(bounds)}")
@@ -870,6 +890,25 @@ class Simulation:
                 "simulation of the same species and reactions (Simulation.from_arrays starts "
                 "another scene from its discs)")
 
+    def _checked_clock(self, state, time: float, since_reset: float) -> tuple:
+        """The clocks ``(origin, steps since it, origin of since_reset, steps since it)``.
+        ``time`` and ``since_reset`` are what a state says; a clock that does not give them
+        with this scene's dt (a state continued under another dt) and a state of an earlier
+        version (no clock) restart the clocks at those times."""
+        restart = (time, 0, since_reset, 0)
+        if "clock" not in state:
+            return restart
+        c = state["clock"]
+        if not isinstance(c, (tuple, list)) or len(c) != 4:
+            raise _state_error("clock", f"must be (origin, steps, reset origin, steps since "
+                               f"reset), got {_short(c)}")
+        t0, k0 = _state_real(c, 0, True, "clock"), _state_whole(c, 1, "clock")
+        r0, k1 = _state_real(c, 2, True, "clock"), _state_whole(c, 3, "clock")
+        h = self.scene.dt
+        if t0 + k0 * h != time or r0 + k1 * h != since_reset:
+            return restart
+        return (t0, k0, r0, k1)
+
     def _apply_state(self, s: dict) -> None:
         """Assign a state checked by :meth:`_checked_state` (in place where arrays are big
         enough: the vector env holds views of them)."""
@@ -897,6 +936,7 @@ class Simulation:
         self._fsum[:] = s["fsum"]
         self._ch_count[:] = s["ch_count"]
         self._since_reset = s["since_reset"]
+        self._clock = list(s["clock"])
         self._energy_input = s["energy_input"]
         self._energy_start = s["energy_start"]
         self._integrator = s["integrator"]
@@ -928,8 +968,10 @@ _INT64_MAX = np.iinfo(np.int64).max
 _BIT_GENERATORS = ("PCG64", "PCG64DXSM", "MT19937", "Philox", "SFC64")
 
 
-def _state_error(key, what: str) -> ValueError:
-    return ValueError(f"set_state: state[{key!r}] {what}")
+def _state_error(key, what: str, within: str | None = None) -> ValueError:
+    """The error naming ``state[key]`` (or ``state[within][key]``, an entry of a key)."""
+    name = f"[{within!r}][{key!r}]" if within else f"[{key!r}]"
+    return ValueError(f"set_state: state{name} {what}")
 
 
 def _short(v) -> str:
@@ -972,27 +1014,27 @@ def _state_array(state, key: str, shape: tuple, integer: bool = False,
     return a
 
 
-def _state_whole(state, key: str) -> int:
+def _state_whole(state, key, within: str | None = None) -> int:
     v = state[key]
     if isinstance(v, bool) or not isinstance(v, (int, np.integer)):
-        raise _state_error(key, f"must be an integer, got {_short(v)}")
+        raise _state_error(key, f"must be an integer, got {_short(v)}", within)
     if not 0 <= v <= _INT64_MAX:
-        raise _state_error(key, f"must be in [0, 2**63), got {v}")
+        raise _state_error(key, f"must be in [0, 2**63), got {v}", within)
     return int(v)
 
 
-def _state_real(state, key: str, nonneg: bool) -> float:
+def _state_real(state, key, nonneg: bool, within: str | None = None) -> float:
     v = state[key]
     if isinstance(v, bool) or not isinstance(v, (int, float, np.integer, np.floating)):
-        raise _state_error(key, f"must be a real number, got {_short(v)}")
+        raise _state_error(key, f"must be a real number, got {_short(v)}", within)
     try:
         x = float(v)
     except OverflowError:
         x = math.inf
     if not math.isfinite(x):
-        raise _state_error(key, f"must be finite, got {_short(v)}")
+        raise _state_error(key, f"must be finite, got {_short(v)}", within)
     if nonneg and x < 0:
-        raise _state_error(key, f"must be >= 0, got {x}")
+        raise _state_error(key, f"must be >= 0, got {x}", within)
     return x
 
 
@@ -1091,21 +1133,28 @@ def _check_discs(pos, vel, spc, u, sp_radius, bkind, bp, bounds, what: str = "")
 
 
 def _event_fit(integrator: str, scene: Scene, bounds) -> str:
-    """The event-driven integrator refuses bounds that a species fits exactly (no room to
-    move along an axis): such a disc would meet both walls at once, forever, an event
-    sequence with no end. (The time-stepped integrator holds such a disc in place.)"""
+    """The event-driven integrator refuses bounds that leave a species less room than
+    ``event_driven.FIT_MARGIN`` (1e-3) of its radius along an axis (box: width or height
+    minus the diameter; circle: radius minus the disc's). A disc that fits exactly would meet
+    both walls at once, forever, an event sequence with no end; one with a free gap g meets
+    them every g / |v| (5e7 wall hits per unit time at g = 1e-8 radii), work without a
+    practical bound. (The time-stepped integrator holds an exactly fitting disc in place.)"""
     if integrator == "event":
         for s in scene.species:
             if isinstance(bounds, Circle):
                 gaps = [bounds.radius - s.radius]
             else:
                 gaps = [bounds.width - 2 * s.radius, bounds.height - 2 * s.radius]
-            if min(gaps) <= _walls.FIT_TOL * s.radius:
+            if not min(gaps) >= _event.FIT_MARGIN * s.radius:
+                what = "exactly" if min(gaps) <= _walls.FIT_TOL * s.radius else \
+                    f"to within {min(gaps) / s.radius:.3g} of its radius"
                 raise ValueError(
                     f"integrator='event': species {s.name!r} (radius {s.radius}) fits "
-                    f"{bounds} exactly, with no room to move: its wall contacts would never "
-                    "end. Use the time-stepped integrator (the default), which holds such a "
-                    "disc in place.")
+                    f"{bounds} {what}, with (almost) no room to move: its wall contacts "
+                    "would (almost) never end. The event-driven integrator needs a free gap "
+                    f"of at least {_event.FIT_MARGIN} of the radius along each axis. Use "
+                    "the time-stepped integrator (the default), which holds such a disc in "
+                    "place.")
     return integrator
 
 

@@ -408,8 +408,7 @@ class DiscReactorVectorEnv(VectorEnv):
             # exactly what Simulation.step and its controls book
             sim._n = n[r]
             sim._steps += k
-            sim._time += k * dt
-            sim._since_reset += k * dt
+            sim._tick(k, dt)
             e = sim._energy_input + fo[r][O_ENERGY_HEAT]  # (one control after the other)
             for x in fo[r][2:]:
                 e += x

@@ -103,8 +103,8 @@ INT_ARRAYS = ("species", "ids", "icnt", "ch_count")
 FLOAT_ARRAYS = ("positions", "velocities", "internal_energy", "fsum")
 WHOLE = ("next_id", "steps")
 REAL = ("time", "since_reset", "energy_input", "energy_start")
-OTHER = ("bounds", "rng", "integrator", "scene_fingerprint")
-OPTIONAL = ("integrator", "scene_fingerprint")
+OTHER = ("bounds", "rng", "integrator", "scene_fingerprint", "clock")
+OPTIONAL = ("integrator", "scene_fingerprint", "clock")
 
 
 def _set(key, value):
@@ -208,6 +208,12 @@ def _cases():
                                                                      [6.0, 0.7]),
                                               integrator="event"), label="event-fit")
     add("range", "integrator", _set("integrator", "exact"))
+    add("type", "clock", _set("clock", (0.0, 1, 0.0)), label="three-parts")
+    add("type", "clock", _set("clock", lambda s: (s["clock"][0], 1.5) + s["clock"][2:]),
+        label="float-steps")
+    add("negative", "clock", _set("clock", lambda s: (-1.0,) + s["clock"][1:]))
+    add("range", "clock", _set("clock", lambda s: s["clock"][:3] + (2 ** 63,)), label="2**63")
+    add("nonfinite", "clock", _set("clock", lambda s: (math.nan,) + s["clock"][1:]))
     add("type", "integrator", _set("integrator", 1))
 
     def rng(edit):
@@ -608,3 +614,20 @@ def test_state_outside_the_arithmetic_range_is_refused_and_changes_nothing():
                 assert np.array_equal(before[k], after[k]), k
             else:
                 assert before[k] == after[k], k
+
+
+def test_a_clock_that_does_not_give_the_times_restarts_at_them():
+    """``time`` and ``since_reset`` are what a state says: a clock that does not give them
+    (edited times, another dt) restarts there, and the simulation then runs as one restored
+    from a state without a clock (an earlier version's)."""
+    sim = _built()
+    st = sim.get_state()
+    assert st["clock"] == (0.0, 60, 0.0, 20)  # 60 steps, the counters reset after 40
+    edited = dict(st, time=st["time"] + 1.0)
+    a, b = _built(), _built()
+    a.set_state(edited)
+    b.set_state({k: v for k, v in edited.items() if k != "clock"})
+    assert a.get_state()["clock"] == (edited["time"], 0, st["since_reset"], 0)
+    a.step(3)
+    b.step(3)
+    assert a.time == b.time and a.get_state()["clock"] == b.get_state()["clock"]

@@ -19,9 +19,23 @@ The queue is an indexed binary min-heap holding ONE event per disc, its earliest
 scheme): O(log N) per event, no heap growth. Each disc also has an event counter ``stamp``,
 bumped whenever its trajectory changes; an event naming a partner whose counter has moved on
 is stale and only makes its disc predict again. Positions are stored at each disc's own last
-event time (``W[:, 4]``) and only brought to the common time at the end of a run. A run
-starts by predicting every disc's first event (O(N log N)), so many short runs cost more
-than one long one; inside a run, discs are numbered in cell order for memory locality.
+event time (``W[:, 4]``) and only brought to the common time at the end of a step.
+
+Steps: a call of n steps is exactly n calls of one step. Every step starts from the state
+alone (times from 0, every disc's first event predicted afresh, O(N log N); reaction times
+drawn afresh, exact since the exponential is memoryless; discs numbered in cell order for
+memory locality) and ends with every disc brought to its end. So split calls, copies and
+restored states continue bit for bit, and the arrays' capacity plays no part (a fission
+that finds them full grows them in place).
+
+Bounds on the work of a step (no input may make a call run without end): a refused
+first-order reaction retries no sooner than one substep of the time-stepped integrator
+later (``dt / k``, k its substep count for this step: the pace at which it retries), a disc's
+first-order events past FO_EXACT in a step are delayed to the same pace (a cycle of certain
+reactions, A -> B -> A, has no end at one instant), and a step stops at the time-stepped
+integrator's event bound for it, ``k (64 n + 1024)`` events, after which the time-stepped
+integrator finishes it (``events_capped``). Bounds that leave a species less than
+FIT_MARGIN radii of room are refused by :class:`~discgym.Simulation`.
 
 Round-off: a pair counts as approaching only if its normal approach speed exceeds 1e-10 of
 its relative speed (``APPROACH2``); closer to tangential, the impulse would vanish in
@@ -34,18 +48,20 @@ The physics is shared with the time-stepped integrator, not copied: impulses com
 ``fission_outcome``, ...). Reactive collisions fire at the contact when the energy along the
 line of centres, 1/2 mu v_r^2, is at least E_a (the same trigger). Products are placed only
 where they fit inside the bounds without overlapping any disc (no room: the collision
-bounces, a first-order reaction waits an exponential time and tries again); both count as
-``reactions_without_room``.
+bounces, a first-order reaction waits an exponential time, but at least a substep, and tries
+again); both count as ``reactions_without_room``.
 
 Inelastic collapse (restitution e < 1) would make infinitely many collisions in finite time:
 a collision of a disc that collided less than t_c ago is elastic (the TC model of Luding and
 McNamara; the time-stepped integrator uses t_c = its substep), with t_c = ``TC_FRACTION``
 times the time the smallest disc takes to move its radius at the root-mean-square speed
-(taken at the start of each run). The energy booked as dissipated is exactly what was lost;
+(taken at the start of each step). The energy booked as dissipated is exactly what was lost;
 such collisions are counted as ``elastic_repeats``.
 
 Counters (``icnt``, ``fsum``, ``ch_count``) are those of :mod:`discgym.kernels.step`;
-``substeps``, ``events_capped``, ``pushed_inside`` and ``substeps_capped`` stay 0.
+``events_capped`` counts the steps stopped at the event bound and the delayed first-order
+events; ``substeps`` and the other counters of the time-stepped integrator count only what it
+did finishing such steps (0 otherwise).
 """
 
 import math
@@ -73,15 +89,20 @@ from .reactions import (
     transform_energy,
 )
 from .step import (
+    EVENTS_PER_DISC,
     FS_DISSIPATED,
     FS_WALL_MOMENTUM,
     IC_COLLISIONS,
+    IC_EVENTS_CAPPED,
     IC_NO_ROOM,
     IC_REACTIVE,
     IC_TC_ELASTIC,
     IC_WALL_HITS,
+    MAX_SUBSTEPS,
     _compact,
+    empty_work,
 )
+from .step import run_tracked as step_run
 from .walls import box_next, circle_next, graze_floor, inside, reflected
 
 INF = math.inf
@@ -100,7 +121,7 @@ ST_EVENTS = 0  # events popped (valid or stale)
 ST_STALE = 1  # events found stale (partner changed since the prediction)
 ST_CROSSINGS = 2  # cell crossings
 ST_PREDICTIONS = 3  # disc predictions
-ST_RESTARTS = 4  # restarts to grow the state arrays (a fission found them full)
+ST_RESTARTS = 4  # growths of the state arrays in a step (a fission found them full)
 ST_GRAZES = 5  # predicted contacts found tangential at the contact (round-off); no impulse
 ST_CELLS = 6  # cells in the grid (last restart)
 N_STATS = 7
@@ -110,6 +131,9 @@ N_STATS = 7
 # normal speeds agree to 1e-10 of their relative speed (after an e = 0 collision), is not a
 # collision (its impulse would be lost in round-off and the pair predicted again at once).
 APPROACH2 = 1e-20
+FIT_MARGIN = 1e-3  # the free gap a species needs in its bounds, in radii (Simulation refuses
+# less): a disc with gap g meets the walls |v| / g times per unit time
+FO_EXACT = 16  # first-order events of one disc in one step at exact times (see below)
 TC_FRACTION = 1e-3  # t_c of the TC model, in units of r_min / v_rms (e < 1 only)
 CELLS_PER_DISC = 4.0  # grid cells per disc, when that makes cells larger than a diameter
 MAX_CELLS = 1 << 26
@@ -345,14 +369,14 @@ def _room(x, y, r, ex1, ex2, T, W, spc, cell, head, nxt, collide, bkind, bp, gx0
 
 
 @njit(cache=True)
-def _next_reaction(d, T, krate, trx, tables, spc, uint, rng, always):
+def _next_reaction(d, T, krate, trx, tables, spc, uint, rng, always, floor):
     """Recompute disc d's first-order rate K; draw a new reaction time if K changed (or if
-    ``always``)."""
+    ``always``), no sooner than ``floor`` after T (0: the exact exponential time)."""
     K = first_order_rate(d, tables, spc, uint)
     if K != krate[d] or always:
         krate[d] = K
         if K > 0.0:
-            trx[d] = T - math.log1p(-rng.random()) / K
+            trx[d] = T + max(-math.log1p(-rng.random()) / K, floor)
         else:
             trx[d] = INF
 
@@ -361,9 +385,13 @@ def _next_reaction(d, T, krate, trx, tables, spc, uint, rng, always):
 @njit(cache=True)
 def _first_order_event(d, n, t, W, spc, uint, ids, idctr, stamp, trx, krate, tcol, cell, head,
                        nxt, prv, tables, collide, rmax, bkind, bp, gx0, gy0, icw, ich, ncx,
-                       ncy, rng, icnt, ch_count):
+                       ncy, rng, icnt, ch_count, nfo, hsub):
     """Disc d (at time t) undergoes one of its first-order channels, if its products fit
-    (else it waits an exponential time). A fission's second fragment becomes disc n (the
+    (else it waits an exponential time, but at least ``hsub``: a certain reaction, rate
+    ~1e300, would otherwise retry at the same instant forever). After FO_EXACT first-order
+    events of one disc in a step (``nfo``), its next ones are also at least ``hsub`` apart
+    (a cycle of certain reactions, A -> B -> A, would not advance the clock either), each
+    such delay counted in ``events_capped``. A fission's second fragment becomes disc n (the
     caller made sure there is room for it). Returns n if it was created, else -1."""
     sp_radius, sp_mass, sp_form = tables[0], tables[1], tables[2]
     ch_kind, ch_prod = tables[3], tables[5]
@@ -437,35 +465,62 @@ def _first_order_event(d, n, t, W, spc, uint, ids, idctr, stamp, trx, krate, tco
                 break
             nx = -nx
             ny = -ny
+    nfo[d] += 1
     if fired:
         ch_count[c] += 1
         stamp[d] += 1
-        _next_reaction(d, t, krate, trx, tables, spc, uint, rng, True)
-        if newd >= 0:
-            _next_reaction(newd, t, krate, trx, tables, spc, uint, rng, True)
+        floor = 0.0
+        if nfo[d] >= FO_EXACT:
+            floor = hsub
+            icnt[IC_EVENTS_CAPPED] += 1
+        _next_reaction(d, t, krate, trx, tables, spc, uint, rng, True, floor)
+        if newd >= 0:  # (lighter than d: chains of fissions end)
+            _next_reaction(newd, t, krate, trx, tables, spc, uint, rng, True, 0.0)
     else:
         icnt[IC_NO_ROOM] += 1
-        trx[d] = t - math.log1p(-rng.random()) / K  # wait and try again
+        trx[d] = t + max(-math.log1p(-rng.random()) / K, hsub)  # wait and try again
     return newd
 
 
 # ------------------------------------------------------------------------------ the run
 @njit(cache=True)
-def _simulate(pos, vel, spc_ext, uint_ext, ids, idctr, n, t0, t1, bkind, bp, tables, params,
-              flags, rng, icnt, fsum, ch_count, stats, cells_per_disc):
-    """Advance discs [0, n) from time t0 to t1 (the state arrays hold them at t0).
+def _grow_fill(a, cap, fill):
+    out = np.full(cap, fill, dtype=a.dtype)
+    out[: a.shape[0]] = a
+    return out
 
-    Returns ``(n, t, status)``: status 0 when t1 was reached (the state arrays hold the discs
-    at t = t1); 1 when a fission found the state arrays full (they hold the discs at the
-    time t of that event, which is not processed: grow them and continue from t). Discs
-    consumed by combinations are left with ``spc = -1`` (the caller compacts).
+
+@njit(cache=True)
+def _grow_range(a, cap):
+    out = np.arange(cap).astype(a.dtype)
+    out[: a.shape[0]] = a
+    return out
+
+
+@njit(cache=True)
+def _simulate(pos, vel, spc_ext, uint_ext, ids, idctr, n, t1, bkind, bp, tables, params,
+              flags, rng, icnt, fsum, ch_count, stats, cells_per_disc):
+    """Advance discs [0, n) by one step, from time 0 to t1.
+
+    Everything is derived from the state at the start of the step (positions, velocities,
+    species, internal energies, the generator): the grid, the TC model's t_c, the retry
+    floor, the event bound, and the reaction times, drawn afresh (exact: the exponential is
+    memoryless). So a step's outcome depends neither on how many steps its call makes nor on
+    the arrays' capacity: a fission that finds them full grows them (and the working
+    arrays) in place and carries on.
+
+    Returns ``(pos, vel, spc, uint, ids, n, t)``: the state arrays (new ones if they grew),
+    holding the discs at t; t = t1 unless the step reached its event bound (``k (64 n +
+    1024)`` events, the time-stepped integrator's bound for a step of k substeps): then t is
+    the time of the first event not processed, and the caller finishes the step otherwise.
+    Discs consumed by combinations are left with ``spc = -1`` (the caller compacts).
 
     Inside, discs are renumbered in cell order, so that neighbours are near in memory (at
     N = 10^5 a random order made each collision 2.6x as expensive); fragments are appended
     with the same index inside and out.
     """
     if n == 0:
-        return 0, t1, 0
+        return pos, vel, spc_ext, uint_ext, ids, 0, t1
     sp_radius, sp_mass, sp_form = tables[0], tables[1], tables[2]
     ch_kind, ch_reac, ch_prod = tables[3], tables[4], tables[5]
     ch_energy = tables[7]
@@ -479,6 +534,21 @@ def _simulate(pos, vel, spc_ext, uint_ext, ids, idctr, n, t0, t1, bkind, bp, tab
     cap = pos.shape[0]
     b0, b1, b2, b3 = bp[0], bp[1], bp[2], bp[3]
     tc = 0.0  # the TC model's t_c (inelastic scenes only)
+    # the substep the time-stepped integrator would take (no disc moves more than
+    # max_displacement smallest radii): the shortest wait of a refused reaction, and the
+    # unit of the event bound
+    v2max = 0.0
+    for d in range(n):
+        if spc_ext[d] >= 0:
+            v2max = max(v2max, vel[d, 0] * vel[d, 0] + vel[d, 1] * vel[d, 1])
+    ksub = 1
+    q = math.sqrt(v2max) * t1 / (params[2] * params[3])
+    if not q <= MAX_SUBSTEPS:
+        ksub = MAX_SUBSTEPS
+    elif q > 1.0:
+        ksub = int(math.ceil(q))
+    hsub = t1 / ksub
+    budget = ksub * (EVENTS_PER_DISC * n + 1024)
     if e_rest < 1.0:
         mv2 = 0.0
         msum = 0.0
@@ -513,7 +583,8 @@ def _simulate(pos, vel, spc_ext, uint_ext, ids, idctr, n, t0, t1, bkind, bp, tab
 
     # ---- per-disc working state
     W = np.zeros((cap, 8), dtype=FLOAT)
-    Ev = np.empty((cap, 8), dtype=FLOAT)
+    Ev = np.zeros((cap, 8), dtype=FLOAT)
+    nfo = np.zeros(cap, dtype=COUNT)  # first-order events of each disc in this step
     stamp = np.zeros(cap, dtype=COUNT)
     trx = np.full(cap, INF, dtype=FLOAT)
     krate = np.zeros(cap, dtype=FLOAT)
@@ -553,27 +624,36 @@ def _simulate(pos, vel, spc_ext, uint_ext, ids, idctr, n, t0, t1, bkind, bp, tab
         W[d, 1] = pos[e, 1]
         W[d, 2] = vel[e, 0]
         W[d, 3] = vel[e, 1]
-        W[d, 4] = t0
+        W[d, 4] = 0.0
         W[d, 5] = sp_radius[s]
         W[d, 6] = sp_mass[s]
         _cell_insert(d, _cell_of(pos[e, 0], pos[e, 1], gx0, gy0, icw, ich, ncx, ncy), cell,
                      head, nxt, prv)
-        if has_uni:
-            _next_reaction(d, t0, krate, trx, tables, spc, uint, rng, True)
+    if has_uni:  # reaction times drawn in the outside order (independent of the grid)
+        inv = np.empty(n, dtype=INDEX)
+        for d in range(n):
+            inv[perm[d]] = d
+        for e in range(n):
+            d = inv[e]
+            if spc[d] >= 0:
+                _next_reaction(d, 0.0, krate, trx, tables, spc, uint, rng, True, 0.0)
     for d in range(n):
         if spc[d] >= 0:
-            _predict(d, t0, W, stamp, trx, cell, head, nxt, Ev, hk, hd, hpos, collide, bkind,
+            _predict(d, 0.0, W, stamp, trx, cell, head, nxt, Ev, hk, hd, hpos, collide, bkind,
                      b0, b1, b2, b3, gx0, gy0, cw, ch, ncx, ncy, 0)
     stats[ST_PREDICTIONS] += n
 
-    status = 0
-    t = t0
+    t = 0.0
+    events = 0
     while True:
         d = hd[0]
         t = hk[0]
         if not t <= t1:
             t = t1
             break
+        if events >= budget:  # (t: the event not processed)
+            break
+        events += 1
         stats[ST_EVENTS] += 1
         code = int(Ev[d, 1])
         # bring d to t
@@ -718,12 +798,12 @@ def _simulate(pos, vel, spc_ext, uint_ext, ids, idctr, n, t0, t1, bkind, bp, tab
                         uint[i] = ui
                         uint[j] = uj
                         if has_uni:
-                            _next_reaction(i, t, krate, trx, tables, spc, uint, rng, False)
-                            _next_reaction(j, t, krate, trx, tables, spc, uint, rng, False)
+                            _next_reaction(i, t, krate, trx, tables, spc, uint, rng, False, 0.0)
+                            _next_reaction(j, t, krate, trx, tables, spc, uint, rng, False, 0.0)
                 elif has_uni:
-                    _next_reaction(i, t, krate, trx, tables, spc, uint, rng, False)
+                    _next_reaction(i, t, krate, trx, tables, spc, uint, rng, False, 0.0)
                     if not killed:
-                        _next_reaction(j, t, krate, trx, tables, spc, uint, rng, False)
+                        _next_reaction(j, t, krate, trx, tables, spc, uint, rng, False, 0.0)
                 tcol[i] = t
                 tcol[j] = t
                 stamp[i] += 1
@@ -763,13 +843,34 @@ def _simulate(pos, vel, spc_ext, uint_ext, ids, idctr, n, t0, t1, bkind, bp, tab
             for q in range(tables[8][s], tables[8][s + 1]):
                 if ch_kind[tables[9][q]] != TRANSFORMATION:
                     fission_possible = True
-            if fission_possible and n >= cap:
-                status = 1
-                break
+            if fission_possible and n >= cap:  # grow everything, keep going
+                stats[ST_RESTARTS] += 1
+                cap = 2 * cap + 16
+                pos = grow2(pos, cap)
+                vel = grow2(vel, cap)
+                spc_ext = _grow_fill(spc_ext, cap, -1)
+                uint_ext = grow1(uint_ext, cap)
+                ids = grow1(ids, cap)
+                W = grow2(W, cap)
+                Ev = grow2(Ev, cap)
+                nfo = grow1(nfo, cap)
+                stamp = grow1(stamp, cap)
+                trx = _grow_fill(trx, cap, INF)
+                krate = grow1(krate, cap)
+                tcol = _grow_fill(tcol, cap, -INF)
+                cell = _grow_fill(cell, cap, -1)
+                nxt = _grow_fill(nxt, cap, -1)
+                prv = _grow_fill(prv, cap, -1)
+                hk = _grow_fill(hk, cap, INF)  # (slots past n hold inf: the order of the
+                hd = _grow_range(hd, cap)  # heap, and so of the events, does not change)
+                hpos = _grow_range(hpos, cap)
+                perm = _grow_range(perm, cap)
+                spc = _grow_fill(spc, cap, -1)
+                uint = grow1(uint, cap)
             newd = _first_order_event(d, n, t, W, spc, uint, ids, idctr, stamp, trx, krate,
                                       tcol, cell, head, nxt, prv, tables, collide, rmax,
                                       bkind, bp, gx0, gy0, icw, ich, ncx, ncy, rng, icnt,
-                                      ch_count)
+                                      ch_count, nfo, hsub)
             if newd >= 0:
                 n += 1
                 p1 = newd
@@ -797,7 +898,31 @@ def _simulate(pos, vel, spc_ext, uint_ext, ids, idctr, n, t0, t1, bkind, bp, tab
         else:
             vel[e, 0] = 0.0
             vel[e, 1] = 0.0
-    return n, t, status
+    return pos, vel, spc_ext, uint_ext, ids, n, t
+
+
+@njit(cache=True)
+def run_steps(pos, vel, spc, uint, ids, idctr, n, n_steps, dt, bkind, bp, tables, params,
+              flags, rng, icnt, fsum, ch_count, stats, cells_per_disc):
+    """Advance ``n_steps`` steps of ``dt``, each exactly as one call of one step would:
+    every disc is brought to the step boundary and the next step starts from that state
+    alone, so ``n`` steps in one call equal ``n`` calls of one step, bit for bit. A step
+    that reaches its event bound (see :func:`_simulate`) is finished from the time of the
+    bound by the time-stepped integrator (one step of the rest, single-threaded; counted in
+    ``events_capped``), whose own bounds hold. ``stats``: see :func:`run_stats`. Returns
+    ``(pos, vel, spc, uint, ids, n)``."""
+    for _s in range(n_steps):
+        pos, vel, spc, uint, ids, n, t = _simulate(pos, vel, spc, uint, ids, idctr, n, dt,
+                                                   bkind, bp, tables, params, flags, rng,
+                                                   icnt, fsum, ch_count, stats,
+                                                   cells_per_disc)
+        n = _compact(n, pos, vel, spc, uint, ids)
+        if t < dt:
+            icnt[IC_EVENTS_CAPPED] += 1
+            pos, vel, spc, uint, ids, n, _w = step_run(
+                pos, vel, spc, uint, n, 1, dt - t, bkind, bp, tables, params, flags, rng,
+                icnt, fsum, ch_count, 1, ids, idctr, 0, 0, empty_work())
+    return pos, vel, spc, uint, ids, n
 
 
 @njit(cache=True)
@@ -807,29 +932,25 @@ def run_stats(pos, vel, spc, uint, ids, idctr, n, duration, bkind, bp, tables, p
     (N_STATS,) int64 (see ST_*). ``cells_per_disc``: how many grid cells per disc at most
     (cells are never narrower than the largest diameter); :data:`CELLS_PER_DISC` by default.
     """
-    t = 0.0
-    while True:
-        n, t, status = _simulate(pos, vel, spc, uint, ids, idctr, n, t, duration, bkind, bp,
-                                 tables, params, flags, rng, icnt, fsum, ch_count, stats,
-                                 cells_per_disc)
-        n = _compact(n, pos, vel, spc, uint, ids)
-        if status == 0:
-            break
-        stats[ST_RESTARTS] += 1
-        cap = 2 * pos.shape[0] + 16
-        pos = grow2(pos, cap)
-        vel = grow2(vel, cap)
-        spc = grow1(spc, cap)
-        spc[n:] = -1
-        uint = grow1(uint, cap)
-        ids = grow1(ids, cap)
-    return pos, vel, spc, uint, ids, n
+    return run_steps(pos, vel, spc, uint, ids, idctr, n, 1, duration, bkind, bp, tables,
+                     params, flags, rng, icnt, fsum, ch_count, stats, cells_per_disc)
+
+
+@njit(cache=True)
+def run_steps_rngs(pos, vel, spc, uint, ids, idctr, n, n_steps, dt, bkind, bp, tables, params,
+                   flags, rngs, icnt, fsum, ch_count):
+    """:func:`run_steps` with its generator passed as ``rngs[0]`` (a ``numba.typed.List``;
+    see :func:`discgym.kernels.step.run_tracked_rngs`): the entry point of
+    :class:`~discgym.Simulation`."""
+    stats = np.zeros(N_STATS, dtype=COUNT)
+    return run_steps(pos, vel, spc, uint, ids, idctr, n, n_steps, dt, bkind, bp, tables,
+                     params, flags, rngs[0], icnt, fsum, ch_count, stats, CELLS_PER_DISC)
 
 
 @njit(cache=True)
 def run_tracked(pos, vel, spc, uint, ids, idctr, n, duration, bkind, bp, tables, params, flags,
                 rng, icnt, fsum, ch_count):
-    """Advance discs [0, n) exactly by ``duration`` of simulated time.
+    """Advance discs [0, n) exactly by ``duration`` of simulated time, as one step.
 
     State and counters as for :func:`discgym.kernels.step.run_tracked`: ``pos`` (C, 2),
     ``vel`` (C, 2), ``spc`` (C,) species index (-1: no disc), ``uint`` (C,) internal energy,
