@@ -53,7 +53,16 @@ from .kernels.batch import (
     observe_batch,
 )
 from .kernels.step import MAX_SUBSTEPS, REORDER_EVERY
-from .scene import HEX_PACKING, Box, Circle, Combination, Exchange, Scene, SceneError
+from .scene import (
+    HEX_PACKING,
+    Box,
+    Circle,
+    Combination,
+    Exchange,
+    Scene,
+    SceneError,
+    check_bounds_scale,
+)
 from .simulation import PLACEMENT_ATTEMPTS, Simulation, _as_scene, _inside
 
 __all__ = [
@@ -297,6 +306,8 @@ class ReactorConfig:
         for s in (size_min, size_max):
             try:
                 b = _bounds_of(scene, s)
+                # the sizes the compiled wall reaches must be bounds a simulation can hold
+                check_bounds_scale(b, scene.species, "bounds", "species")
             except SceneError as e:
                 raise ValueError(f"size_range: the reactor at size {s} is not valid bounds: "
                                  f"{e}") from None

@@ -384,6 +384,23 @@ def test_size_range_edges_and_bounds():
         ReactorConfig.from_kwargs(scene=sc, size_range=(0.5, 1.2))
 
 
+@pytest.mark.parametrize("top", [1e9, 1e16, 1e30])
+def test_size_range_reaching_beyond_what_a_simulation_holds_is_refused(top):
+    """The compiled wall may reach the high end of size_range at once (a large wall_speed):
+    there the reactor must still be bounds a Simulation holds (positions resolved finely
+    enough for the smallest disc, the 1e-40..1e40 range), else refused at construction."""
+    with pytest.raises(ValueError, match="^size_range: the reactor at size"):
+        DiscReactorEnv(size_range=(0.6, top), wall_speed=1e39)
+
+
+def test_the_largest_size_range_accepted_runs_at_full_wall_speed():
+    env = DiscReactorEnv(size_range=(0.6, 1e7), wall_speed=1e39)
+    env.reset(seed=0)
+    for _ in range(3):
+        obs, *_ = env.step(np.array([0, 1, 0, 0], np.float32))
+    assert np.isfinite(obs).all() and env.observation_space.contains(obs)
+
+
 def test_costs_and_rates_large_but_finite_work():
     # (one kernel step per env step: heated to the speed limit, a step takes 65536 substeps)
     env = DiscReactorEnv(**SMALL, step_time=0.05, heat_cost=1e200, feed_cost=1e200,
