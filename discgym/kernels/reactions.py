@@ -17,7 +17,7 @@ Every reaction conserves mass, momentum and total energy = kinetic + internal + 
   energy (relative kinetic + internal + formation difference) sets; their internal energy is 0.
 
 Products are only placed where they fit inside the bounds without overlapping any disc;
-where there is no room, the reaction does not happen (a collision then bounces elastically,
+without room the reaction does not happen (an ordinary collision: restitution, TC model, relaxation;
 a first-order reaction waits for a later step).
 """
 
