@@ -17,8 +17,9 @@ Every reaction conserves mass, momentum and total energy = kinetic + internal + 
   energy (relative kinetic + internal + formation difference) sets; their internal energy is 0.
 
 Products are only placed where they fit inside the bounds without overlapping any disc;
-without room the reaction does not happen (an ordinary collision: restitution, TC model, relaxation;
-a first-order reaction waits for a later step).
+without room the reaction does not happen (an ordinary collision: restitution, TC model,
+relaxation; a first-order reaction is tried again in the next substep, in the event-driven
+integrator at least one substep of the time-stepped one later).
 """
 
 import math
