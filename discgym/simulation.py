@@ -360,7 +360,7 @@ class Simulation:
 
     def _run(self, n_steps: int, dt: float) -> None:
         cs = self._cs
-        if self._integrator == "event":  # n_steps steps of exactly dt, synchronised
+        if self._integrator == "event":  # one exact run of n_steps * dt
             pos, vel, spc, uint, ids, n = _event.run_steps_rngs(
                 self._pos, self._vel, self._spc, self._uint, self._ids, self._idctr, self._n,
                 n_steps, dt, self._bkind, self._bp, cs.tables, cs.params, cs.flags,

@@ -21,20 +21,25 @@ bumped whenever its trajectory changes; an event naming a partner whose counter 
 is stale and only makes its disc predict again. Positions are stored at each disc's own last
 event time (``W[:, 4]``) and only brought to the common time at the end of a step.
 
-Steps: a call of n steps is exactly n calls of one step. Every step starts from the state
-alone (times from 0, every disc's first event predicted afresh, O(N log N); reaction times
-drawn afresh, exact since the exponential is memoryless; discs numbered in cell order for
-memory locality) and ends with every disc brought to its end. So split calls, copies and
-restored states continue bit for bit, and the arrays' capacity plays no part (a fission
-that finds them full grows them in place).
+Calls: a call of n steps is one exact run of n dt. It starts from the state alone (times
+from 0, every disc's first event predicted afresh, O(N log N); reaction times drawn afresh,
+exact since the exponential is memoryless; discs numbered in cell order for memory
+locality) and ends with every disc brought to its end. So a copy or a restored state
+continues bit for bit as the original does under the same calls, and the arrays' capacity
+plays no part (a fission that finds them full grows them in place). A call boundary is a
+synchronisation point: ``step(30); step(40)`` is two runs, the same physics as ``step(70)``
+but not the same round-off and random stream. Predicting every disc afresh at every step
+boundary would make them equal at ~150 ns per disc-step, several times the cost of the run
+itself at dt = 0.05 (docs/hard_cases.md, finding 19).
 
-Bounds on the work of a step (no input may make a call run without end): a refused
-first-order reaction retries no sooner than one substep of the time-stepped integrator
-later (``dt / k``, k its substep count for this step: the pace at which it retries), a disc's
-first-order events past FO_EXACT in a step are delayed to the same pace (a cycle of certain
-reactions, A -> B -> A, has no end at one instant), and a step stops at the time-stepped
-integrator's event bound for it, ``k (64 n + 1024)`` events, after which the time-stepped
-integrator finishes it (``events_capped``). Bounds that leave a species less than
+Bounds on the work of a call (no input may make a call run without end), per step of dt in
+the call: a refused first-order reaction retries no sooner than one substep of the
+time-stepped integrator later (``dt / k``, k its substep count for a step from the speeds at
+the call's start: the pace at which it retries), a disc's first-order events past FO_EXACT
+per step are delayed to the same pace (a cycle of certain reactions, A -> B -> A, has no end
+at one instant), and a call stops at the time-stepped integrator's event bound for its
+steps, ``n k (64 N + 1024)`` events, after which the time-stepped integrator finishes it
+(``events_capped``). Bounds that leave a species less than
 FIT_MARGIN radii of room are refused by :class:`~discgym.Simulation`.
 
 Round-off: a pair counts as approaching only if its normal approach speed exceeds 1e-10 of
@@ -133,7 +138,7 @@ N_STATS = 7
 APPROACH2 = 1e-20
 FIT_MARGIN = 1e-3  # the free gap a species needs in its bounds, in radii (Simulation refuses
 # less): a disc with gap g meets the walls |v| / g times per unit time
-FO_EXACT = 16  # first-order events of one disc in one step at exact times (see below)
+FO_EXACT = 16  # first-order events of one disc per step at exact times (see below)
 TC_FRACTION = 1e-3  # t_c of the TC model, in units of r_min / v_rms (e < 1 only)
 CELLS_PER_DISC = 4.0  # grid cells per disc, when that makes cells larger than a diameter
 MAX_CELLS = 1 << 26
@@ -385,11 +390,12 @@ def _next_reaction(d, T, krate, trx, tables, spc, uint, rng, always, floor):
 @njit(cache=True)
 def _first_order_event(d, n, t, W, spc, uint, ids, idctr, stamp, trx, krate, tcol, cell, head,
                        nxt, prv, tables, collide, rmax, bkind, bp, gx0, gy0, icw, ich, ncx,
-                       ncy, rng, icnt, ch_count, nfo, hsub):
+                       ncy, rng, icnt, ch_count, nfo, hsub, fo_exact):
     """Disc d (at time t) undergoes one of its first-order channels, if its products fit
     (else it waits an exponential time, but at least ``hsub``: a certain reaction, rate
-    ~1e300, would otherwise retry at the same instant forever). After FO_EXACT first-order
-    events of one disc in a step (``nfo``), its next ones are also at least ``hsub`` apart
+    ~1e300, would otherwise retry at the same instant forever). After ``fo_exact`` first-order
+    events of one disc in a call (``nfo``; FO_EXACT per step), its next ones are also at least
+    ``hsub`` apart
     (a cycle of certain reactions, A -> B -> A, would not advance the clock either), each
     such delay counted in ``events_capped``. A fission's second fragment becomes disc n (the
     caller made sure there is room for it). Returns n if it was created, else -1."""
@@ -470,7 +476,7 @@ def _first_order_event(d, n, t, W, spc, uint, ids, idctr, stamp, trx, krate, tco
         ch_count[c] += 1
         stamp[d] += 1
         floor = 0.0
-        if nfo[d] >= FO_EXACT:
+        if nfo[d] >= fo_exact:
             floor = hsub
             icnt[IC_EVENTS_CAPPED] += 1
         _next_reaction(d, t, krate, trx, tables, spc, uint, rng, True, floor)
@@ -498,21 +504,22 @@ def _grow_range(a, cap):
 
 
 @njit(cache=True)
-def _simulate(pos, vel, spc_ext, uint_ext, ids, idctr, n, t1, bkind, bp, tables, params,
-              flags, rng, icnt, fsum, ch_count, stats, cells_per_disc):
-    """Advance discs [0, n) by one step, from time 0 to t1.
+def _simulate(pos, vel, spc_ext, uint_ext, ids, idctr, n, n_steps, step_dt, bkind, bp,
+              tables, params, flags, rng, icnt, fsum, ch_count, stats, cells_per_disc):
+    """Advance discs [0, n) by ``n_steps`` steps of ``step_dt`` in one run, from time 0 to
+    t1 = n_steps step_dt.
 
-    Everything is derived from the state at the start of the step (positions, velocities,
+    Everything is derived from the state at the start of the run (positions, velocities,
     species, internal energies, the generator): the grid, the TC model's t_c, the retry
     floor, the event bound, and the reaction times, drawn afresh (exact: the exponential is
-    memoryless). So a step's outcome depends neither on how many steps its call makes nor on
-    the arrays' capacity: a fission that finds them full grows them (and the working
-    arrays) in place and carries on.
+    memoryless). So the outcome does not depend on the arrays' capacity: a fission that
+    finds them full grows them (and the working arrays) in place and carries on.
 
     Returns ``(pos, vel, spc, uint, ids, n, t)``: the state arrays (new ones if they grew),
-    holding the discs at t; t = t1 unless the step reached its event bound (``k (64 n +
-    1024)`` events, the time-stepped integrator's bound for a step of k substeps): then t is
-    the time of the first event not processed, and the caller finishes the step otherwise.
+    holding the discs at t; t = t1 unless the run reached its event bound (``n_steps k (64 n
+    + 1024)`` events, the time-stepped integrator's bound for n_steps steps of k substeps):
+    then t is the time of the first event not processed, and the caller finishes the run
+    otherwise.
     Discs consumed by combinations are left with ``spc = -1`` (the caller compacts).
 
     Inside, discs are renumbered in cell order, so that neighbours are near in memory (at
@@ -520,7 +527,8 @@ def _simulate(pos, vel, spc_ext, uint_ext, ids, idctr, n, t1, bkind, bp, tables,
     with the same index inside and out.
     """
     if n == 0:
-        return pos, vel, spc_ext, uint_ext, ids, 0, t1
+        return pos, vel, spc_ext, uint_ext, ids, 0, n_steps * step_dt
+    t1 = n_steps * step_dt
     sp_radius, sp_mass, sp_form = tables[0], tables[1], tables[2]
     ch_kind, ch_reac, ch_prod = tables[3], tables[4], tables[5]
     ch_energy = tables[7]
@@ -542,13 +550,14 @@ def _simulate(pos, vel, spc_ext, uint_ext, ids, idctr, n, t1, bkind, bp, tables,
         if spc_ext[d] >= 0:
             v2max = max(v2max, vel[d, 0] * vel[d, 0] + vel[d, 1] * vel[d, 1])
     ksub = 1
-    q = math.sqrt(v2max) * t1 / (params[2] * params[3])
+    q = math.sqrt(v2max) * step_dt / (params[2] * params[3])
     if not q <= MAX_SUBSTEPS:
         ksub = MAX_SUBSTEPS
     elif q > 1.0:
         ksub = int(math.ceil(q))
-    hsub = t1 / ksub
-    budget = ksub * (EVENTS_PER_DISC * n + 1024)
+    hsub = step_dt / ksub
+    budget = n_steps * ksub * (EVENTS_PER_DISC * n + 1024)
+    fo_exact = n_steps * FO_EXACT
     if e_rest < 1.0:
         mv2 = 0.0
         msum = 0.0
@@ -584,7 +593,7 @@ def _simulate(pos, vel, spc_ext, uint_ext, ids, idctr, n, t1, bkind, bp, tables,
     # ---- per-disc working state
     W = np.zeros((cap, 8), dtype=FLOAT)
     Ev = np.zeros((cap, 8), dtype=FLOAT)
-    nfo = np.zeros(cap, dtype=COUNT)  # first-order events of each disc in this step
+    nfo = np.zeros(cap, dtype=COUNT)  # first-order events of each disc in this run
     stamp = np.zeros(cap, dtype=COUNT)
     trx = np.full(cap, INF, dtype=FLOAT)
     krate = np.zeros(cap, dtype=FLOAT)
@@ -870,7 +879,7 @@ def _simulate(pos, vel, spc_ext, uint_ext, ids, idctr, n, t1, bkind, bp, tables,
             newd = _first_order_event(d, n, t, W, spc, uint, ids, idctr, stamp, trx, krate,
                                       tcol, cell, head, nxt, prv, tables, collide, rmax,
                                       bkind, bp, gx0, gy0, icw, ich, ncx, ncy, rng, icnt,
-                                      ch_count, nfo, hsub)
+                                      ch_count, nfo, hsub, fo_exact)
             if newd >= 0:
                 n += 1
                 p1 = newd
@@ -904,24 +913,27 @@ def _simulate(pos, vel, spc_ext, uint_ext, ids, idctr, n, t1, bkind, bp, tables,
 @njit(cache=True)
 def run_steps(pos, vel, spc, uint, ids, idctr, n, n_steps, dt, bkind, bp, tables, params,
               flags, rng, icnt, fsum, ch_count, stats, cells_per_disc):
-    """Advance ``n_steps`` steps of ``dt``, each exactly as one call of one step would:
-    every disc is brought to the step boundary and the next step starts from that state
-    alone, so ``n`` steps in one call equal ``n`` calls of one step, bit for bit. A step
-    that reaches its event bound (see :func:`_simulate`) is finished from the time of the
-    bound by the time-stepped integrator (one step of the rest, single-threaded; counted in
+    """Advance ``n_steps`` steps of ``dt`` in one exact run (every disc brought to the end).
+    A run that reaches its event bound (see :func:`_simulate`) is finished from the time of
+    the bound by the time-stepped integrator (steps of ``dt``, single-threaded; counted in
     ``events_capped``), whose own bounds hold. ``stats``: see :func:`run_stats`. Returns
     ``(pos, vel, spc, uint, ids, n)``."""
-    for _s in range(n_steps):
-        pos, vel, spc, uint, ids, n, t = _simulate(pos, vel, spc, uint, ids, idctr, n, dt,
-                                                   bkind, bp, tables, params, flags, rng,
-                                                   icnt, fsum, ch_count, stats,
-                                                   cells_per_disc)
-        n = _compact(n, pos, vel, spc, uint, ids)
-        if t < dt:
-            icnt[IC_EVENTS_CAPPED] += 1
+    pos, vel, spc, uint, ids, n, t = _simulate(pos, vel, spc, uint, ids, idctr, n, n_steps, dt,
+                                               bkind, bp, tables, params, flags, rng, icnt,
+                                               fsum, ch_count, stats, cells_per_disc)
+    n = _compact(n, pos, vel, spc, uint, ids)
+    rest = n_steps * dt - t
+    if rest > 0.0:
+        icnt[IC_EVENTS_CAPPED] += 1
+        whole = min(int(rest / dt), n_steps)
+        if whole > 0:
             pos, vel, spc, uint, ids, n, _w = step_run(
-                pos, vel, spc, uint, n, 1, dt - t, bkind, bp, tables, params, flags, rng,
+                pos, vel, spc, uint, n, whole, dt, bkind, bp, tables, params, flags, rng,
                 icnt, fsum, ch_count, 1, ids, idctr, 0, 0, empty_work())
+        if rest - whole * dt > 0.0:
+            pos, vel, spc, uint, ids, n, _w = step_run(
+                pos, vel, spc, uint, n, 1, rest - whole * dt, bkind, bp, tables, params, flags,
+                rng, icnt, fsum, ch_count, 1, ids, idctr, 0, 0, empty_work())
     return pos, vel, spc, uint, ids, n
 
 
