@@ -66,8 +66,8 @@ class _Hasher:
 def simulation_fingerprint(sim: dg.Simulation) -> str:
     h = _Hasher()
     for value in (sim.positions, sim.velocities, sim.species, sim.internal_energy, sim.ids,
-                  sim.counters, sim.reactions(), sim.time, sim.kinetic_energy(),
-                  sim.internal_energy_total(), sim.dissipated_energy(), sim.energy_input(),
+                  sim.counters(), sim.reactions(), sim.time, sim.kinetic_energy(),
+                  sim.internal_energy_total(), sim.dissipated_energy, sim.energy_input,
                   sim.energy_balance()):
         h.add(value)
     return h.hexdigest()
@@ -86,6 +86,42 @@ def scene_runs(integrators=("step", "event"), seeds=SEEDS):
                 sim = sim.copy()
                 sim.step(n - n // 3)
                 out[f"scene/{name}/{integ}/seed{seed}"] = simulation_fingerprint(sim)
+    return out
+
+
+def control_runs(integrators=("step", "event"), seeds=SEEDS):
+    """{name: fingerprint} of every built-in scene driven through the Simulation's controls
+    (heating, cooling, injection, a wall moved in and out) between runs, and restored from a
+    state in the middle."""
+    out = {}
+    for name in dg.scenes.names():
+        for integ in integrators:
+            for seed in seeds:
+                sim = dg.Simulation(name, seed=seed, integrator=integ)
+                n = STEPS[integ] // 6
+                b = sim.bounds
+                sim.step(n)
+                sim.scale_temperature(1.3)
+                placed = sim.inject(0, 5)
+                placed += sim.inject(len(sim.scene.species) - 1, 3, temperature=2.0,
+                                     near=(b.center if isinstance(b, dg.Circle) else
+                                           (b.origin[0] + 0.5 * b.width,
+                                            b.origin[1] + 0.5 * b.height)))
+                sim.step(n)
+                if isinstance(b, dg.Box):
+                    sim.resize(dg.Box(0.9 * b.width, b.height, b.origin))
+                else:
+                    sim.resize(dg.Circle(0.95 * b.radius, b.center))
+                sim.step(n)
+                state = sim.get_state()
+                sim.scale_temperature(0.7)
+                sim.step(n)
+                sim.set_state(state)
+                sim.resize(b)
+                sim.scale_temperature(0.8)
+                sim.step(n)
+                out[f"controls/{name}/{integ}/seed{seed}"] = (
+                    simulation_fingerprint(sim) + f"/{placed}")
     return out
 
 
@@ -142,7 +178,7 @@ def _cpu_model() -> str:
 
 
 def all_fingerprints() -> dict:
-    return {**scene_runs(), **env_runs()}
+    return {**scene_runs(), **control_runs(), **env_runs()}
 
 
 def main(argv=None) -> int:
