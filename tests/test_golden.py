@@ -1,0 +1,50 @@
+"""Trajectories bit for bit: every built-in scene with both integrators, driven through the
+controls, and env episodes (single and vector env, random and heuristic actions) hash to the
+fingerprints recorded in ``tests/golden.json`` (see ``tests/golden.py``).
+
+Float bits hold on the CPU model and library versions they were recorded with, so the test
+runs only where the platform matches the file's and skips elsewhere, saying why. A change
+meant to alter trajectories re-records the file (``python tests/golden.py --write
+tests/golden.json``) and says so in its commit; a refactoring must leave it untouched.
+"""
+
+import json
+from pathlib import Path
+
+import golden
+import pytest
+
+RECORDED = json.loads((Path(__file__).parent / "golden.json").read_text())
+
+
+def _platform_or_skip():
+    here = golden.platform_key()
+    if RECORDED["platform"] != here:
+        pytest.skip(f"golden.json was recorded on {RECORDED['platform']}, this is {here}")
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("group", ["scene", "controls", "env"])
+def test_trajectories_match_the_recorded_fingerprints(group):
+    _platform_or_skip()
+    runs = {"scene": golden.scene_runs, "controls": golden.control_runs,
+            "env": golden.env_runs}[group]()
+    want = {k: v for k, v in RECORDED["fingerprints"].items() if k.startswith(group + "/")}
+    assert want, f"no {group} fingerprints recorded"
+    changed = sorted(k for k in want.keys() | runs.keys() if want.get(k) != runs.get(k))
+    assert not changed, f"{len(changed)} of {len(want)} trajectories changed: {changed[:8]}"
+
+
+def test_a_changed_trajectory_changes_its_fingerprint():
+    """The hash sees the last bit of a position (so the test above can fail)."""
+    import numpy as np
+
+    import discgym as dg
+
+    sim = dg.Simulation("ideal_gas", seed=0)
+    sim.step(2)
+    a = golden.simulation_fingerprint(sim)
+    st = sim.get_state()
+    st["positions"][0, 0] = np.nextafter(st["positions"][0, 0], np.inf)
+    sim.set_state(st)
+    assert golden.simulation_fingerprint(sim) != a
