@@ -1001,10 +1001,13 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser(
         "bench", help="run the benchmark suite (quick mode) and print its tables",
-        description="Run the benchmark suite (discgym.bench) in its quick mode and print its "
-                    "tables. Other options are passed on to the suite, e.g. "
-                    "`discgym bench --sections scaling --plot docs/img`; "
-                    "`python -m discgym.bench --help` lists them.")
+        description="Run the benchmark suite (discgym.bench: scaling with N and threads, the "
+                    "cost of each effect) in its quick mode and print its tables. Other "
+                    "options are passed on to the suite, e.g. "
+                    "`discgym bench --sections scaling --sizes 100,1000`; "
+                    "`python -m discgym.bench --help` lists them. The comparison with pymunk "
+                    "and the figures of docs/performance.md are the scripts in benchmarks/ "
+                    "of the source repository.")
     p.add_argument("--full", action="store_true", help="the full suite instead of --quick "
                    "(many minutes)")
     p.set_defaults(func=cmd_bench, bench_args=[])
