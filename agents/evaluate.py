@@ -6,8 +6,8 @@ Baselines, all on the same seeds as the policy (seed, seed + 1, ...):
 - random: uniform actions in [-1, 1];
 - best constant: the best of a grid of constant actions, chosen on *other* seeds (so the
   selection does not flatter it);
-- heuristic: the scheduled thermostat of ``discgym.env.HeuristicPolicy`` (hot until the product
-  builds up, then cool).
+- heuristic: the scheduled thermostat of ``discgym.baselines.HeuristicPolicy`` (hot until the
+  product builds up, then cool).
 
 Writes into the run folder: ``evaluation.json`` (every return), ``evaluation.md`` (the table),
 and ``episode.gif`` (the trained policy's episode on the first seed, discs beside the species
@@ -26,14 +26,14 @@ from pathlib import Path
 
 import numpy as np
 
-from discgym.env import (
+from discgym.baselines import (
     HeuristicPolicy,
-    ReactorConfig,
     best_constant_action,
     constant_policy,
     evaluate,
     random_policy,
 )
+from discgym.env import ReactorConfig
 
 
 def load_policy(run: Path):

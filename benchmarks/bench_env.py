@@ -116,8 +116,8 @@ class KernelTimer:
 
 def bench_single(steps: int, policy: str = "random") -> dict:
     """``policy``: "random" (uniform actions: the wall moves and the temperature swings every
-    step) or "heuristic" (discgym.env.heuristic_policy: typical control)."""
-    from discgym.env import heuristic_policy
+    step) or "heuristic" (discgym.baselines.heuristic_policy: typical control)."""
+    from discgym.baselines import heuristic_policy
 
     env = gym.make("DiscReactor-v0")
     rng = np.random.default_rng(0)
@@ -165,9 +165,9 @@ def bench_vector(R: int, threads: int, steps: int, policy: str) -> tuple[float, 
 
     ``policy``: "random" (every control acts on every step: the worst case for the Python
     part; ``steps`` steps after 2 warm-up steps) or "heuristic"
-    (discgym.env.heuristic_policy, one whole episode; its own time is not counted)."""
+    (discgym.baselines.heuristic_policy, one whole episode; its own time is not counted)."""
     import discgym.vector as vmod
-    from discgym.env import heuristic_policy
+    from discgym.baselines import heuristic_policy
 
     venv = DiscReactorVectorEnv(num_envs=R, threads=threads)
     if policy == "heuristic":
@@ -199,7 +199,7 @@ def bench_vector_split(R: int) -> dict:
     """One full episode of the heuristic on R reactors: the share of the wall time spent in
     the batched kernel vs the Python around it (controls, observation, info)."""
     import discgym.vector as vmod
-    from discgym.env import heuristic_policy
+    from discgym.baselines import heuristic_policy
 
     venv = DiscReactorVectorEnv(num_envs=R, autoreset_mode="Disabled")
     obs, _ = venv.reset(seed=0)
@@ -252,7 +252,7 @@ def bench_ppo(num_envs: int, n_steps: int, rollouts: int) -> dict | None:
 def baselines(episodes: int = 16, seed: int = 0, search_episodes: int = 8,
               search_seed: int = 1000) -> None:
     """Print the three baselines of docs/env.md (returns over ``episodes`` seeded episodes)."""
-    from discgym.env import (
+    from discgym.baselines import (
         best_constant_action,
         constant_policy,
         evaluate,
@@ -269,7 +269,7 @@ def baselines(episodes: int = 16, seed: int = 0, search_episodes: int = 8,
           f"({len(grid)} candidates; heat, wall, inject A, inject B):")
     for k in order[:5]:
         print(f"   {grid[k]}  {means[k]:.3f}")
-    rows = [("scheduled heuristic (discgym.env.heuristic_policy)", heuristic_policy),
+    rows = [("scheduled heuristic (discgym.baselines.heuristic_policy)", heuristic_policy),
             (f"best constant action {[round(float(x), 3) for x in best]}",
              constant_policy(best)),
             ("uniform random actions (random_policy(seed=0))", random_policy(4, seed=0))]

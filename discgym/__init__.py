@@ -1,7 +1,8 @@
 """discgym: a reactive hard-disc simulator and a Gymnasium environment on top of it.
 
 The physics (``discgym.scene``, ``discgym.simulation``, ``discgym.kernels``) imports neither
-gymnasium nor any renderer; the environment lives in ``discgym.env``.
+gymnasium nor any renderer; the environment lives in ``discgym.env``, its batched form in
+``discgym.vector`` and the baseline policies in ``discgym.baselines`` (imported on demand).
 """
 
 from . import scenes

@@ -31,6 +31,7 @@ import sys
 import tempfile
 import time
 from pathlib import Path
+from typing import NamedTuple
 
 __all__ = ["main", "CLIError", "parse_counts", "CSV_HELP"]
 
@@ -494,13 +495,21 @@ def _write_plot(series: _Series, path: Path, title: str) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from .render import species_colors
-
     t = series.column("time")
-    colors = species_colors(len(series.species)) / 255.0
     fig, axes = plt.subplots(3, 1, figsize=(7.5, 8.5), sharex=True,
                              gridspec_kw={"height_ratios": [3, 2, 2]})
-    ax = axes[0]
+    _plot_counts(axes[0], series, t, title)
+    _plot_temperature(axes[1], series, t)
+    _plot_energies(axes[2], series, t)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def _plot_counts(ax, series: _Series, t: list, title: str) -> None:
+    from .render import species_colors
+
+    colors = species_colors(len(series.species)) / 255.0
     for k, (s, col) in enumerate(zip(series.species, colors)):
         # widths alternate so that equal curves (A and B of A + B -> C) both stay visible
         ax.plot(t, series.column(f"n_{s}"), color=col, lw=2.6 if k % 2 == 0 else 1.2,
@@ -510,7 +519,9 @@ def _write_plot(series: _Series, path: Path, title: str) -> None:
     ax.legend(loc="best", fontsize=9, ncol=min(len(series.species), 4))
     ax.grid(alpha=0.3)
 
-    ax = axes[1]
+
+def _plot_temperature(ax, series: _Series, t: list) -> None:
+    """Temperature, and the interval-mean pressure on a second axis."""
     ax.plot(t, series.column("temperature"), color="tab:red", lw=1.4, label="temperature kT")
     p = series.column("pressure")
     if len(t) > 1:
@@ -527,7 +538,8 @@ def _write_plot(series: _Series, path: Path, title: str) -> None:
     ax.set_ylabel("kT")
     ax.grid(alpha=0.3)
 
-    ax = axes[2]
+
+def _plot_energies(ax, series: _Series, t: list) -> None:
     for name, lab, col in (("kinetic", "kinetic", "tab:red"),
                            ("internal", "internal", "tab:orange"),
                            ("formation", "formation", "tab:purple"),
@@ -540,9 +552,6 @@ def _write_plot(series: _Series, path: Path, title: str) -> None:
     ax.set_xlabel("simulated time")
     ax.legend(loc="best", fontsize=9, ncol=2)
     ax.grid(alpha=0.3)
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
 
 
 def _write_movie(frames, path: Path, fps: float, kind: str) -> None:
@@ -578,37 +587,47 @@ def _integrator_supported() -> bool:
 
 def _build_simulation(args):
     """-> (sim, label). A new simulation from the scene, or one resumed from a checkpoint."""
+    return _resume(args) if args.resume else _new_simulation(args)
+
+
+def _resume(args):
+    """-> (sim, label): the checkpoint of ``--resume``, checked against the other options."""
     import discgym as dg
 
-    if args.resume:
-        for opt, val in (("--n", args.n), ("--seed", args.seed),
-                         ("--temperature", args.temperature)):
-            if val is not None:
-                raise CLIError(f"{opt} cannot be used with --resume: the checkpoint carries "
-                               "the discs, their velocities and the random state")
-        p = Path(args.resume)
-        if not p.is_file():
-            raise CLIError(f"--resume {args.resume}: no such file")
-        try:
-            with open(p, "rb") as f:
-                sim = pickle.load(f)
-        except Exception as exc:  # any unpickling failure is a bad checkpoint
-            raise CLIError(f"--resume {args.resume}: not a discgym checkpoint "
-                           f"({type(exc).__name__}: {exc})") from None
-        if not isinstance(sim, dg.Simulation):
-            raise CLIError(f"--resume {args.resume}: not a discgym checkpoint (it holds a "
-                           f"{type(sim).__name__})")
-        used = getattr(sim, "integrator", "step")
-        if args.integrator is not None and args.integrator != used:
-            raise CLIError(f"--integrator {args.integrator}: the checkpoint {args.resume} runs "
-                           f"the {used!r} integrator; leave out --integrator to continue it")
-        if args.scene is not None:
-            scene = _load_scene(args.scene)
-            if scene != sim.scene:
-                raise CLIError(f"--resume {args.resume}: the checkpoint holds the scene "
-                               f"{sim.scene.name or '(unnamed)'!r}, which differs from "
-                               f"{args.scene}; leave out the scene to continue the checkpoint")
-        return sim, f"{sim.scene.name or 'scene'} (resumed from {p.name})"
+    for opt, val in (("--n", args.n), ("--seed", args.seed),
+                     ("--temperature", args.temperature)):
+        if val is not None:
+            raise CLIError(f"{opt} cannot be used with --resume: the checkpoint carries "
+                           "the discs, their velocities and the random state")
+    p = Path(args.resume)
+    if not p.is_file():
+        raise CLIError(f"--resume {args.resume}: no such file")
+    try:
+        with open(p, "rb") as f:
+            sim = pickle.load(f)
+    except Exception as exc:  # any unpickling failure is a bad checkpoint
+        raise CLIError(f"--resume {args.resume}: not a discgym checkpoint "
+                       f"({type(exc).__name__}: {exc})") from None
+    if not isinstance(sim, dg.Simulation):
+        raise CLIError(f"--resume {args.resume}: not a discgym checkpoint (it holds a "
+                       f"{type(sim).__name__})")
+    used = getattr(sim, "integrator", "step")
+    if args.integrator is not None and args.integrator != used:
+        raise CLIError(f"--integrator {args.integrator}: the checkpoint {args.resume} runs "
+                       f"the {used!r} integrator; leave out --integrator to continue it")
+    if args.scene is not None:
+        scene = _load_scene(args.scene)
+        if scene != sim.scene:
+            raise CLIError(f"--resume {args.resume}: the checkpoint holds the scene "
+                           f"{sim.scene.name or '(unnamed)'!r}, which differs from "
+                           f"{args.scene}; leave out the scene to continue the checkpoint")
+    return sim, f"{sim.scene.name or 'scene'} (resumed from {p.name})"
+
+
+def _new_simulation(args):
+    """-> (sim, label): a new simulation of the scene with ``--n``, ``--temperature``,
+    ``--seed`` and ``--integrator``."""
+    import discgym as dg
 
     if args.scene is None:
         raise CLIError("run: give a scene (a built-in name or a TOML file) or --resume STATE")
@@ -701,8 +720,10 @@ class _Clock:
                 (sim.time - self.first[1]) / self.busy)
 
 
-def cmd_run(args) -> int:
-    # ---- check everything that can fail before spending time on the run
+def _check_run_options(args) -> tuple[dict, str | None]:
+    """Check everything that can fail before spending time on the run: the numbers, the
+    output paths and the optional packages they need. -> (output paths by kind, the movie
+    kind "gif" / "mp4" or None)."""
     if not (math.isfinite(args.time) and args.time >= 0):
         raise CLIError(f"--time must be a finite number >= 0, got {args.time}")
     if args.every is not None and not (math.isfinite(args.every) and args.every > 0):
@@ -727,127 +748,172 @@ def cmd_run(args) -> int:
         _need("imageio_ffmpeg", "--mp4", "pip install imageio imageio-ffmpeg")
     if args.save:
         outputs["save"] = _writable(args.save, "--save")
+    return outputs, movie_kind
 
-    sim, label = _build_simulation(args)
-    dt = float(sim.scene.dt)
-    total_steps = int(math.floor(args.time / dt + 1e-9))
-    rest = args.time - total_steps * dt
+
+class _Plan(NamedTuple):
+    """How a run of ``--time`` is cut: ``steps`` whole steps of ``dt``, then ``rest`` (0 or
+    a fraction of a step); a sample every ``every`` steps (``adaptive``: starting at one step
+    and doubling); ``samples``: the rows a fixed interval gives (1 when adaptive)."""
+
+    dt: float
+    steps: int
+    rest: float
+    adaptive: bool
+    every: int
+    samples: int
+
+
+def _plan_run(duration: float, every: float | None, dt: float) -> _Plan:
+    steps = int(math.floor(duration / dt + 1e-9))
+    rest = duration - steps * dt
     if rest <= 1e-9 * dt:
         rest = 0.0
-    adaptive = args.every is None
-    k_every = 1 if adaptive else max(int(round(args.every / dt)), 1)  # steps per sample
-    n_planned = 1 if adaptive else -(-total_steps // k_every) + 1 + (1 if rest else 0)
+    adaptive = every is None
+    k_every = 1 if adaptive else max(int(round(every / dt)), 1)
+    samples = 1 if adaptive else -(-steps // k_every) + 1 + (1 if rest else 0)
+    return _Plan(dt, steps, rest, adaptive, k_every, samples)
 
+
+def _frame_renderer(size: int):
+    """sim -> an animation frame of ``size`` pixels, titled with the clock."""
     from .render import render_frame
 
     def render(s) -> object:
-        return render_frame(s, size=args.size, title=f"t = {s.time:.1f}")
+        return render_frame(s, size=size, title=f"t = {s.time:.1f}")
 
-    series = _Series(sim, adaptive, frame_stride=max(-(-n_planned // args.frames), 1),
-                     render=render if movie_kind else None)
+    return render
 
-    t_start = sim.time
-    counts0 = sim.counts()
-    temp0 = sim.temperature()
-    energy0 = sim.total_energy()
-    kin0 = sim.kinetic_energy()
-    balance0 = sim.energy_balance()
-    counters0 = sim.counters()
-    fired0 = sim.reactions()
-    series.sample(sim, math.nan, 0.0)
-    sim.reset_counters()  # pressure: averaged over each sampling interval from here
-    p_weighted = 0.0  # sum of interval pressure x interval length
-    p_time = 0.0
-    last_t = sim.time
 
-    every_txt = ("adaptive sampling, 100-200 samples" if adaptive else
-                 f"a sample every {k_every * dt:.4g}")
-    integrator = getattr(sim, "integrator", "step")
-    _note(f"running {label}: {len(sim)} discs, t {t_start:.4g} -> {t_start + args.time:.4g} "
-          f"({integrator} integrator, dt {dt:g}, {every_txt}); Ctrl-C stops and writes the "
-          "outputs")
-    progress = _Progress(args.time, t_start, enabled=not args.quiet)
-    interrupted = False
-    clock = _Clock()
-    steps_per_s = None  # measured; chunks of ~0.1 s keep Ctrl-C responsive
+class _Start(NamedTuple):
+    """The state at the start of a run, which the summary compares the end with."""
 
-    def sample_now() -> None:
-        nonlocal p_weighted, p_time, last_t, k_every
-        span = sim.time - last_t
+    time: float
+    counts: dict
+    temperature: float
+    total_energy: float
+    kinetic: float
+    balance: float
+    counters: dict
+    fired: dict
+
+    @classmethod
+    def of(cls, sim) -> _Start:
+        return cls(sim.time, sim.counts(), sim.temperature(), sim.total_energy(),
+                   sim.kinetic_energy(), sim.energy_balance(), sim.counters(), sim.reactions())
+
+
+class _RunLoop:
+    """The run itself: advances ``sim`` in chunks, samples ``series`` at the planned steps
+    with the mean pressure of each interval, drives the progress bar and stops early on
+    Ctrl-C. Creating it takes the first sample and starts the pressure bookkeeping."""
+
+    def __init__(self, sim, series: _Series, plan: _Plan):
+        self.sim, self.series, self.plan = sim, series, plan
+        self.t_start = sim.time
+        self.every = plan.every  # steps per sample (doubles as the adaptive series thins)
+        series.sample(sim, math.nan, 0.0)
+        sim.reset_counters()  # pressure: averaged over each sampling interval from here
+        self.p_weighted = 0.0  # sum of interval pressure x interval length
+        self.p_time = 0.0
+        self.last_t = sim.time
+        self.progress = None
+        self.clock = None
+
+    def mean_pressure(self) -> float:
+        return self.p_weighted / self.p_time if self.p_time > 0 else math.nan
+
+    def _sample(self) -> None:
+        sim = self.sim
+        span = sim.time - self.last_t
         p = sim.pressure() if span > 0 else math.nan
         if span > 0:
-            p_weighted += p * span
-            p_time += span
-        if series.sample(sim, p, span):
-            k_every *= 2
+            self.p_weighted += p * span
+            self.p_time += span
+        if self.series.sample(sim, p, span):
+            self.every *= 2
         sim.reset_counters()
-        last_t = sim.time
+        self.last_t = sim.time
 
-    def advance(duration: float) -> float:
+    def _advance(self, duration: float) -> float:
         w = time.perf_counter()
-        sim.advance(duration)
+        self.sim.advance(duration)
         w = time.perf_counter() - w
-        clock.advanced(sim, w)
-        progress.update(sim.time - t_start, clock.rates(sim)[0])
+        self.clock.advanced(self.sim, w)
+        self.progress.update(self.sim.time - self.t_start, self.clock.rates(self.sim)[0])
         return w
 
-    with _Stop() as stop:
-        try:
-            done = 0
-            next_sample = k_every
-            while done < total_steps and not stop.requested:
-                # the first chunk is one step; then chunks of ~0.1 s of wall time, cut at the
-                # next sample
-                chunk = 1 if steps_per_s is None else max(int(0.1 * steps_per_s), 1)
-                chunk = min(chunk, next_sample - done, total_steps - done)
-                w = advance(chunk * dt)
-                if w > 0:
-                    rate = chunk / w
-                    steps_per_s = rate if steps_per_s is None else \
-                        0.5 * steps_per_s + 0.5 * rate
-                done += chunk
-                if done == next_sample or done == total_steps:
-                    sample_now()
-                    next_sample = done + k_every
-            if rest and not stop.requested:
-                advance(rest)
-                sample_now()
-        except KeyboardInterrupt:
-            # a second Ctrl-C: it may have struck in the middle of a step, so the state is
-            # not worth writing; main() reports the interruption
-            progress.close()
-            _note("aborted by a second Ctrl-C: nothing written")
-            raise
-        interrupted = stop.requested
-        if interrupted and sim.time > last_t:
-            sample_now()
-    progress.close()
-    if interrupted:
-        _note(f"interrupted at t {sim.time:.6g} (Ctrl-C): writing what was asked for")
+    def run(self, duration: float, quiet: bool) -> bool:
+        """Run the plan; True if Ctrl-C stopped it early (the state is then sampled where it
+        stopped). A second Ctrl-C propagates as KeyboardInterrupt."""
+        sim, plan = self.sim, self.plan
+        self.progress = _Progress(duration, self.t_start, enabled=not quiet)
+        self.clock = _Clock()
+        steps_per_s = None  # measured; chunks of ~0.1 s keep Ctrl-C responsive
+        with _Stop() as stop:
+            try:
+                done = 0
+                next_sample = self.every
+                while done < plan.steps and not stop.requested:
+                    # the first chunk is one step; then chunks of ~0.1 s of wall time, cut at
+                    # the next sample
+                    chunk = 1 if steps_per_s is None else max(int(0.1 * steps_per_s), 1)
+                    chunk = min(chunk, next_sample - done, plan.steps - done)
+                    w = self._advance(chunk * plan.dt)
+                    if w > 0:
+                        rate = chunk / w
+                        steps_per_s = rate if steps_per_s is None else \
+                            0.5 * steps_per_s + 0.5 * rate
+                    done += chunk
+                    if done == next_sample or done == plan.steps:
+                        self._sample()
+                        next_sample = done + self.every
+                if plan.rest and not stop.requested:
+                    self._advance(plan.rest)
+                    self._sample()
+            except KeyboardInterrupt:
+                # a second Ctrl-C: it may have struck in the middle of a step, so the state
+                # is not worth writing; main() reports the interruption
+                self.progress.close()
+                _note("aborted by a second Ctrl-C: nothing written")
+                raise
+            interrupted = stop.requested
+            if interrupted and sim.time > self.last_t:
+                self._sample()
+        self.progress.close()
+        if interrupted:
+            _note(f"interrupted at t {sim.time:.6g} (Ctrl-C): writing what was asked for")
+        return interrupted
 
-    # ---- summary
-    _say(_run_summary(sim, label, t_start, counts0, temp0, energy0, kin0, balance0,
-                      counters0, fired0, p_weighted / p_time if p_time > 0 else math.nan,
-                      clock, interrupted))
 
-    # ---- outputs: each one on its own, so one failure does not lose the others
-    failed = False
+def _running_note(label: str, sim, duration: float, plan: _Plan) -> str:
+    every_txt = ("adaptive sampling, 100-200 samples" if plan.adaptive else
+                 f"a sample every {plan.every * plan.dt:.4g}")
+    integrator = getattr(sim, "integrator", "step")
+    return (f"running {label}: {len(sim)} discs, t {sim.time:.4g} -> "
+            f"{sim.time + duration:.4g} ({integrator} integrator, dt {plan.dt:g}, "
+            f"{every_txt}); Ctrl-C stops and writes the outputs")
+
+
+def _write_outputs(args, outputs: dict, movie_kind: str | None, series: _Series, sim,
+                   plot_title: str) -> bool:
+    """Write each output asked for, each on its own, so one failure does not lose the
+    others; True if one could not be written."""
     writers = []
     if "csv" in outputs:
         writers.append(("time series", outputs["csv"], lambda p: series.write_csv(p)))
     if "plot" in outputs:
-        title = (f"{label}: t {t_start:.4g} to {sim.time:.4g}, {len(series.rows)} samples"
-                 + (" (interrupted)" if interrupted else ""))
-        writers.append(("plot", outputs["plot"], lambda p: _write_plot(series, p, title)))
+        writers.append(("plot", outputs["plot"], lambda p: _write_plot(series, p, plot_title)))
     if movie_kind:
         if series.images[-1] is None:  # always end on the final state
-            series.images[-1] = render(sim)
+            series.images[-1] = series.render(sim)
         frames = series.frames(args.frames)
         writers.append((f"{movie_kind} ({len(frames)} frames)", outputs["movie"],
                         lambda p: _write_movie(frames, p, args.fps, movie_kind)))
     if "save" in outputs:
         writers.append(("checkpoint", outputs["save"],
                         lambda p: _atomic_write_bytes(p, pickle.dumps(sim, protocol=4))))
+    failed = False
     for what, path, write in writers:
         try:
             write(path)
@@ -857,49 +923,78 @@ def cmd_run(args) -> int:
         except Exception as exc:
             failed = True
             _err(f"could not write the {what} to {path}: {type(exc).__name__}: {exc}")
+    return failed
+
+
+def cmd_run(args) -> int:
+    outputs, movie_kind = _check_run_options(args)
+    sim, label = _build_simulation(args)
+    plan = _plan_run(args.time, args.every, float(sim.scene.dt))
+    render = _frame_renderer(args.size)
+    series = _Series(sim, plan.adaptive, frame_stride=max(-(-plan.samples // args.frames), 1),
+                     render=render if movie_kind else None)
+    start = _Start.of(sim)
+    loop = _RunLoop(sim, series, plan)
+    _note(_running_note(label, sim, args.time, plan))
+    interrupted = loop.run(args.time, args.quiet)
+    _say(_run_summary(sim, label, start, loop.mean_pressure(), loop.clock, interrupted))
+    title = (f"{label}: t {start.time:.4g} to {sim.time:.4g}, {len(series.rows)} samples"
+             + (" (interrupted)" if interrupted else ""))
+    failed = _write_outputs(args, outputs, movie_kind, series, sim, title)
     if interrupted:
         return EXIT_INTERRUPTED
     return EXIT_FAILED if failed else EXIT_OK
 
 
-def _run_summary(sim, label, t_start, counts0, temp0, energy0, kin0, balance0, counters0,
-                 fired0, pressure, clock, interrupted) -> str:
-    counts1 = sim.counts()
-    out = []
-    state = "interrupted" if interrupted else "done"
-    out.append(f"\n{label}: t {t_start:.6g} -> {sim.time:.6g} ({state})\n")
-    rows = [(s, counts0[s], counts1[s], f"{counts1[s] - counts0[s]:+d}") for s in counts1]
-    n0, n1 = sum(counts0.values()), sum(counts1.values())
+def _counts_table(start: _Start, counts1: dict) -> str:
+    rows = [(s, start.counts[s], counts1[s], f"{counts1[s] - start.counts[s]:+d}")
+            for s in counts1]
+    n0, n1 = sum(start.counts.values()), sum(counts1.values())
     rows.append(("total", n0, n1, f"{n1 - n0:+d}"))
-    out.append(_table(rows, header=("species", "start", "end", "change")))
-    out.append("")
+    return _table(rows, header=("species", "start", "end", "change"))
+
+
+def _state_table(sim, start: _Start, pressure: float) -> str:
     balance1 = sim.energy_balance()
     rows = [
-        ("temperature kT", _fmt(temp0), _fmt(sim.temperature())),
-        ("total energy", _fmt(energy0), _fmt(sim.total_energy())),
+        ("temperature kT", _fmt(start.temperature), _fmt(sim.temperature())),
+        ("total energy", _fmt(start.total_energy), _fmt(sim.total_energy())),
         ("pressure (mean over the run)", "", _fmt(pressure)),
         ("packing fraction", "", _fmt(sim.packing_fraction())),
-        ("energy balance", _fmt(balance0), _fmt(balance1)),
+        ("energy balance", _fmt(start.balance), _fmt(balance1)),
     ]
-    out.append(_table(rows, header=("", "start", "end")))
-    drift = balance1 - balance0
-    rel = f" ({abs(drift) / kin0:.2g} of the initial kinetic energy)" if kin0 > 0 else ""
-    out.append(f"energy drift over the run: {drift:.3g}{rel}")
-    out.append("")
+    drift = balance1 - start.balance
+    rel = f" ({abs(drift) / start.kinetic:.2g} of the initial kinetic energy)" \
+        if start.kinetic > 0 else ""
+    return (_table(rows, header=("", "start", "end"))
+            + f"\nenergy drift over the run: {drift:.3g}{rel}")
+
+
+def _events_table(sim, start: _Start) -> str:
     c1 = sim.counters()
     fired1 = sim.reactions()
-    rows = [("collisions", c1["collisions"] - counters0["collisions"]),
-            ("wall hits", c1["wall_hits"] - counters0["wall_hits"])]
+    c0, fired0 = start.counters, start.fired
+    rows = [("collisions", c1["collisions"] - c0["collisions"]),
+            ("wall hits", c1["wall_hits"] - c0["wall_hits"])]
     rows += [(f"  {lab}", fired1[lab] - fired0.get(lab, 0)) for lab in fired1]
     if fired1:
         rows.insert(2, ("reactions fired", sum(fired1.values()) - sum(fired0.values())))
     for key, what in (("events_capped", "substeps out of event budget"),
                       ("substeps_capped", "steps at the substep cap"),
                       ("reactions_without_room", "reactions waiting for room")):
-        d = c1[key] - counters0[key]
+        d = c1[key] - c0[key]
         if d:
             rows.append((what, d))
-    out.append(_table(rows, header=("during the run", "count")))
+    return _table(rows, header=("during the run", "count"))
+
+
+def _run_summary(sim, label: str, start: _Start, pressure: float, clock: _Clock,
+                 interrupted: bool) -> str:
+    state = "interrupted" if interrupted else "done"
+    out = [f"\n{label}: t {start.time:.6g} -> {sim.time:.6g} ({state})\n",
+           _counts_table(start, sim.counts()), "",
+           _state_table(sim, start, pressure), "",
+           _events_table(sim, start)]
     rate, speed = clock.rates(sim)
     first = clock.first_wall or 0.0
     out.append(f"\nwall time {clock.wall():.2f} s, of which {first:.2f} s in the first step "
@@ -936,6 +1031,13 @@ def build_parser() -> argparse.ArgumentParser:
                        description="List the built-in scenes with a one-line description each.")
     p.set_defaults(func=cmd_scenes)
 
+    _add_show(sub)
+    _add_run(sub)
+    _add_bench(sub)
+    return parser
+
+
+def _add_show(sub) -> None:
     p = sub.add_parser(
         "show", help="print a scene's species, reactions and bounds",
         description="Print a scene's species, reactions, bounds and parameters; with --toml, "
@@ -946,6 +1048,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--force", action="store_true", help="let --toml overwrite an existing file")
     p.set_defaults(func=cmd_show)
 
+
+def _add_run(sub) -> None:
     p = sub.add_parser(
         "run", help="run a scene and report, plot, animate or save it",
         formatter_class=argparse.RawDescriptionHelpFormatter,
@@ -999,16 +1103,20 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--quiet", "-q", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_run)
 
+
+def _add_bench(sub) -> None:
     p = sub.add_parser(
         "bench", help="run the benchmark suite (quick mode) and print its tables",
-        description="Run the benchmark suite (discgym.bench) in its quick mode and print its "
-                    "tables. Other options are passed on to the suite, e.g. "
-                    "`discgym bench --sections scaling --plot docs/img`; "
-                    "`python -m discgym.bench --help` lists them.")
+        description="Run the benchmark suite (discgym.bench: scaling with N and threads, the "
+                    "cost of each effect) in its quick mode and print its tables. Other "
+                    "options are passed on to the suite, e.g. "
+                    "`discgym bench --sections scaling --sizes 100,1000`; "
+                    "`python -m discgym.bench --help` lists them. The comparison with pymunk "
+                    "and the figures of docs/performance.md are the scripts in benchmarks/ "
+                    "of the source repository.")
     p.add_argument("--full", action="store_true", help="the full suite instead of --quick "
                    "(many minutes)")
     p.set_defaults(func=cmd_bench, bench_args=[])
-    return parser
 
 
 def main(argv=None) -> int:

@@ -141,7 +141,7 @@ def env_runs(seeds=SEEDS):
     actions from a seeded generator and with the heuristic baseline."""
     import gymnasium as gym
 
-    from discgym import env as denv
+    from discgym import baselines as denv
 
     out = {}
     for seed in seeds:

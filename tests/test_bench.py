@@ -1,4 +1,5 @@
-"""Smoke tests of the benchmark code (discgym.bench) at minimal sizes.
+"""Smoke tests of the benchmark code at minimal sizes: the quick suite of ``discgym bench``
+(discgym.bench) and the scripts of benchmarks/ built on it.
 
 They check that every section runs and that the accuracy probes are right on hand-made
 configurations; they never assert a wall-clock time.
@@ -6,6 +7,9 @@ configurations; they never assert a wall-clock time.
 
 import json
 import math
+import subprocess
+import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -13,10 +17,16 @@ import pytest
 import discgym as dg
 from discgym import bench
 
+BENCHMARKS = Path(__file__).resolve().parents[1] / "benchmarks"
+sys.path.insert(0, str(BENCHMARKS))
+
+import bench_core  # noqa: E402
+import bench_peers  # noqa: E402
+
 
 def test_scene_and_henderson():
-    assert bench.henderson_z(0.0) == 1.0
-    assert bench.henderson_z(0.3) == pytest.approx((1 + 0.09 / 8) / 0.49)
+    assert bench_peers.henderson_z(0.0) == 1.0
+    assert bench_peers.henderson_z(0.3) == pytest.approx((1 + 0.09 / 8) / 0.49)
     sim = dg.Simulation(bench.bench_scene(200), seed=0)
     assert sim.packing_fraction() == pytest.approx(bench.ETA)
     assert sim.temperature() == pytest.approx(bench.KT)
@@ -28,15 +38,15 @@ def test_scene_and_henderson():
 
 def test_overlap_stats_and_wall_penetration():
     pos = np.array([[0.0, 0.0], [1.9, 0.0], [10.0, 10.0], [11.99, 10.0], [30.0, 30.0]])
-    count, deepest = bench.overlap_stats(pos, 1.0, 0.01)
+    count, deepest = bench_peers.overlap_stats(pos, 1.0, 0.01)
     assert count == 1  # 1.99 apart is an overlap of 0.5%, under the 1% threshold
     assert deepest == pytest.approx(0.05)
-    assert bench.overlap_stats(pos[[0, 4]], 1.0, 0.01) == (0, 0.0)
-    assert bench.wall_penetration(np.array([[0.5, 5.0], [5.0, 5.0]]), (0, 0, 10, 10)) == \
-        pytest.approx(0.5)
-    assert bench.wall_penetration(np.array([[5.0, 5.0]]), (0, 0, 10, 10)) == 0.0
+    assert bench_peers.overlap_stats(pos[[0, 4]], 1.0, 0.01) == (0, 0.0)
+    assert bench_peers.wall_penetration(np.array([[0.5, 5.0], [5.0, 5.0]]), (0, 0, 10, 10)) \
+        == pytest.approx(0.5)
+    assert bench_peers.wall_penetration(np.array([[5.0, 5.0]]), (0, 0, 10, 10)) == 0.0
     dense = np.array([[x, y] for x in np.arange(1.0, 20.0, 2.5) for y in np.arange(1, 20, 2.5)])
-    assert bench.bulk_packing(dense, (0, 0, 20, 20), margin=2.0) > 0
+    assert bench_peers.bulk_packing(dense, (0, 0, 20, 20), margin=2.0) > 0
 
 
 def test_lean_kernel_conserves_energy_and_stays_in_the_box():
@@ -45,11 +55,11 @@ def test_lean_kernel_conserves_energy_and_stays_in_the_box():
     pos = np.ascontiguousarray(sim.positions - [x0, y0])
     vel = np.ascontiguousarray(sim.velocities)
     e0 = (vel**2).sum()
-    ncoll = bench.lean_run(pos, vel, 50, bench.DT, bench.RADIUS, x1 - x0, y1 - y0)
+    ncoll = bench_core.lean_run(pos, vel, 50, bench.DT, bench.RADIUS, x1 - x0, y1 - y0)
     assert ncoll > 0
     assert (vel**2).sum() == pytest.approx(e0, rel=1e-12)
-    assert bench.wall_penetration(pos, (0, 0, x1 - x0, y1 - y0)) < 1e-9
-    tm, per_disc_step = bench.lean_bench(sim, seconds=0.01, chunks=2)
+    assert bench_peers.wall_penetration(pos, (0, 0, x1 - x0, y1 - y0)) < 1e-9
+    tm, per_disc_step = bench_core.lean_bench(sim, seconds=0.01, chunks=2)
     assert tm.total_steps >= 2 and 0.0 < per_disc_step < 0.1
 
 
@@ -66,6 +76,8 @@ def test_scaling_and_effects_run():
     assert rows[0]["n"] == 60 and rows[0]["one"]["rate"] > 0 and rows[0]["all"]["rate"] > 0
     assert "1e" in bench.scaling_table(rows) or "60" in bench.scaling_table(rows)
     rows = bench.effects(n=120, seconds=0.005, reps=1)
+    assert len(rows) == len(bench.effect_scenes(120))  # the package's suite: no lean kernel
+    rows = bench_core.effects(n=120, seconds=0.005, reps=1)
     labels = [r["label"] for r in rows]
     assert len(rows) == len(bench.effect_scenes(120)) + 1 and "lean" in labels[-1]
     absent = [r for r in rows if "absent" in r["label"]]
@@ -77,7 +89,7 @@ def test_scaling_and_effects_run():
 
 def test_peer_run_measures_both_codes():
     pytest.importorskip("pymunk")
-    r = bench.peer_run(60, seconds=0.02, chunks=2, equilibrate=0.5)
+    r = bench_peers.peer_run(60, seconds=0.02, chunks=2, equilibrate=0.5)
     for code in ("discgym", "pymunk"):
         a = r[code]
         assert math.isfinite(a["z"]) and a["z"] > 0 and a["rate_one"] > 0
@@ -86,25 +98,35 @@ def test_peer_run_measures_both_codes():
     assert r["ratio_one"] > 0
     if r["exact"] is not None:  # the event-driven reference, where this discgym has it
         assert r["exact"]["overlaps"] == 0 and r["exact"]["z"] > 0
-    assert "pymunk" in bench.peers_tables([r])
+    assert "pymunk" in bench_peers.peers_tables([r])
 
 
 def test_main_writes_tables_plots_and_json(tmp_path):
     pytest.importorskip("matplotlib")
     md, js = tmp_path / "t.md", tmp_path / "t.json"
-    rc = bench.main(["--sections", "scaling", "--sizes", "50", "--seconds", "0.01",
-                     "--plot", str(tmp_path), "--markdown", str(md), "--json", str(js)])
+    rc = bench_core.main(["--sections", "scaling", "--sizes", "50", "--seconds", "0.01",
+                          "--plot", str(tmp_path), "--markdown", str(md), "--json", str(js)])
     assert rc == 0
     assert (tmp_path / "perf_scaling.png").stat().st_size > 0
     assert "### Scaling" in md.read_text()
     assert json.loads(js.read_text())["scaling"][0]["n"] == 50
-    assert bench.main(["--sections", "bogus"]) == 2
+    assert bench_core.main(["--sections", "bogus"]) == 2
+
+
+def test_package_suite_writes_tables_and_names_what_moved(tmp_path, capsys):
+    md, js = tmp_path / "t.md", tmp_path / "t.json"
+    assert bench.main(["--sections", "scaling", "--sizes", "50", "--seconds", "0.01",
+                       "--markdown", str(md), "--json", str(js)]) == 0
+    assert "### Scaling" in md.read_text()
+    assert json.loads(js.read_text())["scaling"][0]["n"] == 50
+    assert bench.main(["--sections", "peers"]) == 2
+    assert "benchmarks/bench_peers.py" in capsys.readouterr().err
 
 
 def test_peers_without_pymunk_prints_a_note(monkeypatch, capsys):
-    monkeypatch.setattr(bench, "_have_pymunk", lambda: False)
-    rc = bench.main(["--sections", "peers", "--peers", "60@0.05", "--peer-seconds", "0.01",
-                     "--equilibrate", "0.2"])
+    monkeypatch.setattr(bench_peers, "_have_pymunk", lambda: False)
+    rc = bench_peers.main(["--peers", "60@0.05", "--peer-seconds", "0.01",
+                           "--equilibrate", "0.2"])
     assert rc == 0
     out = capsys.readouterr().out
     assert "pymunk is not installed" in out and "discgym" in out
@@ -121,3 +143,10 @@ def test_interleave_alternates_runners_within_step_bounds():
     assert len(a.timing.steps) == len(b.timing.steps) == 3
     assert all(2 <= k <= 5 for k in a.timing.steps)
     assert sum(1 for c in calls if c[0] == "b-between") == 3
+
+
+@pytest.mark.parametrize("script", ["bench_core.py", "bench_peers.py"])
+def test_scripts_print_their_help(script):
+    res = subprocess.run([sys.executable, str(BENCHMARKS / script), "--help"],
+                         capture_output=True, text=True, timeout=300)
+    assert res.returncode == 0 and res.stdout.startswith("usage: " + script), res.stderr

@@ -10,14 +10,13 @@ import numpy as np
 import pytest
 
 import discgym as dg
-from discgym.env import (
-    DEFAULTS,
-    DiscReactorEnv,
+from discgym.baselines import (
     HeuristicPolicy,
     constant_policy,
     heuristic_policy,
     random_policy,
 )
+from discgym.env import DEFAULTS, DiscReactorEnv
 
 SHORT = dict(n_discs=80, episode_steps=12)  # small and short: fast tests
 
