@@ -1,11 +1,5 @@
-"""The one place where array dtypes are chosen.
+"""The array dtypes (defined with the kernels' structs in :mod:`discgym.kernels.structs`)."""
 
-Every array handed to a compiled kernel is created with one of these, so a kernel is compiled
-for exactly one signature and the on-disk numba cache is reused across runs.
-"""
+from .kernels.structs import COUNT, FLOAT, INDEX
 
-import numpy as np
-
-FLOAT = np.float64  #: positions, velocities, energies, times
-INDEX = np.int32  #: species indices, disc indices in cell lists and event queues
-COUNT = np.int64  #: event counters and stamps (never overflow in practice)
+__all__ = ["COUNT", "FLOAT", "INDEX"]

@@ -1,7 +1,7 @@
 """Scene -> the flat arrays the kernels read.
 
 Nothing here runs physics; it lays a validated :class:`~discgym.scene.Scene` out as
-struct-of-arrays tables with the dtypes of :mod:`discgym._dtypes`, and decides which effects
+struct-of-arrays tables with the dtypes of :mod:`discgym.kernels.structs`, and decides which effects
 the compiled step has to run (``CompiledScene.flags``).
 """
 
@@ -10,24 +10,33 @@ from __future__ import annotations
 import math
 from collections import OrderedDict
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
-from ._dtypes import FLOAT, INDEX
+from .kernels.structs import (  # noqa: F401 (the constants are re-exported)
+    BOX,
+    CIRCLE,
+    F_BI,
+    F_COLLISIONS,
+    F_FISSION,
+    F_UNI,
+    FLOAT,
+    INDEX,
+    P_MAXDISP,
+    P_RELAX,
+    P_RESTITUTION,
+    P_RMAX,
+    P_RMIN,
+    Tables,
+)
 from .scene import Box, Circle, Combination, Decomposition, Exchange, Scene, Transformation
 
 # Reaction channel kinds (ch_kind). A Combination yields two channels: forward and REVERSE.
 TRANSFORMATION, DECOMPOSITION, COMBINATION, EXCHANGE, REVERSE = 0, 1, 2, 3, 4
 
-# Bounds kinds (bkind) and the bounds parameter vector (bparams, 4 floats):
-#   box:    (xmin, ymin, xmax, ymax)
-#   circle: (cx, cy, radius, 0)
-BOX, CIRCLE = 0, 1
-
-# Indices into the float parameter vector (params).
-P_RESTITUTION, P_RELAX, P_MAXDISP, P_RMIN, P_RMAX = range(5)
-# Indices into the flags vector.
-F_COLLISIONS, F_UNI, F_BI, F_FISSION = range(4)
+# Bounds kinds (BOX, CIRCLE), the indices into params (P_*) and flags (F_*): see
+# discgym.kernels.structs, where the kernels read them.
 
 _K_MAX = 1e300  # rate standing for a certain reaction (probability 1 per unit time)
 
@@ -68,12 +77,12 @@ class CompiledScene:
     flags: np.ndarray  # int vector, see F_*
     labels: tuple  # (C,) str, one per channel
 
-    @property
-    def tables(self):
-        """The tuple handed to the kernels (order fixed by ``kernels.step``)."""
-        return (self.sp_radius, self.sp_mass, self.sp_form, self.ch_kind, self.ch_reac,
-                self.ch_prod, self.ch_rate, self.ch_energy, self.uni_start, self.uni_chan,
-                self.bi_table)
+    @cached_property
+    def tables(self) -> Tables:
+        """The tables as the struct handed to the kernels."""
+        return Tables(self.sp_radius, self.sp_mass, self.sp_form, self.ch_kind, self.ch_reac,
+                      self.ch_prod, self.ch_rate, self.ch_energy, self.uni_start,
+                      self.uni_chan, self.bi_table)
 
 
 _CACHE: OrderedDict = OrderedDict()  # id(scene) -> CompiledScene (which holds the scene)

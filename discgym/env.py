@@ -52,6 +52,13 @@ from .kernels.batch import (
     observe_batch,
 )
 from .kernels.step import MAX_SUBSTEPS, REORDER_EVERY
+from .kernels.structs import (
+    Episodes,
+    ReactorConsts,
+    Reactors,
+    capacity_for_discs,
+    speed_limit,
+)
 from .scene import (
     HEX_PACKING,
     Box,
@@ -173,7 +180,7 @@ class ReactorConfig:
     @property
     def capacity(self) -> int:
         """Disc capacity that keeps a reactor's arrays from ever growing (see kernels.batch)."""
-        return 2 * self.max_discs + 16
+        return capacity_for_discs(self.max_discs)
 
     def capacity_for(self, spc: np.ndarray, feed_left: np.ndarray) -> tuple[int, float]:
         """``(capacity, mass)``: the capacity a reactor holding the discs of species ``spc``
@@ -182,25 +189,30 @@ class ReactorConfig:
         mass."""
         m = self.compiled.sp_mass
         mass = float(m[spc].sum()) + float((feed_left * m[list(self.feed)]).sum())
-        return 2 * _most_discs(mass, float(m.min())) + 16, mass
+        return capacity_for_discs(_most_discs(mass, float(m.min()))), mass
 
     @cached_property
-    def kernel_consts(self) -> tuple:
-        """``(cf, ci, feed)``: the constants :func:`discgym.kernels.batch.env_step` reads
-        (float64 (14,), int64 (6,) indexed by its ``C_*`` / ``CI_*``; feed species (F,))."""
+    def consts(self) -> ReactorConsts:
+        """The constants :func:`discgym.kernels.batch.env_step` reads."""
         ref = self.scene.bounds
         if isinstance(ref, Box):
             r4 = (ref.origin[0], ref.origin[1], ref.width, ref.height)
         else:
             r4 = (ref.center[0], ref.center[1], ref.radius, 0.0)
         cs = self.compiled
-        speed_limit = MAX_SUBSTEPS * cs.params[P_MAXDISP] * cs.params[P_RMIN] / self.scene.dt
-        cf = np.array([self.heat_rate, self.t_min, self.t_max, self.size_min, self.size_max,
-                       self.wall_speed, speed_limit, *r4, self.scene.temperature,
-                       self.scene.dt, HEX_PACKING], dtype=FLOAT)
-        ci = np.array([self.inject_max, self.steps_per_action, PLACEMENT_ATTEMPTS,
-                       REORDER_EVERY, self.product, self.episode_steps], dtype=np.int64)
-        return cf, ci, np.array(self.feed, dtype=INDEX)
+        return ReactorConsts(
+            heat_rate=float(self.heat_rate), t_min=float(self.t_min),
+            t_max=float(self.t_max), size_min=float(self.size_min),
+            size_max=float(self.size_max), wall_speed=float(self.wall_speed),
+            speed_limit=float(speed_limit(MAX_SUBSTEPS, cs.params[P_MAXDISP],
+                                          cs.params[P_RMIN], self.scene.dt)),
+            ref_bounds=np.array(r4, dtype=FLOAT), temperature=float(self.scene.temperature),
+            dt=float(self.scene.dt), packing=float(HEX_PACKING),
+            inject_max=int(self.inject_max), steps_per_action=int(self.steps_per_action),
+            attempts=int(PLACEMENT_ATTEMPTS), reorder_every=int(REORDER_EVERY),
+            product=int(self.product), episode_steps=int(self.episode_steps),
+            feed=np.array(self.feed, dtype=INDEX), feed_budget=self.feed_budget,
+            obs_low=self.obs_low, obs_high=self.obs_high)
 
     @cached_property
     def tables(self) -> tuple:
@@ -219,41 +231,7 @@ class ReactorConfig:
         names = scene.species_names
         S = len(names)
 
-        def index(what, nm):
-            if not isinstance(nm, str):
-                raise TypeError(f"{what}: expected a species name, got {nm!r}")
-            if nm not in names:
-                raise ValueError(f"{what}: unknown species {nm!r} (scene has {names})")
-            return names.index(nm)
-
-        first = next((r for r in scene.reactions if isinstance(r, (Combination, Exchange))),
-                     None)
-        product = o["product"]
-        if product is None:
-            if first is None:
-                raise ValueError("product: the scene has no combination or exchange reaction; "
-                                 "name the product species")
-            product = first.products[0]
-        product = index("product", product)
-        feed = o["feed"]
-        if feed is None:
-            if first is None:
-                raise ValueError("feed: the scene has no combination or exchange reaction; "
-                                 "name the feed species")
-            feed = first.reactants
-        elif isinstance(feed, str):
-            feed = (feed,)
-        elif isinstance(feed, (list, tuple)) or (isinstance(feed, np.ndarray) and
-                                                 feed.ndim == 1):
-            feed = tuple(feed)
-        else:
-            raise TypeError(f"feed: expected a species name or a list of them, got {feed!r}")
-        if not feed:
-            raise ValueError("feed: need at least one feed species (the reward is divided by "
-                             "the initial count of the limiting one)")
-        feed = tuple(index("feed", f) for f in feed)
-        if len(set(feed)) != len(feed):
-            raise ValueError(f"feed: species repeated in {o['feed']!r}")
+        product, feed = _product_and_feed(scene, o)
 
         cj = _real(o["count_jitter"], "count_jitter", 0.0, 1.0, hi_open=True)
         tj = _real(o["temperature_jitter"], "temperature_jitter", 0.0, 1.0, hi_open=True)
@@ -309,46 +287,20 @@ class ReactorConfig:
         wall_speed = _real(o["wall_speed"], "wall_speed", 0.0)
         inject_max = _whole(o["inject_max"], "inject_max", 0, FLOAT_EXACT,
                             "2**53: round(a * inject_max) is computed in float64")
-        budget = o["feed_budget"]
         mass = [sp.mass for sp in scene.species]
-        if budget is None:
-            mean = template.sum() / max(S, 1)
-            feed_budget = np.array([int(math.ceil(0.25 * (template[f] if template[f]
-                                                          else mean))) for f in feed],
-                                   dtype=np.int64)
-        else:
-            if isinstance(budget, (list, tuple)) or (isinstance(budget, np.ndarray) and
-                                                     budget.ndim == 1):
-                budget = list(budget)
-                if len(budget) != len(feed):
-                    raise ValueError(f"feed_budget: need one budget per feed species "
-                                     f"({len(feed)}), got {o['feed_budget']!r}")
-            elif isinstance(budget, np.ndarray) and budget.ndim > 1:
-                raise ValueError(f"feed_budget: need a number or one per feed species "
-                                 f"({len(feed)}), got an array of shape {budget.shape}")
-            else:
-                budget = [budget] * len(feed)
-            # a reactor can never hold more mass than discs of the densest mass per area
-            # covering its largest area: a budget beyond that could never be injected
-            m_cap = _bounds_of(scene, size_max).area * max(
-                sp.mass / (math.pi * sp.radius * sp.radius) for sp in scene.species)
-            feed_budget = np.array(
-                [_whole(b, "feed_budget", 0, int(m_cap / mass[f]),
-                        f"more discs of {names[f]} than the reactor can ever hold (its "
-                        f"largest area, size {size_max}, filled at the densest mass per area)")
-                 for b, f in zip(budget, feed)], dtype=np.int64)
+        feed_budget = _feed_budget(scene, o, feed, template, size_max)
         # the most discs a reactor can ever hold: reactions conserve mass, so at most the
         # largest initial contents plus every feed budget, all split into the lightest species
         total_mass = sum(c * m for c, m in zip(most, mass)) + \
             sum(int(b) * mass[f] for b, f in zip(feed_budget, feed))
         max_discs = _most_discs(total_mass, min(mass))
-        capacity = 2 * max_discs + 16
+        capacity = capacity_for_discs(max_discs)
         _check_memory(capacity * _SLOT_BYTES_SINGLE, "n_discs, feed_budget",
                       f"a reactor's capacity plan of {capacity} discs")
         # costs: a step's cost must stay finite (energies bounded by the speed limit, a
         # disc's chemistry, the capacity; injections by inject_max)
         cs = compile_scene(scene)
-        v_lim = MAX_SUBSTEPS * cs.params[P_MAXDISP] * cs.params[P_RMIN] / scene.dt
+        v_lim = speed_limit(MAX_SUBSTEPS, cs.params[P_MAXDISP], cs.params[P_RMIN], scene.dt)
         e_disc = max(mass) * v_lim * v_lim + 2.0 * max(
             abs(sp.formation_energy) for sp in scene.species) + 1.0
         why = "a larger cost could make a step's reward overflow"
@@ -357,26 +309,7 @@ class ReactorConfig:
         feed_cost = _real(o["feed_cost"], "feed_cost", 0.0,
                           _COST_SCALE / (len(feed) * max(inject_max, 1)), why=why)
 
-        obs_names, lo, hi = [], [], []
-
-        def slot(name, low, high):
-            obs_names.append(name)
-            lo.append(low)
-            hi.append(high)
-
-        for nm in names:
-            slot(f"fraction_{nm}", 0.0, 1.0)
-        for nm in names:
-            slot(f"kT_{nm}", 0.0, OBS_ENERGY_MAX)
-        for nm in names:
-            slot(f"internal_{nm}", 0.0, OBS_ENERGY_MAX)
-        slot("energy_per_disc", -OBS_ENERGY_MAX, OBS_ENERGY_MAX)
-        slot("discs", 0.0, OBS_DISCS_MAX)
-        slot("yield", 0.0, OBS_YIELD_MAX)
-        slot("size", size_min, size_max)
-        slot("time_left", 0.0, 1.0)
-        for f in feed:
-            slot(f"feed_left_{names[f]}", 0.0, 1.0)
+        obs_names, lo, hi = _observation_slots(names, feed, size_min, size_max)
         return cls(
             scene=scene, template=template, episode_steps=episode_steps,
             steps_per_action=spa, heat_rate=heat_rate, t_min=t_min, t_max=t_max,
@@ -434,6 +367,111 @@ class ReactorConfig:
 
     def bounds_of(self, size: float):
         return _bounds_of(self.scene, size)
+
+
+def _product_and_feed(scene: Scene, o: dict) -> tuple[int, tuple]:
+    """The species indices of ``o["product"]`` and ``o["feed"]`` (checked; by default the
+    product and the reactants of the scene's first combination or exchange)."""
+    names = scene.species_names
+
+    def index(what, nm):
+        if not isinstance(nm, str):
+            raise TypeError(f"{what}: expected a species name, got {nm!r}")
+        if nm not in names:
+            raise ValueError(f"{what}: unknown species {nm!r} (scene has {names})")
+        return names.index(nm)
+
+    first = next((r for r in scene.reactions if isinstance(r, (Combination, Exchange))),
+                 None)
+    product = o["product"]
+    if product is None:
+        if first is None:
+            raise ValueError("product: the scene has no combination or exchange reaction; "
+                             "name the product species")
+        product = first.products[0]
+    product = index("product", product)
+    feed = o["feed"]
+    if feed is None:
+        if first is None:
+            raise ValueError("feed: the scene has no combination or exchange reaction; "
+                             "name the feed species")
+        feed = first.reactants
+    elif isinstance(feed, str):
+        feed = (feed,)
+    elif isinstance(feed, (list, tuple)) or (isinstance(feed, np.ndarray) and
+                                             feed.ndim == 1):
+        feed = tuple(feed)
+    else:
+        raise TypeError(f"feed: expected a species name or a list of them, got {feed!r}")
+    if not feed:
+        raise ValueError("feed: need at least one feed species (the reward is divided by "
+                         "the initial count of the limiting one)")
+    feed = tuple(index("feed", f) for f in feed)
+    if len(set(feed)) != len(feed):
+        raise ValueError(f"feed: species repeated in {o['feed']!r}")
+    return product, feed
+
+
+def _feed_budget(scene: Scene, o: dict, feed: tuple, template: np.ndarray,
+                 size_max: float) -> np.ndarray:
+    """``o["feed_budget"]`` as (F,) int64, checked (default: a quarter of each feed species'
+    template count, or of the mean count for a species absent from it)."""
+    budget = o["feed_budget"]
+    names = scene.species_names
+    S = len(names)
+    mass = [sp.mass for sp in scene.species]
+    if budget is None:
+        mean = template.sum() / max(S, 1)
+        feed_budget = np.array([int(math.ceil(0.25 * (template[f] if template[f]
+                                                      else mean))) for f in feed],
+                               dtype=np.int64)
+    else:
+        if isinstance(budget, (list, tuple)) or (isinstance(budget, np.ndarray) and
+                                                 budget.ndim == 1):
+            budget = list(budget)
+            if len(budget) != len(feed):
+                raise ValueError(f"feed_budget: need one budget per feed species "
+                                 f"({len(feed)}), got {o['feed_budget']!r}")
+        elif isinstance(budget, np.ndarray) and budget.ndim > 1:
+            raise ValueError(f"feed_budget: need a number or one per feed species "
+                             f"({len(feed)}), got an array of shape {budget.shape}")
+        else:
+            budget = [budget] * len(feed)
+        # a reactor can never hold more mass than discs of the densest mass per area
+        # covering its largest area: a budget beyond that could never be injected
+        m_cap = _bounds_of(scene, size_max).area * max(
+            sp.mass / (math.pi * sp.radius * sp.radius) for sp in scene.species)
+        feed_budget = np.array(
+            [_whole(b, "feed_budget", 0, int(m_cap / mass[f]),
+                    f"more discs of {names[f]} than the reactor can ever hold (its "
+                    f"largest area, size {size_max}, filled at the densest mass per area)")
+             for b, f in zip(budget, feed)], dtype=np.int64)
+    return feed_budget
+
+
+def _observation_slots(names, feed: tuple, size_min: float, size_max: float) -> tuple:
+    """``(names, low, high)`` of the observation's slots (see :func:`observe`)."""
+    obs_names, lo, hi = [], [], []
+
+    def slot(name, low, high):
+        obs_names.append(name)
+        lo.append(low)
+        hi.append(high)
+
+    for nm in names:
+        slot(f"fraction_{nm}", 0.0, 1.0)
+    for nm in names:
+        slot(f"kT_{nm}", 0.0, OBS_ENERGY_MAX)
+    for nm in names:
+        slot(f"internal_{nm}", 0.0, OBS_ENERGY_MAX)
+    slot("energy_per_disc", -OBS_ENERGY_MAX, OBS_ENERGY_MAX)
+    slot("discs", 0.0, OBS_DISCS_MAX)
+    slot("yield", 0.0, OBS_YIELD_MAX)
+    slot("size", size_min, size_max)
+    slot("time_left", 0.0, 1.0)
+    for f in feed:
+        slot(f"feed_left_{names[f]}", 0.0, 1.0)
+    return obs_names, lo, hi
 
 
 def _most_discs(mass: float, lightest: float) -> int:
@@ -619,15 +657,12 @@ def _check_memory(need: int, name: str, what: str) -> None:
 # the per-step logic, shared with the vector env
 
 
-def observe(cfg: ReactorConfig, vel, spc, uint, n, size, steps, feed_left, n_init, n_ref,
-            stats, temperature, kinetic, obs) -> None:
-    """Fill ``stats`` (R, 3S+1), ``temperature`` and ``kinetic`` (R,) and ``obs`` (R, D)
-    float32 for R reactors (see :func:`discgym.kernels.batch.observe_one`); a step observes
-    inside :func:`discgym.kernels.batch.env_step`, this is for resets."""
+def observe(cfg: ReactorConfig, vel, species, internal_energy, n, ep: Episodes) -> None:
+    """Fill ``ep.stats`` (R, 3S+1), ``ep.temperature`` and ``ep.kinetic`` (R,) and
+    ``ep.obs`` (R, D) float32 for R reactors (see :func:`discgym.kernels.batch.observe_one`);
+    a step observes inside :func:`discgym.kernels.batch.env_step`, this is for resets."""
     cs = cfg.compiled
-    observe_batch(vel, spc, uint, n, cs.sp_mass, cs.sp_form, cfg.product, size, steps,
-                  cfg.episode_steps, feed_left, cfg.feed_budget, n_init, n_ref, cfg.obs_low,
-                  cfg.obs_high, stats, temperature, kinetic, obs)
+    observe_batch(vel, species, internal_energy, n, cs.sp_mass, cs.sp_form, ep, cfg.consts)
 
 
 def check_status(cfg: ReactorConfig, iout: np.ndarray, active: np.ndarray) -> None:
@@ -803,6 +838,9 @@ class DiscReactorEnv(gym.Env):
         self._fout = np.zeros((1, 2 + F), dtype=FLOAT)
         self._iout = np.zeros((1, 3 + 2 * F), dtype=np.int64)
         self._obs = np.zeros((1, len(cfg.obs_names)), dtype=np.float32)
+        self._ep = Episodes(self._size, self._feed_left, self._steps, self._n_init, self._n_ref,
+                            self._temp, self._kin, self._stats, self._obs, self._fout,
+                            self._iout)
         self._feed_names = [cfg.species_names[f] for f in cfg.feed]
         self._ashape = (2 + F,)
         self._n_feed = F
@@ -846,15 +884,13 @@ class DiscReactorEnv(gym.Env):
         else:
             act[0] = as_actions(cfg, action)
         bound = self._bound
-        if sim._pos is not bound[0] or sim._vel is not bound[1] or sim._spc is not bound[2] \
-                or sim._uint is not bound[3] or sim._ids is not bound[4] \
-                or sim._n != self._n_seen:
+        arrays = sim.kernel_arrays()
+        if arrays[0] is not bound[0] or arrays[1] is not bound[1] or \
+                arrays[2] is not bound[2] or arrays[3] is not bound[3] or \
+                arrays[4] is not bound[4] or len(sim) != self._n_seen:
             self._bind(sim)  # (the simulation was changed from outside: arrays, disc count)
         # the simulation's scalar state, as the rows of a batch of one reactor
-        self._n[0] = sim._n
-        self._ksteps[0] = sim._steps
-        self._bkind[0] = sim._bkind
-        self._bp[0] = sim._bp
+        sim.export_scalars(self._rx, 0)
         size0 = self._size_now
         env_step(*self._args)
         fo = self._fout[0].tolist()
@@ -862,16 +898,11 @@ class DiscReactorEnv(gym.Env):
         if io[O_STATUS]:
             check_status(cfg, self._iout, _ONE)
         # what Simulation.step and its controls book
-        sim._n = self._n_seen = self._n.item()
-        sim._steps = self._ksteps.item()
-        sim._tick(self._step_k, self._step_dt)
-        e = sim._energy_input + fo[O_ENERGY_HEAT]  # (one control after the other, as
-        for x in fo[2:]:  # the Simulation methods book them)
-            e += x
-        sim._energy_input = e
+        self._n_seen = n = self._n.item()
         self._size_now = size = self._size.item()
-        if size != size0:
-            sim._defer_bounds(partial(cfg.bounds_of, size), self._bp[0].copy())
+        moved = (partial(cfg.bounds_of, size), self._bp[0].copy()) if size != size0 else None
+        sim.book_env_step(n, self._ksteps.item(), self._step_k, self._step_dt,
+                          fo[O_ENERGY_HEAT:], moved)
         self._temperature = temperature = self._temp.item()
         # rewards: the same arithmetic, in the same order, as the vector env's
         F = self._n_feed
@@ -901,7 +932,7 @@ class DiscReactorEnv(gym.Env):
             "inject_refused": dict(zip(feed_names, io[3 + F:])),
             "wall_blocked": io[O_BLOCKED] != 0,
             "invalid_action": io[O_INVALID],
-            "time": sim._time,
+            "time": sim.time,
         }
         if self.render_mode == "human":
             self.render()
@@ -950,32 +981,28 @@ class DiscReactorEnv(gym.Env):
         cfg = self.config
         # the compiled step never grows arrays: room for all the discs the contents and the
         # feed left could ever split into (mass is conserved), twice over (see kernels.batch)
-        cs = sim._cs
-        cap = max(cfg.capacity, cfg.capacity_for(sim._spc[:sim._n], self._feed_left[0])[0])
-        if len(sim._spc) < cap:
-            sim._reserve(cap - sim._n)
-        self._n_seen = sim._n
-        cs = sim._cs
-        cf, ci, feed = cfg.kernel_consts
-        self._bound = (sim._pos, sim._vel, sim._spc, sim._uint, sim._ids)
-        self._args = (sim._pos[None], sim._vel[None], sim._spc[None], sim._uint[None],
-                      sim._ids[None], sim._idctr[None], self._n, self._ksteps, self._bkind,
-                      self._bp, cfg.tables, cs.params, cs.flags, sim._rngs, sim._icnt[None],
-                      sim._fsum[None], sim._ch_count[None], _ONE, self._act, self._size,
-                      self._feed_left, self._steps, self._n_init, self._n_ref, self._temp,
-                      self._kin, self._stats, self._obs, cf, ci, feed, cfg.feed_budget,
-                      cfg.obs_low, cfg.obs_high, self._fout, self._iout)
+        sim.reserve_capacity(max(cfg.capacity,
+                                 cfg.capacity_for(sim.species, self._feed_left[0])[0]))
+        self._n_seen = len(sim)
+        cs = cfg.compiled
+        pos, vel, species, internal_energy, ids, next_id = arrays = sim.kernel_arrays()
+        icnt, fsum, ch_count = sim.kernel_counters()
+        self._bound = arrays[:5]
+        self._rx = Reactors(pos[None], vel[None], species[None], internal_energy[None],
+                            ids[None], next_id[None], self._n, self._ksteps, self._bkind,
+                            self._bp, icnt[None], fsum[None], ch_count[None])
+        self._args = (self._rx, self._ep, cfg.tables, cs.params, cs.flags, cfg.consts,
+                      sim.kernel_rngs, _ONE, self._act)
 
     def _observe(self) -> np.ndarray:
         sim = self.simulation
-        self._n[0] = sim._n
-        obs = np.empty((1, len(self.config.obs_names)), dtype=np.float32)
+        self._n[0] = len(sim)
+        pos, vel, species, internal_energy, _ids, _next = sim.kernel_arrays()
         # the simulation's own arrays (padded; the kernel reads discs [0, n)): no copies
-        observe(self.config, sim._vel[None], sim._spc[None], sim._uint[None], self._n,
-                self._size, self._steps, self._feed_left, self._n_init, self._n_ref,
-                self._stats, self._temp, self._kin, obs)
+        observe(self.config, vel[None], species[None], internal_energy[None], self._n,
+                self._ep)
         self._temperature = float(self._temp[0])
-        return obs[0]
+        return self._obs[0].copy()
 
     def _frame(self) -> np.ndarray:
         from .render import render_frame
@@ -991,6 +1018,7 @@ class DiscReactorEnv(gym.Env):
         # views of the simulation's arrays would come back as copies: bind again on the
         # next step
         d.pop("_args", None)
+        d.pop("_rx", None)
         d["_bound"] = (None,) * 5
         return d
 

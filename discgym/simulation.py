@@ -25,6 +25,7 @@ from .kernels import event_driven as _event
 from .kernels import step as _step
 from .kernels import walls as _walls
 from .kernels.placement import overlapping_pairs, place_rngs, relocate_rngs
+from .kernels.structs import P_MAXDISP, P_RMIN, Bounds, Counters, Discs, speed_limit
 from .scene import (
     MAX_MAGNITUDE,
     Box,
@@ -59,7 +60,7 @@ _SPEC_COUNTERS = {
 }
 
 
-_OLDEST_ICOUNTERS = 11  # counters in states of discgym before graze_repairs (2026-12-01)
+_OLDEST_ICOUNTERS = 11  # counters in states of discgym before graze_repairs
 
 
 class PlacementError(ValueError):
@@ -237,7 +238,8 @@ class Simulation:
         faster discs could pass through each other. Controls and initial conditions that
         would exceed it are refused with ``ValueError``."""
         cs = self._cs
-        return _step.MAX_SUBSTEPS * cs.params[2] * cs.params[3] / self.scene.dt
+        return speed_limit(_step.MAX_SUBSTEPS, cs.params[P_MAXDISP], cs.params[P_RMIN],
+                           self.scene.dt)
 
     def _check_speeds(self, vel: np.ndarray, what: str) -> None:
         if len(vel):
@@ -256,7 +258,7 @@ class Simulation:
     def _set_rng(self, generator: np.random.Generator) -> None:
         """Use ``generator`` for all randomness. Kernels receive it inside a one-item
         ``numba.typed.List`` (same object, same state): far cheaper to pass than the
-        generator itself (see ``kernels.step.run_tracked_rngs``)."""
+        generator itself (see ``kernels.step.advance_rngs``)."""
         self._rng = generator
         self._rngs = typed.List([generator])
 
@@ -366,11 +368,12 @@ class Simulation:
                 n_steps, dt, self._bkind, self._bp, cs.tables, cs.params, cs.flags,
                 self._rngs, self._icnt, self._fsum, self._ch_count)
         else:
-            pos, vel, spc, uint, ids, n, self._work = _step.run_tracked_rngs(
-                self._pos, self._vel, self._spc, self._uint, self._n, n_steps, dt, self._bkind,
-                self._bp, cs.tables, cs.params, cs.flags, self._rngs, self._icnt, self._fsum,
-                self._ch_count, self._threads, self._ids, self._idctr, self._steps,
-                _step.REORDER_EVERY, self._work)
+            discs, n, self._work = _step.advance_rngs(
+                Discs(self._pos, self._vel, self._spc, self._uint, self._ids, self._idctr),
+                self._n, n_steps, dt, Bounds(self._bkind, self._bp), cs.tables, cs.params,
+                cs.flags, self._rngs, Counters(self._icnt, self._fsum, self._ch_count),
+                self._threads, self._steps, _step.REORDER_EVERY, self._work)
+            pos, vel, spc, uint, ids = discs[:5]
         self._pos, self._vel, self._spc, self._uint, self._ids = pos, vel, spc, uint, ids
         self._n = n
         self._steps += n_steps
@@ -392,6 +395,80 @@ class Simulation:
         self._time = c[0] + c[1] * h
         self._since_reset = c[2] + c[3] * h
 
+    # ------------------------------------------------------------------ for the environments
+    # Not public API: the doors through which discgym's environments run their compiled step
+    # (kernels.batch) on a Simulation's own arrays, so that the Simulation stays the only
+    # owner of its state and its bookkeeping.
+    def kernel_arrays(self) -> tuple:
+        """``(pos, vel, species, internal_energy, ids, next_id)``: the state arrays themselves
+        (capacity C >= N, not copies; discs [0, N) live): (C, 2), (C, 2), (C,) INDEX,
+        (C,) FLOAT, (C,) COUNT, (1,) COUNT. Internal, for discgym's environments."""
+        return (self._pos, self._vel, self._spc, self._uint, self._ids, self._idctr)
+
+    def kernel_counters(self) -> tuple:
+        """``(icnt, fsum, ch_count)``: the counter arrays themselves (see
+        :mod:`discgym.kernels.step`). Internal, for discgym's environments."""
+        return (self._icnt, self._fsum, self._ch_count)
+
+    @property
+    def kernel_rngs(self):
+        """The generator as the kernels take it (a one-item ``numba.typed.List``)."""
+        return self._rngs
+
+    def reserve_capacity(self, capacity: int) -> None:
+        """Grow the state arrays (if needed) to hold at least ``capacity`` discs."""
+        if len(self._spc) < capacity:
+            self._reserve(capacity - self._n)
+
+    def move_into(self, pos, vel, species, internal_energy, ids, next_id, icnt, fsum,
+                  ch_count) -> None:
+        """Copy the state and counters into the given arrays (as :meth:`kernel_arrays` and
+        :meth:`kernel_counters`; past the discs: zeros, species -1) and use them as its own
+        from now on: the vector environment keeps every reactor in rows of its batch."""
+        n = self._n
+        pos[:] = 0.0
+        vel[:] = 0.0
+        species[:] = -1
+        internal_energy[:] = 0.0
+        ids[:] = 0
+        pos[:n] = self._pos[:n]
+        vel[:n] = self._vel[:n]
+        species[:n] = self._spc[:n]
+        internal_energy[:n] = self._uint[:n]
+        ids[:n] = self._ids[:n]
+        next_id[:] = self._idctr
+        self._pos, self._vel, self._spc, self._uint = pos, vel, species, internal_energy
+        self._ids, self._idctr = ids, next_id
+        icnt[:] = self._icnt
+        fsum[:] = self._fsum
+        ch_count[:] = self._ch_count
+        self._icnt, self._fsum, self._ch_count = icnt, fsum, ch_count
+
+    def export_scalars(self, reactors, r: int) -> None:
+        """Write the disc count, the kernel steps taken and the bounds into row ``r`` of
+        ``reactors`` (a :class:`~discgym.kernels.structs.Reactors`)."""
+        reactors.n[r] = self._n
+        reactors.ksteps[r] = self._steps
+        reactors.bounds_kind[r] = self._bkind
+        reactors.bounds_params[r] = self._bp
+
+    def book_env_step(self, n: int, steps: int, n_steps: int, dt: float, energies,
+                      bounds: tuple | None = None) -> None:
+        """Book what :meth:`step` and the controls book, after a compiled environment step
+        that ran ``n_steps`` steps of ``dt`` on the state arrays: the disc count ``n``, the
+        kernel steps taken ``steps``, the clocks, the energies the controls put in (added to
+        :attr:`energy_input` one after the other, as the controls add them) and, if the wall
+        moved, ``bounds`` = ``(factory, bounds_params)`` (see :meth:`_defer_bounds`)."""
+        self._n = n
+        self._steps = steps
+        self._tick(n_steps, dt)
+        e = self._energy_input
+        for x in energies:
+            e += x
+        self._energy_input = e
+        if bounds is not None:
+            self._defer_bounds(*bounds)
+
     # ------------------------------------------------------------------ state views
     def __len__(self) -> int:
         return self._n
@@ -412,8 +489,8 @@ class Simulation:
     def _defer_bounds(self, factory: Callable[[], Box | Circle], bp: np.ndarray) -> None:
         """The bounds were changed by compiled code to the parameters ``bp`` (4,); the
         :class:`Box` or :class:`Circle` object is built by ``factory()`` only when asked for
-        (building it costs ~5 us, a tenth of what a reinforcement-learning step may spend in
-        Python)."""
+        (building it costs a noticeable share of what a reinforcement-learning step may spend
+        in Python)."""
         self._bounds = None
         self._bounds_factory = factory
         self._bp = bp

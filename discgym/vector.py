@@ -68,6 +68,7 @@ from .kernels.batch import (
     env_step,
     env_step_parallel,
 )
+from .kernels.structs import Episodes, Reactors
 
 __all__ = ["DiscReactorVectorEnv"]
 
@@ -188,6 +189,12 @@ class DiscReactorVectorEnv(VectorEnv):
         self._obs = np.zeros((R, len(cfg.obs_names)), dtype=np.float32)
         self._temps = np.zeros(R, dtype=FLOAT)
         self._kin = np.zeros(R, dtype=FLOAT)
+        self._rx = Reactors(self._pos, self._vel, self._spc, self._uint, self._ids, self._idctr,
+                            self._n, self._ksteps, self._bkind, self._bp, self._icnt,
+                            self._fsum, self._chc)
+        self._ep = Episodes(self._size, self._feed_left, self._steps, self._n_init,
+                            self._n_ref, self._temps, self._kin, self._stats, self._obs,
+                            self._fout, self._iout)
         self._started = False
 
     # ------------------------------------------------------------------ reset
@@ -228,29 +235,9 @@ class DiscReactorVectorEnv(VectorEnv):
         n = len(sim)
         if n > cfg.max_discs:  # cannot happen: max_discs bounds the drawn contents
             raise RuntimeError(f"reactor {r}: {n} discs exceed the capacity plan")
-        pos, vel, spc, uint, ids, idctr = self._views[r]
-        pos[:] = 0.0
-        vel[:] = 0.0
-        spc[:] = -1
-        uint[:] = 0.0
-        ids[:] = 0
-        pos[:n] = sim._pos[:n]
-        vel[:n] = sim._vel[:n]
-        spc[:n] = sim._spc[:n]
-        uint[:n] = sim._uint[:n]
-        ids[:n] = sim._ids[:n]
-        idctr[:] = sim._idctr
-        sim._pos, sim._vel, sim._spc, sim._uint = pos, vel, spc, uint
-        sim._ids, sim._idctr = ids, idctr
-        self._ksteps[r] = sim._steps
-        self._icnt[r] = sim._icnt
-        self._fsum[r] = sim._fsum
-        self._chc[r] = sim._ch_count
-        sim._icnt, sim._fsum, sim._ch_count = self._icnt[r], self._fsum[r], self._chc[r]
-        self._n[r] = n
+        sim.move_into(*self._views[r], self._icnt[r], self._fsum[r], self._chc[r])
+        sim.export_scalars(self._rx, r)
         self._cost[r] = n * cfg.steps_per_action  # (no history yet: one substep a step)
-        self._bkind[r] = sim._bkind
-        self._bp[r] = sim._bp
         self.simulations[r] = sim
         self._steps[r] = 0
         self._size[r] = cfg.size_of(sim.bounds)
@@ -260,9 +247,7 @@ class DiscReactorVectorEnv(VectorEnv):
         self._product[r] = np.count_nonzero(sim.species == cfg.product)
 
     def _observe_all(self) -> None:
-        observe(self.config, self._vel, self._spc, self._uint, self._n, self._size,
-                self._steps, self._feed_left, self._n_init, self._n_ref, self._stats,
-                self._temps, self._kin, self._obs)
+        observe(self.config, self._vel, self._spc, self._uint, self._n, self._ep)
 
     # ------------------------------------------------------------------ step
     def step(self, actions):
@@ -365,16 +350,11 @@ class DiscReactorVectorEnv(VectorEnv):
         its controls book, for each reactor's ``Simulation``."""
         cfg = self.config
         cs = cfg.compiled
-        cf, ci, feed = cfg.kernel_consts
         idx = np.flatnonzero(active).tolist()
         self._sync(idx)
         size0 = self._size.copy()
-        args = (self._pos, self._vel, self._spc, self._uint, self._ids, self._idctr, self._n,
-                self._ksteps, self._bkind, self._bp, cfg.tables, cs.params, cs.flags,
-                self._rngs, self._icnt, self._fsum, self._chc, active, act, self._size,
-                self._feed_left, self._steps, self._n_init, self._n_ref, self._temps,
-                self._kin, self._stats, self._obs, cf, ci, feed, cfg.feed_budget, cfg.obs_low,
-                cfg.obs_high, self._fout, self._iout)
+        args = (self._rx, self._ep, cfg.tables, cs.params, cs.flags, cfg.consts, self._rngs,
+                active, act)
         sub0 = self._icnt[:, _step.IC_SUBSTEPS].copy()
         ev0 = self._icnt[:, _EVENTS].sum(axis=1)
         if len(idx) <= 1 or self.threads == 1:  # (a lone reactor runs on the calling thread)
@@ -402,19 +382,12 @@ class DiscReactorVectorEnv(VectorEnv):
         k = cfg.steps_per_action
         dt = cfg.scene.dt
         moved = self._size != size0
-        n, fo = self._n.tolist(), self._fout.tolist()
+        n, ks, fo = self._n.tolist(), self._ksteps.tolist(), self._fout.tolist()
         for r in idx:
-            sim = self.simulations[r]
-            # exactly what Simulation.step and its controls book
-            sim._n = n[r]
-            sim._steps += k
-            sim._tick(k, dt)
-            e = sim._energy_input + fo[r][O_ENERGY_HEAT]  # (one control after the other)
-            for x in fo[r][2:]:
-                e += x
-            sim._energy_input = e
-            if moved[r]:
-                sim._defer_bounds(partial(cfg.bounds_of, float(self._size[r])), self._bp[r])
+            bounds = (partial(cfg.bounds_of, float(self._size[r])), self._bp[r]) if moved[r] \
+                else None
+            self.simulations[r].book_env_step(n[r], ks[r], k, dt, fo[r][O_ENERGY_HEAT:],
+                                              bounds)
 
     def _sync(self, idx: list) -> None:
         """Read what a user may have changed through ``env.simulations[r]`` since the last
@@ -425,25 +398,22 @@ class DiscReactorVectorEnv(VectorEnv):
         for r in idx:
             sim = self.simulations[r]
             v = self._views[r]
-            if sim._pos is not v[0] or sim._vel is not v[1] or sim._spc is not v[2] \
-                    or sim._uint is not v[3] or sim._ids is not v[4] or sim._idctr is not v[5]:
+            a = sim.kernel_arrays()
+            if any(a[k] is not v[k] for k in range(6)):
                 raise RuntimeError(
                     f"reactor {r}: its Simulation's state arrays were replaced from outside "
                     "(e.g. an injection beyond the batch's capacity); the vector env "
                     "keeps every reactor in its own arrays and cannot follow. Change a reactor "
                     "through its controls (inject, resize, scale_temperature) only, or reset it")
-            m = sim._n
+            m = len(sim)
             if m != self._n[r]:  # discs added or removed from outside: still within the plan?
-                need, mass = cfg.capacity_for(sim._spc[:m], self._feed_left[r])
+                need, mass = cfg.capacity_for(sim.species, self._feed_left[r])
                 if need > cfg.capacity:
                     raise RuntimeError(
                         f"reactor {r}: {m} discs (mass {mass:g}) could split into more discs "
                         f"than the batch's capacity {cfg.capacity} holds; do not add discs to "
                         "env.simulations[r] beyond the initial contents and the feed budget")
-                self._n[r] = m
-            self._ksteps[r] = sim._steps
-            self._bkind[r] = sim._bkind
-            self._bp[r] = sim._bp
+            sim.export_scalars(self._rx, r)
 
     # ------------------------------------------------------------------ misc
     def render(self):

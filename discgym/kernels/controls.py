@@ -10,7 +10,7 @@ from numba import njit
 
 
 @njit(cache=True)
-def energies(vel, spc, uint, sp_mass, sp_form, n):
+def energies(vel, species, internal_energy, sp_mass, sp_form, n):
     """``(kinetic, internal, formation)`` energy of discs [0, n), each a compensated sum."""
     k = 0.0
     kc = 0.0
@@ -19,12 +19,12 @@ def energies(vel, spc, uint, sp_mass, sp_form, n):
     f = 0.0
     fc = 0.0
     for i in range(n):
-        s = spc[i]
+        s = species[i]
         x = 0.5 * sp_mass[s] * (vel[i, 0] * vel[i, 0] + vel[i, 1] * vel[i, 1])
         t = k + x
         kc += (k - t) + x if abs(k) >= abs(x) else (x - t) + k
         k = t
-        x = uint[i]
+        x = internal_energy[i]
         t = u + x
         uc += (u - t) + x if abs(u) >= abs(x) else (x - t) + u
         u = t
@@ -36,13 +36,13 @@ def energies(vel, spc, uint, sp_mass, sp_form, n):
 
 
 @njit(cache=True)
-def kinetic_and_fastest(vel, spc, sp_mass, n):
+def kinetic_and_fastest(vel, species, sp_mass, n):
     """``(kinetic energy, largest squared speed)`` of discs [0, n); ``vel`` (C, 2)."""
     ke = 0.0
     v2max = 0.0
     for i in range(n):
         v2 = vel[i, 0] * vel[i, 0] + vel[i, 1] * vel[i, 1]
-        ke += 0.5 * sp_mass[spc[i]] * v2
+        ke += 0.5 * sp_mass[species[i]] * v2
         if v2 > v2max:
             v2max = v2
     return ke, v2max
@@ -57,14 +57,14 @@ def scale(vel, n, s):
 
 
 @njit(cache=True)
-def all_inside(pos, spc, sp_radius, n, bkind, b0, b1, b2, b3):
+def all_inside(pos, species, sp_radius, n, bounds_kind, b0, b1, b2, b3):
     """Do all discs [0, n) lie within the bounds (box: (x0, y0, x1, y1) = b0..b3; circle:
     centre (b0, b1), radius b2)? Touching counts as inside."""
     for i in range(n):
-        r = sp_radius[spc[i]]
+        r = sp_radius[species[i]]
         x = pos[i, 0]
         y = pos[i, 1]
-        if bkind == 0:
+        if bounds_kind == 0:
             if not (b0 + r <= x <= b2 - r and b1 + r <= y <= b3 - r):
                 return False
         else:

@@ -204,7 +204,7 @@ def overlapping_pairs(pos, spc, n, sp_radius, bkind, bp, tol):
 @njit(cache=True)
 def place_rngs(pos, spc, n, todo, targets, sp_radius, bkind, bp, rngs, attempts):
     """:func:`place` with its generator passed as ``rngs[0]`` (a ``numba.typed.List``; see
-    :func:`discgym.kernels.step.run_tracked_rngs`)."""
+    :func:`discgym.kernels.step.advance_rngs`)."""
     return place(pos, spc, n, todo, targets, sp_radius, bkind, bp, rngs[0], attempts)
 
 

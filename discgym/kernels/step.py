@@ -21,10 +21,11 @@ anew, and a reactive collision whose products would outrun the contact checks of
 substep ends that substep at the collision (:func:`_events`, :func:`_resplit`).
 
 Which effects run is decided once per call from ``flags``; an absent effect is a skipped
-branch per substep, not a per-disc cost (``benchmarks/bench_core.py`` measures it).
+branch per substep, not a per-disc cost (``benchmarks/bench_core.py`` measures it; the
+figures are in docs/performance.md).
 
-Measured on the benchmark scene (N = 10^4, packing 0.3, dt = 0.05, kT = 1, one core of the
-2-core CI machine): see README "Performance".
+The driver is :func:`advance`; its state, bounds and counters are the structs of
+:mod:`discgym.kernels.structs`.
 """
 
 import math
@@ -32,7 +33,6 @@ import math
 import numpy as np
 from numba import njit, prange
 
-from .._dtypes import COUNT, FLOAT, INDEX
 from .celllist import build, cell_coord, cell_radius, cell_range, make_grid, overlaps_any
 from .collisions import bounce, normal_at, pair_time
 from .heap import new_heap, pop, push, reserve
@@ -50,6 +50,25 @@ from .reactions import (
     transform,
 )
 from .resolve import resolve
+from .structs import (
+    COUNT,
+    F_BI,
+    F_COLLISIONS,
+    F_FISSION,
+    F_UNI,
+    FLOAT,
+    INDEX,
+    P_MAXDISP,
+    P_RELAX,
+    P_RESTITUTION,
+    P_RMIN,
+    Bounds,
+    Counters,
+    Discs,
+    RunConsts,
+    Scratch,
+    capacity_for_discs,
+)
 from .walls import (
     GLIDE_CHORDS,
     box_contact,
@@ -95,8 +114,7 @@ DISC_EVENTS = 1024  # events one disc may take part in per substep; past it, see
 REBUILD_UNBINNED = 256  # rebuild the grid when this many discs were created since it was built
 OV_SLOTS = 4  # overlaps recorded per disc by the (parallel) broad phase; more: rescanned
 PARALLEL_MIN = 65536  # below this many discs a step runs on one thread: waking numba's
-# threads for the two parallel regions of a step cost more than they save (measured at N = 1e4:
-# 8.0 M disc-steps/s on 2 threads against 12.1 M on one)
+# threads for the two parallel regions of a step costs more than they save
 REORDER_MIN = 16384  # from this many discs, discs are periodically put in cell order in memory
 REORDER_EVERY = 8  # steps between reorderings (Simulation's default)
 REORDER_CELLS = 1 << 19  # the reordering grid: cells of 2 r_max, at most about this many
@@ -110,7 +128,7 @@ def _drift_range(lo, hi, h, pos, vel, spc, sp_radius, bkind, bp, tlast, wall_t, 
     """Move discs [lo, hi) by h; note their wall contacts; bin them (if collide).
 
     Bounds are unpacked to scalars once: helpers taking arrays cost a reference count per
-    call, which in this loop tripled its time (measured 32 -> 11 ns/disc).
+    call, which in this loop would dominate its time.
     """
     x0, y0, icx, icy = grid[0], grid[1], grid[2], grid[3]
     ncx = int(grid[4])
@@ -275,12 +293,14 @@ def _try_pair(i, j, sp_radius, pos, vel, spc, tlast, stamp, H, size, icnt):
 
 
 @njit(cache=True)
-def _queue_initial(n, collide, sp_radius, pos, vel, spc, tlast, stamp, wall_t, wflag, grid,
-                   cell_start, cell_items, cell_of, sx, sy, sr, ov_n, ov_b, H, icnt):
+def _queue_initial(n, collide, sp_radius, pos, vel, spc, sc, grid, H, icnt):
     """Queue every wall contact and every overlapping pair of the substep: the pairs the
-    broad phase found (``ov_n``, ``ov_b``: small discs, half stencil) and those of the big
-    discs (found here: each big disc against the cells within its radius + rcell and the
-    big discs after it)."""
+    broad phase found (``sc.ov_n``, ``sc.ov_b``: small discs, half stencil) and those of the
+    big discs (found here: each big disc against the cells within its radius + rcell and the
+    big discs after it). ``sc``: the :class:`~.structs.Scratch`."""
+    tlast, stamp, wall_t, wflag = sc.tlast, sc.stamp, sc.wall_t, sc.wflag
+    cell_start, cell_items, cell_of = sc.cell_start, sc.cell_items, sc.cell_of
+    sx, sy, sr, ov_n, ov_b = sc.sx, sc.sy, sc.sr, sc.ov_n, sc.ov_b
     ncx = int(grid[4])
     ncy = int(grid[5])
     rcell = grid[6]
@@ -450,13 +470,14 @@ def _glide(i, tw, T, xc, yc, tau, psi, vn, r, mi, pos, vel, spc, sp_radius, tlas
 
 
 @njit(cache=True)
-def _events(n, H, size, tables, pos, vel, spc, uint, tlast, stamp, lastcol, partner, nev,
-            sub_id, binx, biny, collide, has_bi, e, kappa, rcell, h, vfast, bkind, bp, grid,
-            cell_start, cell_items, icnt, fsum, ch_count, maxdisp, cut_after):
-    """Process the queue earliest first. Returns (H, n_dead, delta, dropped, vfast, vrel,
-    t_cut): ``dropped`` if events were left unprocessed because a disc (``nev``, at most
-    DISC_EVENTS per substep) or the substep (EVENTS_PER_DISC * n + 1024) ran out of events;
-    the caller then repairs the state with :func:`~discgym.kernels.resolve.resolve`.
+def _events(n, H, size, tables, discs, sc, bounds, grid, cnt, rc, sub_id, h, vfast, cut_after):
+    """Process the queue earliest first (``discs``: :class:`~.structs.Discs`, ``sc``:
+    :class:`~.structs.Scratch`, ``bounds``: :class:`~.structs.Bounds`, ``cnt``:
+    :class:`~.structs.Counters`, ``rc``: :class:`~.structs.RunConsts`). Returns (H,
+    n_dead, delta, dropped, vfast, vrel, t_cut): ``dropped`` if events were left unprocessed
+    because a disc (``nev``, at most DISC_EVENTS per substep) or the substep
+    (EVENTS_PER_DISC * n + 1024) ran out of events; the caller then repairs the state with
+    :func:`~discgym.kernels.resolve.resolve`.
 
     Energy released inside the substep: ``vrel`` is the largest speed a reactive collision or
     a collision releasing internal energy (``kappa``) left a disc with (0 if none). When such
@@ -475,8 +496,8 @@ def _events(n, H, size, tables, pos, vel, spc, uint, tlast, stamp, lastcol, part
     Inelastic collapse (e < 1): a disc's second and later collisions within one substep are
     elastic (the TC model of Luding & McNamara, with t_c = the substep; ``lastcol`` holds the
     substep ``sub_id`` of each disc's last collision). Without it a cluster at e = 0 takes
-    unbounded numbers of ever smaller collisions (measured: the event budget ran out in every
-    substep of a 300-disc e = 0 box). A wall reflection that would leave a disc outside along
+    unbounded numbers of ever smaller collisions (the event budget runs out in every
+    substep of a dense e = 0 box). A wall reflection that would leave a disc outside along
     the reflected axis (a disc as wide as the bounds) is followed by moving it inside along
     that axis (``walls.settle_after_reflection``).
 
@@ -487,10 +508,17 @@ def _events(n, H, size, tables, pos, vel, spc, uint, tlast, stamp, lastcol, part
     impulse is lost to round-off (speeds ~1e2, approach speed ~1e-15), or a pair with
     coincident centres, was re-detected at the same time until the event budget ran out.
     """
-    sp_radius, sp_mass = tables[0], tables[1]
-    ch_kind = tables[3]
-    ch_energy = tables[7]
-    bi_table = tables[10]
+    sp_radius, sp_mass = tables.sp_radius, tables.sp_mass
+    ch_kind = tables.ch_kind
+    ch_energy = tables.ch_energy
+    bi_table = tables.bi_table
+    pos, vel, spc, uint = discs.pos, discs.vel, discs.species, discs.internal_energy
+    tlast, stamp, lastcol, partner, nev = sc.tlast, sc.stamp, sc.lastcol, sc.partner, sc.nev
+    binx, biny, cell_start, cell_items = sc.binx, sc.biny, sc.cell_start, sc.cell_items
+    bkind, bp = bounds.kind, bounds.params
+    icnt, fsum, ch_count = cnt.icnt, cnt.fsum, cnt.ch_count
+    collide, has_bi, rcell, maxdisp = rc.collide, rc.has_bi, rc.rcell, rc.maxdisp
+    e, kappa = rc.restitution, rc.relax
     nbin = n if collide else 0
     delta = 0.0  # largest distance of a disc from where it was binned
     n_dead = 0
@@ -662,20 +690,26 @@ def _rewind(n, t, pos, vel, spc, binx, biny, collide):
 
 # ------------------------------------------------------------- phase 4: first-order reactions
 @njit(cache=True)
-def _first_order(n, h, tables, pos, vel, spc, uint, ids, idctr, collide, fission_possible, bkind,
-                 bp, grid, cell_start, cell_items, cell_of, delta, rcell, rng, icnt, ch_count):
-    """Each disc present at the start of the pass draws its first-order reactions.
+def _first_order(n, h, tables, discs, fission_possible, bounds, grid, sc, delta, rc, rng, cnt):
+    """Each disc present at the start of the pass draws its first-order reactions (structs:
+    see :func:`_events`).
 
     Capacity for one fission per disc is made before the loop (so no array is reallocated
-    inside it). A new disc gets the identity ``idctr[0]`` (then incremented). Returns the
-    state arrays (new ones if they grew), the new n and the largest speed of a fragment made
-    (0 if none).
+    inside it). A new disc gets the identity ``discs.next_id[0]`` (then incremented). Returns
+    the state arrays (new ones if they grew) as :class:`~.structs.Discs`, the new n and the
+    largest speed of a fragment made (0 if none).
     """
-    ch_kind = tables[3]
+    pos, vel, spc, uint = discs.pos, discs.vel, discs.species, discs.internal_energy
+    ids, idctr = discs.ids, discs.next_id
+    bkind, bp = bounds.kind, bounds.params
+    cell_start, cell_items, cell_of = sc.cell_start, sc.cell_items, sc.cell_of
+    collide, rcell = rc.collide, rc.rcell
+    icnt, ch_count = cnt.icnt, cnt.ch_count
+    ch_kind = tables.ch_kind
     nbin = n if collide else 0
     n0 = n
     if fission_possible and pos.shape[0] < 2 * n0:
-        cap = 2 * n0 + 16
+        cap = capacity_for_discs(n0)
         pos = grow2(pos, cap)
         vel = grow2(vel, cap)
         spc = grow1(spc, cap)
@@ -685,11 +719,12 @@ def _first_order(n, h, tables, pos, vel, spc, uint, ids, idctr, collide, fission
     if collide and fission_possible and cell_items.shape[0] < pos.shape[0]:
         cell_items = np.empty(pos.shape[0], dtype=INDEX)
         cell_of = np.empty(pos.shape[0], dtype=INDEX)
-        build(n, pos, spc, tables[0], grid, cell_start, cell_items, cell_of)
+        build(n, pos, spc, tables.sp_radius, grid, cell_start, cell_items, cell_of)
     react = np.empty(n0, dtype=INDEX)
     chan = np.empty(n0, dtype=INDEX)
-    m = first_order_draws(n0, h, tables[2], ch_kind, tables[5], tables[6], tables[7],
-                          tables[8], tables[9], spc, uint, rng, react, chan)
+    m = first_order_draws(n0, h, tables.sp_form, ch_kind, tables.ch_prod, tables.ch_rate,
+                          tables.ch_energy, tables.uni_start, tables.uni_chan, spc, uint, rng,
+                          react, chan)
     vfrag = 0.0
     for q in range(m):
         i = react[q]
@@ -699,7 +734,7 @@ def _first_order(n, h, tables, pos, vel, spc, uint, ids, idctr, collide, fission
                               cell_start, cell_items, nbin, n, rcell + delta)
         else:
             if collide and n - nbin > REBUILD_UNBINNED:
-                build(n, pos, spc, tables[0], grid, cell_start, cell_items, cell_of)
+                build(n, pos, spc, tables.sp_radius, grid, cell_start, cell_items, cell_of)
                 nbin = n
                 delta = 0.0
             x_old = pos[i, 0]
@@ -718,7 +753,7 @@ def _first_order(n, h, tables, pos, vel, spc, uint, ids, idctr, collide, fission
             ch_count[c] += 1
         else:
             icnt[IC_NO_ROOM] += 1
-    return pos, vel, spc, uint, ids, n, vfrag
+    return Discs(pos, vel, spc, uint, ids, idctr), n, vfrag
 
 
 # -------------------------------------------------------------------------- phase 5: removal
@@ -745,8 +780,8 @@ def _compact(n, pos, vel, spc, uint, ids):
 @njit(cache=True)
 def _reorder(n, pos, vel, spc, uint, ids, grid, work):
     """Permute discs [0, n) into cell order (stable), so that neighbours are neighbours in
-    memory. Disc identity is kept in ``ids``. At N = 1e5 the unsorted gather and event phases
-    were cache-bound (cost per disc-step 2.6x that at N = 1e4). The copies are made in the
+    memory. Disc identity is kept in ``ids``. Without it, from about 1e5 discs the gather
+    and event phases are bound by cache misses. The copies are made in the
     scratch buffers ``work`` (between steps nothing in them is live; see :func:`_carve`)."""
     ncx = int(grid[4])
     ncy = int(grid[5])
@@ -830,10 +865,10 @@ N_CWORK = 2  # COUNT scratch arrays per disc
 
 @njit(cache=True)
 def empty_work():
-    """Scratch buffers of size 0 for :func:`run_tracked`, which makes them as large as needed
+    """Scratch buffers of size 0 for :func:`advance`, which makes them as large as needed
     and returns them: a caller that keeps them for its next call saves allocating and
-    first-touching them on every call (at N = 10^6, ~130 MB: measured 267 -> 150-163 ns
-    per disc-step for ``sim.step(1)``)."""
+    first-touching them on every call (about 130 bytes per disc, which for short calls on
+    many discs costs as much as the step)."""
     return (np.empty(0, dtype=FLOAT), np.empty(0, dtype=INDEX), np.empty(0, dtype=COUNT))
 
 
@@ -852,12 +887,13 @@ def _fit_work(work, ws, nstart):
 @njit(cache=True)
 def _carve(work, ws, nstart):
     """The per-disc scratch arrays of a run for ``ws`` discs, and ``cell_start``
-    (``nstart``), as views of the buffers ``work`` (see :func:`_fit_work`). ``stamp``,
-    ``lastcol`` and ``nev`` start at zero; the others are written before they are read.
-    Between steps nothing in them is live except ``lastcol``, so :func:`_reorder` may use
-    all of ``fw`` and ``iw`` and the first ws entries of ``cw`` (``stamp``, only ever compared
-    within a substep), never ``lastcol`` (kept at ``cw[ws:2 ws]``: a disc's last collision
-    substep, which must not match a later substep by accident)."""
+    (``nstart``), as a :class:`~.structs.Scratch` of views of the buffers ``work`` (see
+    :func:`_fit_work`). ``stamp``, ``lastcol`` and ``nev`` start at zero; the others are
+    written before they are read. Between steps nothing in them is live except ``lastcol``,
+    so :func:`_reorder` may use all of ``fw`` and ``iw`` and the first ws entries of ``cw``
+    (``stamp``, only ever compared within a substep), never ``lastcol`` (kept at
+    ``cw[ws:2 ws]``: a disc's last collision substep, which must not match a later substep
+    by accident)."""
     fw, iw, cw = work
     stamp = cw[0:ws]
     lastcol = cw[ws:2 * ws]
@@ -879,175 +915,124 @@ def _carve(work, ws, nstart):
     nev[:] = 0
     ov_b = iw[6 * ws:N_IWORK * ws].reshape((ws, OV_SLOTS))
     cell_start = iw[N_IWORK * ws:N_IWORK * ws + nstart]
-    return (stamp, lastcol, tlast, wall_t, wflag, cell_of, cell_items, sx, sy, sr, ov_n, ov_b,
-            binx, biny, partner, nev, cell_start)
-
-
-@njit(cache=True)
-def run(pos, vel, spc, uint, n, n_steps, dt, bkind, bp, tables, params, flags, rng, icnt, fsum,
-        ch_count, threads):
-    """:func:`run_tracked` without disc identities (and so without memory reordering)."""
-    ids = np.zeros(pos.shape[0], dtype=COUNT)
-    idctr = np.zeros(1, dtype=COUNT)
-    pos, vel, spc, uint, ids, n, work = run_tracked(pos, vel, spc, uint, n, n_steps, dt, bkind,
-                                                    bp, tables, params, flags, rng, icnt, fsum,
-                                                    ch_count, threads, ids, idctr, 0, 0,
-                                                    empty_work())
-    return pos, vel, spc, uint, n
-
-
-@njit(cache=True)
-def run_tracked_rngs(pos, vel, spc, uint, n, n_steps, dt, bkind, bp, tables, params, flags, rngs,
-                     icnt, fsum, ch_count, threads, ids, idctr, step0, reorder_every, work):
-    """:func:`run_tracked` with its generator passed as ``rngs[0]``, a ``numba.typed.List``:
-    the entry point for calls from Python. Unboxing an ``np.random.Generator`` argument costs
-    ~13 us per call (numba rebuilds its ctypes interface every time), a typed list holding
-    the same generator (same state) ~1 us; a Simulation makes many short calls."""
-    return run_tracked(pos, vel, spc, uint, n, n_steps, dt, bkind, bp, tables, params, flags,
-                       rngs[0], icnt, fsum, ch_count, threads, ids, idctr, step0,
-                       reorder_every, work)
+    return Scratch(stamp, lastcol, tlast, wall_t, wflag, cell_of, cell_items, sx, sy, sr, ov_n,
+                   ov_b, binx, biny, partner, nev, cell_start)
 
 
 @njit(cache=True)
 def run_tracked(pos, vel, spc, uint, n, n_steps, dt, bkind, bp, tables, params, flags, rng, icnt,
                 fsum, ch_count, threads, ids, idctr, step0, reorder_every, work):
+    """:func:`advance` with the state, bounds and counters as separate arrays. Returns
+    ``(pos, vel, species, internal_energy, ids, n, work)``."""
+    discs, n, work = advance(Discs(pos, vel, spc, uint, ids, idctr), n, n_steps, dt,
+                             Bounds(bkind, bp), tables, params, flags, rng,
+                             Counters(icnt, fsum, ch_count), threads, step0, reorder_every,
+                             work)
+    return (discs.pos, discs.vel, discs.species, discs.internal_energy, discs.ids, n, work)
+
+
+@njit(cache=True)
+def advance_rngs(discs, n, n_steps, dt, bounds, tables, params, flags, rngs, cnt, threads,
+                 step0, reorder_every, work):
+    """:func:`advance` with its generator passed as ``rngs[0]``, a ``numba.typed.List``:
+    the entry point for calls from Python. Unboxing an ``np.random.Generator`` argument is
+    slow (numba rebuilds its ctypes interface every time), a typed list holding the same
+    generator (same state) an order of magnitude faster; a Simulation makes many short
+    calls."""
+    return advance(discs, n, n_steps, dt, bounds, tables, params, flags, rngs[0], cnt, threads,
+                   step0, reorder_every, work)
+
+
+@njit(cache=True)
+def advance(discs, n, n_steps, dt, bounds, tables, params, flags, rng, cnt, threads, step0,
+            reorder_every, work):
     """Advance ``n_steps`` steps of length ``dt``.
 
-    State (struct of arrays, capacity C >= n): ``pos`` (C, 2), ``vel`` (C, 2), ``spc`` (C,)
-    species index (-1 for no disc), ``uint`` (C,) internal energy; discs are [0, n).
-    ``tables``: see :attr:`discgym.compiled.CompiledScene.tables`; ``params``, ``flags``: see
-    :mod:`discgym.compiled`. Counters ``icnt``, ``fsum``, ``ch_count`` (per reaction channel)
-    are accumulated in place. ``threads``: the number of chunks to split the drift and the
-    broad phase into across numba's threads (4 per thread is a good choice); 0 or 1 runs
-    everything on the calling thread (as it must inside another parallel loop).
-    ``ids`` (C,) int64 are the discs' identities (new discs take ``idctr[0]``, which is
-    incremented); when ``reorder_every`` > 0 and n >= REORDER_MIN, the discs are put in cell
-    order in memory before every step whose global index ``step0 + s`` is a multiple of it
-    (so the result does not depend on how a run is split into calls).
+    ``discs``: the state (a :class:`~.structs.Discs`, capacity C >= n; discs are [0, n)),
+    ``bounds`` a :class:`~.structs.Bounds`. ``tables``: a :class:`~.structs.Tables`;
+    ``params``, ``flags``: see :mod:`discgym.compiled`. The counters ``cnt`` (a
+    :class:`~.structs.Counters`) are accumulated in place. ``threads``: the number of chunks
+    to split the drift and the broad phase into across numba's threads (4 per thread is a
+    good choice); 0 or 1 runs everything on the calling thread (as it must inside another
+    parallel loop). New discs take the identity ``discs.next_id[0]``, which is incremented;
+    when ``reorder_every`` > 0 and n >= REORDER_MIN, the discs are put in cell order in
+    memory before every step whose global index ``step0 + s`` is a multiple of it (so the
+    result does not depend on how a run is split into calls).
 
     ``work``: scratch buffers (a tuple of 1-D FLOAT, INDEX and COUNT arrays, e.g.
     :func:`empty_work`), replaced by larger ones when they are too small.
 
-    Returns ``(pos, vel, spc, uint, ids, n, work)``: new (larger) state arrays when a
-    decomposition needed more capacity, else the ones passed in; the scratch buffers used.
+    Returns ``(discs, n, work)``: new (larger) state arrays when a decomposition needed more
+    capacity, else the ones passed in; the scratch buffers used.
     """
-    sp_radius = tables[0]
-    e = params[0]
-    kappa = params[1]
-    maxdisp = params[2] * params[3]
-    collide = flags[0] != 0
-    has_uni = flags[1] != 0
-    has_bi = flags[2] != 0
-    fission_possible = flags[3] != 0
+    pos, vel, spc, uint = discs.pos, discs.vel, discs.species, discs.internal_energy
+    ids, idctr = discs.ids, discs.next_id
+    bkind, bp = bounds.kind, bounds.params
+    icnt = cnt.icnt
+    sp_radius = tables.sp_radius
+    e = params[P_RESTITUTION]
+    maxdisp = params[P_MAXDISP] * params[P_RMIN]
+    collide = flags[F_COLLISIONS] != 0
+    has_uni = flags[F_UNI] != 0
+    fission_possible = flags[F_FISSION] != 0
 
     H = new_heap(256)
     # cells sized by the small discs; the few much larger ones in the big cell (celllist)
     rcell = cell_radius(spc, n, sp_radius)
+    rc = RunConsts(e, params[P_RELAX], maxdisp, rcell, collide, flags[F_BI] != 0)
     grid = make_grid(bkind, bp, rcell, max(n, 1))
     ncx = int(grid[4])
     ncy = int(grid[5])
     nstart = ncx * ncy + 2 if collide else 3
-    rgrid = make_grid(bkind, bp, tables[0].max(), REORDER_CELLS)  # (independent of n)
+    rgrid = make_grid(bkind, bp, sp_radius.max(), REORDER_CELLS)  # (independent of n)
     ws = pos.shape[0]  # per-disc workspace, reallocated when the state grows
     work = _fit_work(work, ws, nstart)
-    (stamp, lastcol, tlast, wall_t, wflag, cell_of, cell_items, sx, sy, sr, ov_n, ov_b, binx,
-     biny, partner, nev, cell_start) = _carve(work, ws, nstart)
+    sc = _carve(work, ws, nstart)
     for s in range(n_steps):
         if reorder_every > 0 and n >= REORDER_MIN and (step0 + s) % reorder_every == 0:
             _reorder(n, pos, vel, spc, uint, ids, rgrid, work)
-        # substeps so that no disc moves more than maxdisp
-        v2max = 0.0
-        for i in range(n):
-            v2 = vel[i, 0] * vel[i, 0] + vel[i, 1] * vel[i, 1]
-            if v2 > v2max:
-                v2max = v2
         # first-order reactions run only if some disc has a first-order channel: a scene
         # whose first-order species are absent pays this lookup, not a pass per substep
         uni_live = False
         if has_uni:
-            uni_start = tables[8]
-            for i in range(n):
-                s_i = spc[i]
-                if s_i >= 0 and uni_start[s_i + 1] > uni_start[s_i]:
-                    uni_live = True
-                    break
+            uni_live = _any_first_order(spc, n, tables.uni_start)
             reactive0 = icnt[IC_REACTIVE]
-        k = 1
-        capped = False
-        if v2max > 0.0:
-            q = math.sqrt(v2max) * dt / maxdisp  # compared as a float: ceil() of 1e19 or of
-            if not q <= MAX_SUBSTEPS:  # inf would overflow int64 (and NaN compares false)
-                k = MAX_SUBSTEPS
-                icnt[IC_SUBSTEPS_CAPPED] += 1
-                capped = True
-            else:
-                k = max(int(math.ceil(q)), 1)
+        # substeps so that no disc moves more than maxdisp
+        k, capped, vfast = _first_split(vel, n, dt, maxdisp, icnt)
         h = dt / k
-        vfast = math.sqrt(v2max)  # the fastest disc; raised by collisions (see _events)
         taken = 0  # substeps of this step so far
         sub = 0
         while sub < k:
             icnt[IC_SUBSTEPS] += 1
-            par = threads > 1 and n >= PARALLEL_MIN
-            if par:
-                _drift_parallel(threads, n, h, pos, vel, spc, sp_radius, bkind, bp, tlast,
-                                wall_t, wflag, grid, cell_of, collide)
-            else:
-                _drift_range(0, n, h, pos, vel, spc, sp_radius, bkind, bp, tlast, wall_t,
-                             wflag, grid, cell_of, collide)
-            for q in range(n):
-                nev[q] = 0
-            if collide:
-                _sort(n, cell_of, cell_start, cell_items)
-                if par:
-                    _broad_parallel(threads, n, ncx, ncy, cell_start, cell_items, pos, spc,
-                                    sp_radius, sx, sy, sr, ov_n, ov_b)
-                else:
-                    _gather(0, n, cell_items, pos, spc, sp_radius, sx, sy, sr)
-                    _scan_rows(0, ncy, ncx, ncy, cell_start, cell_items, pos, spc, sp_radius,
-                               sx, sy, sr, ov_n, ov_b)
-                for q in range(n):
-                    binx[q] = pos[q, 0]
-                    biny[q] = pos[q, 1]
-                    partner[q] = -1
+            _drift_and_bin(threads, n, h, pos, vel, spc, sp_radius, bkind, bp, grid, sc,
+                           collide)
             left0 = icnt[IC_LEFT_OVERLAPPING]
-            H, size = _queue_initial(n, collide, sp_radius, pos, vel, spc, tlast, stamp,
-                                     wall_t, wflag, grid, cell_start, cell_items, cell_of, sx,
-                                     sy, sr, ov_n, ov_b, H, icnt)
+            H, size = _queue_initial(n, collide, sp_radius, pos, vel, spc, sc, grid, H, icnt)
             # a substep is cut short (at a reaction, see _events) only while the step has
             # taken fewer than MAX_SUBSTEPS substeps and not shorter than the capped substep
             # dt / MAX_SUBSTEPS: a step of a finite number of substeps, each of them useful
             cut_after = dt / MAX_SUBSTEPS if taken < MAX_SUBSTEPS else math.inf
             taken += 1
             H, n_dead, delta, dropped, vfast, vrel, t_cut = _events(
-                n, H, size, tables, pos, vel, spc, uint, tlast, stamp, lastcol, partner, nev,
-                icnt[IC_SUBSTEPS], binx, biny, collide, has_bi, e, kappa, rcell, h, vfast,
-                bkind, bp, grid, cell_start, cell_items, icnt, fsum, ch_count, maxdisp,
-                cut_after)
+                n, H, size, tables, Discs(pos, vel, spc, uint, ids, idctr), sc, bounds, grid,
+                cnt, rc, icnt[IC_SUBSTEPS], h, vfast, cut_after)
             hu = h  # the length of this substep
             if t_cut < 0.0:
                 icnt[IC_CUTS] += 1
-                delta = _rewind(n, t_cut, pos, vel, spc, binx, biny, collide)
+                delta = _rewind(n, t_cut, pos, vel, spc, sc.binx, sc.biny, collide)
                 hu = h + t_cut
             left = icnt[IC_LEFT_OVERLAPPING] != left0
             if dropped or left:
-                if dropped:
-                    icnt[IC_EVENTS_CAPPED] += 1
-                else:
-                    icnt[IC_GRAZE_REPAIRS] += 1
-                fixes, wdp, lost = resolve(n, pos, vel, spc, sp_radius, tables[1], e, collide,
-                                           bkind, bp, grid, cell_start, cell_items, cell_of)
-                icnt[IC_RESOLVED] += fixes
-                fsum[FS_WALL_MOMENTUM] += wdp
-                fsum[FS_DISSIPATED] += lost
+                _repair(dropped, n, pos, vel, spc, tables, e, collide, bkind, bp, grid, sc, cnt)
                 delta = 0.0  # resolve() leaves the grid built at the final positions
             # (a reactive collision may have made a species with first-order channels)
             if has_uni and (uni_live or icnt[IC_REACTIVE] != reactive0):
                 uni_live = True
-                pos, vel, spc, uint, ids, n, vfrag = _first_order(
-                    n, hu, tables, pos, vel, spc, uint, ids, idctr, collide, fission_possible,
-                    bkind, bp, grid, cell_start, cell_items, cell_of, delta, rcell, rng, icnt,
-                    ch_count)
+                grown, n, vfrag = _first_order(
+                    n, hu, tables, Discs(pos, vel, spc, uint, ids, idctr), fission_possible,
+                    bounds, grid, sc, delta, rc, rng, cnt)
+                pos, vel, spc, uint = grown.pos, grown.vel, grown.species, grown.internal_energy
+                ids = grown.ids
                 # fragments are binned where they end the next substep: the reach of its
                 # room checks must cover their speed
                 vfast = max(vfast, vfrag)
@@ -1055,8 +1040,7 @@ def run_tracked(pos, vel, spc, uint, n, n_steps, dt, bkind, bp, tables, params, 
                 if ws < pos.shape[0]:  # the state grew: scratch for the next substep and for
                     ws = pos.shape[0]  # the next step's reordering
                     work = _fit_work(work, ws, nstart)
-                    (stamp, lastcol, tlast, wall_t, wflag, cell_of, cell_items, sx, sy, sr,
-                     ov_n, ov_b, binx, biny, partner, nev, cell_start) = _carve(work, ws, nstart)
+                    sc = _carve(work, ws, nstart)
             if n_dead:
                 n = _compact(n, pos, vel, spc, uint, ids)
             sub += 1
@@ -1069,4 +1053,87 @@ def run_tracked(pos, vel, spc, uint, n, n_steps, dt, bkind, bp, tables, params, 
                 k, h, vfast, capped, sub = _resplit(n, vel, spc, (k - sub) * h + (h - hu), h,
                                                     t_cut < 0.0, dt, maxdisp, vfast, capped,
                                                     k, sub, icnt)
-    return pos, vel, spc, uint, ids, n, work
+    return Discs(pos, vel, spc, uint, ids, idctr), n, work
+
+
+@njit(cache=True)
+def _any_first_order(spc, n, uni_start):
+    """Does some disc of [0, n) have a species with first-order channels?"""
+    for i in range(n):
+        s_i = spc[i]
+        if s_i >= 0 and uni_start[s_i + 1] > uni_start[s_i]:
+            return True
+    return False
+
+
+@njit(cache=True)
+def _first_split(vel, n, dt, maxdisp, icnt):
+    """The substeps of a step of ``dt``: k of them, so that the fastest disc moves at most
+    ``maxdisp`` in each, but at most MAX_SUBSTEPS (then ``capped``, counted in
+    IC_SUBSTEPS_CAPPED). Returns ``(k, capped, vmax)``, vmax the fastest disc's speed."""
+    v2max = 0.0
+    for i in range(n):
+        v2 = vel[i, 0] * vel[i, 0] + vel[i, 1] * vel[i, 1]
+        if v2 > v2max:
+            v2max = v2
+    k = 1
+    capped = False
+    if v2max > 0.0:
+        q = math.sqrt(v2max) * dt / maxdisp  # compared as a float: ceil() of 1e19 or of
+        if not q <= MAX_SUBSTEPS:  # inf would overflow int64 (and NaN compares false)
+            k = MAX_SUBSTEPS
+            icnt[IC_SUBSTEPS_CAPPED] += 1
+            capped = True
+        else:
+            k = max(int(math.ceil(q)), 1)
+    return k, capped, math.sqrt(v2max)
+
+
+@njit(cache=True)
+def _drift_and_bin(threads, n, h, pos, vel, spc, sp_radius, bkind, bp, grid, sc, collide):
+    """Phases 1 and 2 of a substep: the drift (and wall contacts), then, if ``collide``, the
+    discs sorted into their cells and the overlapping pairs found (in parallel over
+    ``threads`` chunks from PARALLEL_MIN discs); resets the per-disc event counts."""
+    par = threads > 1 and n >= PARALLEL_MIN
+    if par:
+        _drift_parallel(threads, n, h, pos, vel, spc, sp_radius, bkind, bp, sc.tlast,
+                        sc.wall_t, sc.wflag, grid, sc.cell_of, collide)
+    else:
+        _drift_range(0, n, h, pos, vel, spc, sp_radius, bkind, bp, sc.tlast, sc.wall_t,
+                     sc.wflag, grid, sc.cell_of, collide)
+    nev = sc.nev
+    for q in range(n):
+        nev[q] = 0
+    if collide:
+        ncx = int(grid[4])
+        ncy = int(grid[5])
+        cell_start, cell_items = sc.cell_start, sc.cell_items
+        _sort(n, sc.cell_of, cell_start, cell_items)
+        if par:
+            _broad_parallel(threads, n, ncx, ncy, cell_start, cell_items, pos, spc,
+                            sp_radius, sc.sx, sc.sy, sc.sr, sc.ov_n, sc.ov_b)
+        else:
+            _gather(0, n, cell_items, pos, spc, sp_radius, sc.sx, sc.sy, sc.sr)
+            _scan_rows(0, ncy, ncx, ncy, cell_start, cell_items, pos, spc, sp_radius,
+                       sc.sx, sc.sy, sc.sr, sc.ov_n, sc.ov_b)
+        binx, biny, partner = sc.binx, sc.biny, sc.partner
+        for q in range(n):
+            binx[q] = pos[q, 0]
+            biny[q] = pos[q, 1]
+            partner[q] = -1
+
+
+@njit(cache=True)
+def _repair(dropped, n, pos, vel, spc, tables, e, collide, bkind, bp, grid, sc, cnt):
+    """The fallback after a substep that ran out of events (``dropped``) or left a pair
+    overlapping: :func:`~discgym.kernels.resolve.resolve`, and its counts."""
+    icnt, fsum = cnt.icnt, cnt.fsum
+    if dropped:
+        icnt[IC_EVENTS_CAPPED] += 1
+    else:
+        icnt[IC_GRAZE_REPAIRS] += 1
+    fixes, wdp, lost = resolve(n, pos, vel, spc, tables.sp_radius, tables.sp_mass, e, collide,
+                               bkind, bp, grid, sc.cell_start, sc.cell_items, sc.cell_of)
+    icnt[IC_RESOLVED] += fixes
+    fsum[FS_WALL_MOMENTUM] += wdp
+    fsum[FS_DISSIPATED] += lost

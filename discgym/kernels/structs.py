@@ -1,0 +1,185 @@
+"""The dtypes of every array a kernel reads, and the structs that group those arrays.
+
+Every array handed to a compiled kernel is created with one of the dtypes below, so a kernel
+is compiled for exactly one signature and the on-disk numba cache is reused across runs.
+
+The structs are ``typing.NamedTuple`` s of arrays (and, for the constants, scalars): numba
+passes them as one argument and reads a field by name, so a kernel takes a few structs
+instead of dozens of positional arrays, and no caller can pass them in the wrong order. Hot
+kernels unpack the fields they use into locals once, at the top.
+
+Shapes: S species, K reaction channels, U unimolecular channel entries, R reactors of a
+batch, C disc capacity per reactor, F feed species, D observation slots.
+"""
+
+from typing import NamedTuple
+
+import numpy as np
+from numba.extending import register_jitable
+
+FLOAT = np.float64  #: positions, velocities, energies, times
+INDEX = np.int32  #: species indices, disc indices in cell lists and event queues
+COUNT = np.int64  #: event counters and stamps (never overflow in practice)
+
+# Bounds kinds and the bounds parameter vector (4 floats):
+#   box:    (xmin, ymin, xmax, ymax)
+#   circle: (cx, cy, radius, 0)
+BOX, CIRCLE = 0, 1
+
+# Indices into a compiled scene's float parameter vector (params).
+P_RESTITUTION, P_RELAX, P_MAXDISP, P_RMIN, P_RMAX = range(5)
+# Indices into its flags vector.
+F_COLLISIONS, F_UNI, F_BI, F_FISSION = range(4)
+
+
+class Tables(NamedTuple):
+    """The per-species and per-channel tables of a compiled scene (built by
+    :func:`discgym.compiled.compile_scene`; the field order is the positional order some
+    kernels still index by)."""
+
+    sp_radius: np.ndarray  #: (S,) FLOAT, disc radius of each species
+    sp_mass: np.ndarray  #: (S,) FLOAT
+    sp_form: np.ndarray  #: (S,) FLOAT, formation energy
+    ch_kind: np.ndarray  #: (K,) INDEX, TRANSFORMATION ... REVERSE (see discgym.compiled)
+    ch_reac: np.ndarray  #: (K, 2) INDEX reactant species, -1 where unused
+    ch_prod: np.ndarray  #: (K, 2) INDEX product species, -1 where unused
+    ch_rate: np.ndarray  #: (K,) FLOAT, first-order rate per unit time
+    ch_energy: np.ndarray  #: (K,) FLOAT, activation energy (bimolecular) or barrier
+    uni_start: np.ndarray  #: (S + 1,) INDEX, CSR offsets into uni_chan per reactant species
+    uni_chan: np.ndarray  #: (U,) INDEX, unimolecular channel indices
+    bi_table: np.ndarray  #: (S, S) INDEX, bimolecular channel of a pair of species, or -1
+
+
+class Discs(NamedTuple):
+    """The discs of one reactor (capacity C >= n; discs [0, n) live, species -1 past them)."""
+
+    pos: np.ndarray  #: (C, 2) FLOAT positions
+    vel: np.ndarray  #: (C, 2) FLOAT velocities
+    species: np.ndarray  #: (C,) INDEX species index, -1 for no disc
+    internal_energy: np.ndarray  #: (C,) FLOAT
+    ids: np.ndarray  #: (C,) COUNT disc identities
+    next_id: np.ndarray  #: (1,) COUNT the identity the next new disc takes
+
+
+class Bounds(NamedTuple):
+    """The bounds of one reactor."""
+
+    kind: int  #: BOX or CIRCLE
+    params: np.ndarray  #: (4,) FLOAT box (xmin, ymin, xmax, ymax), circle (cx, cy, radius, 0)
+
+
+class Counters(NamedTuple):
+    """The counters a run accumulates in place."""
+
+    icnt: np.ndarray  #: (N_ICOUNTERS,) COUNT integer counters (IC_* of kernels.step)
+    fsum: np.ndarray  #: (N_FSUMS,) FLOAT float sums (FS_* of kernels.step)
+    ch_count: np.ndarray  #: (K,) COUNT reactions fired per channel
+
+
+class Scratch(NamedTuple):
+    """The per-disc scratch arrays of the stepped integrator (ws >= n entries each; views of
+    the work buffers, see ``kernels.step._carve``)."""
+
+    stamp: np.ndarray  #: (ws,) COUNT a disc's event stamp (older stamps in the queue: stale)
+    lastcol: np.ndarray  #: (ws,) COUNT the substep of a disc's last collision (TC model)
+    tlast: np.ndarray  #: (ws,) FLOAT time of a disc's latest event in the substep
+    wall_t: np.ndarray  #: (ws,) FLOAT a disc's wall contact time found by the drift
+    wflag: np.ndarray  #: (ws,) INDEX 1 if the drift pushed the disc inside
+    cell_of: np.ndarray  #: (ws,) INDEX a disc's cell
+    cell_items: np.ndarray  #: (ws,) INDEX discs sorted by cell
+    sx: np.ndarray  #: (ws,) FLOAT x of the sorted discs
+    sy: np.ndarray  #: (ws,) FLOAT y of the sorted discs
+    sr: np.ndarray  #: (ws,) FLOAT radius of the sorted discs
+    ov_n: np.ndarray  #: (ws,) INDEX overlapping partners of a sorted disc (half stencil)
+    ov_b: np.ndarray  #: (ws, OV_SLOTS) INDEX the first of them
+    binx: np.ndarray  #: (ws,) FLOAT x where a disc was binned
+    biny: np.ndarray  #: (ws,) FLOAT y where a disc was binned
+    partner: np.ndarray  #: (ws,) INDEX a disc's latest collision partner in the substep, or -1
+    nev: np.ndarray  #: (ws,) INDEX events a disc took part in in the substep
+    cell_start: np.ndarray  #: (cells + 2,) INDEX CSR offsets of the cells into cell_items
+
+
+class RunConsts(NamedTuple):
+    """What a stepped run reads from its scene and flags, once per call."""
+
+    restitution: float  #: e
+    relax: float  #: kappa, the share of internal energy a collision releases
+    maxdisp: float  #: the most a disc may move in a substep (max_displacement x r_min)
+    rcell: float  #: the cell radius of the grid
+    collide: bool  #: the scene has disc-disc collisions
+    has_bi: bool  #: ... and bimolecular reactions
+
+
+class Reactors(NamedTuple):
+    """The state of R reactors of one scene, as padded rows (reactor r is row r of each
+    field; discs [0, n[r]) are live, species -1 past them)."""
+
+    pos: np.ndarray  #: (R, C, 2) FLOAT positions
+    vel: np.ndarray  #: (R, C, 2) FLOAT velocities
+    species: np.ndarray  #: (R, C) INDEX species index, -1 for no disc
+    internal_energy: np.ndarray  #: (R, C) FLOAT
+    ids: np.ndarray  #: (R, C) COUNT disc identities
+    next_id: np.ndarray  #: (R, 1) COUNT the identity the next new disc takes
+    n: np.ndarray  #: (R,) int64 live discs
+    ksteps: np.ndarray  #: (R,) int64 kernel steps taken (times the memory reordering)
+    bounds_kind: np.ndarray  #: (R,) int64 BOX or CIRCLE (see discgym.compiled)
+    bounds_params: np.ndarray  #: (R, 4) FLOAT bounds parameters (see discgym.compiled)
+    icnt: np.ndarray  #: (R, N_ICOUNTERS) COUNT integer counters (IC_* of kernels.step)
+    fsum: np.ndarray  #: (R, N_FSUMS) FLOAT float sums (FS_* of kernels.step)
+    ch_count: np.ndarray  #: (R, K) COUNT reactions fired per channel
+
+
+class Episodes(NamedTuple):
+    """The environment's per-episode state of R reactors, and the outputs of a step."""
+
+    size: np.ndarray  #: (R,) FLOAT reactor size relative to the scene's bounds
+    feed_left: np.ndarray  #: (R, F) int64 discs each feed species may still inject
+    steps: np.ndarray  #: (R,) int64 episode steps taken
+    n_init: np.ndarray  #: (R,) FLOAT discs at the reset
+    n_ref: np.ndarray  #: (R,) FLOAT the reward's normaliser
+    temperature: np.ndarray  #: (R,) FLOAT kT of the last observation
+    kinetic: np.ndarray  #: (R,) FLOAT kinetic energy of the last observation
+    stats: np.ndarray  #: (R, 3 S + 1) FLOAT per-species sums (see kernels.batch)
+    obs: np.ndarray  #: (R, D) float32 observations
+    fout: np.ndarray  #: (R, 2 + F) FLOAT float outputs of a step (O_HEAT, ...)
+    iout: np.ndarray  #: (R, 3 + 2 F) int64 integer outputs of a step (O_STATUS, ...)
+
+
+class ReactorConsts(NamedTuple):
+    """The constants of a reactor environment (:attr:`discgym.env.ReactorConfig.consts`)."""
+
+    heat_rate: float  #: kinetic energy x heat_rate ** a at heat action a
+    t_min: float  #: kT the heat control keeps within [t_min, t_max]
+    t_max: float
+    size_min: float  #: the range of the reactor's size (relative to the scene's bounds)
+    size_max: float
+    wall_speed: float  #: the most the size changes per step
+    speed_limit: float  #: the fastest a disc may move (see :func:`speed_limit`)
+    ref_bounds: np.ndarray  #: (4,) FLOAT the scene's bounds: box (x0, y0, width, height),
+    #: circle (cx, cy, radius, 0)
+    temperature: float  #: the scene's kT (injection into an empty reactor)
+    dt: float  #: the step of the scene
+    packing: float  #: the densest packing fraction a resize may ask of the discs
+    inject_max: int  #: discs injected per step at injection action 1
+    steps_per_action: int  #: kernel steps per environment step
+    attempts: int  #: placement attempts per disc
+    reorder_every: int  #: kernel steps between memory reorderings
+    product: int  #: species index of the product
+    episode_steps: int
+    feed: np.ndarray  #: (F,) INDEX feed species
+    feed_budget: np.ndarray  #: (F,) int64 discs each feed species may inject per episode
+    obs_low: np.ndarray  #: (D,) float32 observation bounds
+    obs_high: np.ndarray  #: (D,) float32
+
+
+@register_jitable
+def speed_limit(max_substeps: int, max_displacement: float, r_min: float, dt: float) -> float:
+    """The fastest a disc may move: a step of ``dt`` is split into at most ``max_substeps``
+    substeps in which no disc moves more than ``max_displacement`` smallest radii ``r_min``."""
+    return max_substeps * max_displacement * r_min / dt
+
+
+@register_jitable
+def capacity_for_discs(n: int) -> int:
+    """The capacity that holds ``n`` discs and one fission of each (2 n, plus a margin)."""
+    return 2 * n + 16
