@@ -268,6 +268,45 @@ def _crossing_time(x, y, vx, vy, cx, cy, cells):
 
 
 @njit(cache=True, inline="always")
+def _earliest_contact(d, T, W, cells, span, best, code, aux):
+    """The earliest contact of disc d (at time T) with the discs of the cells ``span`` =
+    (qx0, qx1, qy0, qy1), half open, if before ``best`` (relative to T): ``(time, partner,
+    0)``, else ``(best, code, aux)`` as given."""
+    head, nxt, ncx = cells.head, cells.nxt, cells.ncx
+    qx0, qx1, qy0, qy1 = span
+    x = W[d, PX]
+    y = W[d, PY]
+    vx = W[d, PVX]
+    vy = W[d, PVY]
+    r = W[d, PR]
+    for qy in range(qy0, qy1):
+        for qx in range(qx0, qx1):
+            k = head[qx + ncx * qy]
+            while k >= 0:
+                if k != d:
+                    dtk = T - W[k, PT]
+                    wx = W[k, PVX] - vx
+                    wy = W[k, PVY] - vy
+                    rx = W[k, PX] + dtk * W[k, PVX] - x
+                    ry = W[k, PY] + dtk * W[k, PVY] - y
+                    b = rx * wx + ry * wy
+                    vv = wx * wx + wy * wy
+                    rr = rx * rx + ry * ry
+                    if b < 0.0 and b * b > APPROACH2 * rr * vv:
+                        R = r + W[k, PR]
+                        cc = rr - R * R
+                        D = b * b - vv * cc
+                        if D > 0.0:
+                            tk = cc / (math.sqrt(D) - b)
+                            if tk < best:
+                                best = max(tk, 0.0)
+                                code = k
+                                aux = 0
+                k = nxt[k]
+    return best, code, aux
+
+
+@njit(cache=True, inline="always")
 def _predict(d, T, fl, cells, queue, run, entered):
     """Find disc d's earliest event after T (d must be at time T: ``path[d, PT] == T``),
     store it in ``event[d, NEXT_*]`` and in the heap.
@@ -280,7 +319,7 @@ def _predict(d, T, fl, cells, queue, run, entered):
     W = fl.path
     stamp = fl.stamp
     Ev = queue.event
-    head, nxt, ncx = cells.head, cells.nxt, cells.ncx
+    ncx = cells.ncx
     x = W[d, PX]
     y = W[d, PY]
     vx = W[d, PVX]
@@ -312,31 +351,8 @@ def _predict(d, T, fl, cells, queue, run, entered):
     collide = run.collide
     if collide:
         # contacts with the discs of the cells around (all 3 x 3, or the new strip)
-        qx0, qx1, qy0, qy1 = _scan_range(cx, cy, ncx, cells.ncy, entered)
-        for qy in range(qy0, qy1):
-            for qx in range(qx0, qx1):
-                k = head[qx + ncx * qy]
-                while k >= 0:
-                    if k != d:
-                        dtk = T - W[k, PT]
-                        wx = W[k, PVX] - vx
-                        wy = W[k, PVY] - vy
-                        rx = W[k, PX] + dtk * W[k, PVX] - x
-                        ry = W[k, PY] + dtk * W[k, PVY] - y
-                        b = rx * wx + ry * wy
-                        vv = wx * wx + wy * wy
-                        rr = rx * rx + ry * ry
-                        if b < 0.0 and b * b > APPROACH2 * rr * vv:
-                            R = r + W[k, PR]
-                            cc = rr - R * R
-                            D = b * b - vv * cc
-                            if D > 0.0:
-                                tk = cc / (math.sqrt(D) - b)
-                                if tk < best:
-                                    best = max(tk, 0.0)
-                                    code = k
-                                    aux = 0
-                    k = nxt[k]
+        span = _scan_range(cx, cy, ncx, cells.ncy, entered)
+        best, code, aux = _earliest_contact(d, T, W, cells, span, best, code, aux)
     t = T + best
     Ev[d, KEPT_T] = t
     Ev[d, KEPT_CODE] = code
@@ -495,13 +511,13 @@ def _bounce(i, j, t, k, fl, run, tables, rng, counters):
     """An ordinary collision of i and j at the contact k (restitution, the TC model,
     relaxation of internal energy)."""
     W = fl.path
-    uint = fl.internal_energy
+    u = fl.internal_energy
     e = run.e_rest
     if e < 1.0 and (t - fl.t_collision[i] < run.tc or t - fl.t_collision[j] < run.tc):
         e = 1.0
         counters.icnt[IC_TC_ELASTIC] += 1
-    ui0 = uint[i]
-    uj0 = uint[j]
+    ui0 = u[i]
+    uj0 = u[j]
     vxi, vyi, vxj, vyj, ui, uj, lost = bounce(k.vxi, k.vyi, k.vxj, k.vyj, W[i, PM], W[j, PM],
                                               k.nx, k.ny, e, run.kappa, ui0, uj0)
     counters.fsum[FS_DISSIPATED] += lost
@@ -511,8 +527,8 @@ def _bounce(i, j, t, k, fl, run, tables, rng, counters):
     W[j, PVY] = vyj
     counters.icnt[IC_COLLISIONS] += 1
     if ui != ui0 or uj != uj0:
-        uint[i] = ui
-        uint[j] = uj
+        u[i] = ui
+        u[j] = uj
         if run.has_uni:
             _next_reaction(i, t, fl, tables, rng, False, 0.0)
             _next_reaction(j, t, fl, tables, rng, False, 0.0)
@@ -966,53 +982,54 @@ def run_steps(state, n, n_steps, dt, bkind, bp, tables, params, flags, rng, coun
     internal_energy, ids, n)``."""
     state, n, t = _simulate(state, n, n_steps, dt, bkind, bp, tables, params, flags, rng,
                             counters, cells_per_disc)
-    pos, vel, spc, uint, ids, idctr = state
+    pos, vel, species, u, ids, idctr = state
     icnt, fsum, ch_count = counters.icnt, counters.fsum, counters.ch_count
-    n = _compact(n, pos, vel, spc, uint, ids)
+    n = _compact(n, pos, vel, species, u, ids)
     rest = n_steps * dt - t
     if rest > 0.0:
         icnt[IC_EVENTS_CAPPED] += 1
         whole = min(int(rest / dt), n_steps)
         if whole > 0:
-            pos, vel, spc, uint, ids, n, _w = step_run(
-                pos, vel, spc, uint, n, whole, dt, bkind, bp, tables, params, flags, rng,
+            pos, vel, species, u, ids, n, _w = step_run(
+                pos, vel, species, u, n, whole, dt, bkind, bp, tables, params, flags, rng,
                 icnt, fsum, ch_count, 1, ids, idctr, 0, 0, empty_work())
         if rest - whole * dt > 0.0:
-            pos, vel, spc, uint, ids, n, _w = step_run(
-                pos, vel, spc, uint, n, 1, rest - whole * dt, bkind, bp, tables, params, flags,
+            pos, vel, species, u, ids, n, _w = step_run(
+                pos, vel, species, u, n, 1, rest - whole * dt, bkind, bp, tables, params, flags,
                 rng, icnt, fsum, ch_count, 1, ids, idctr, 0, 0, empty_work())
-    return pos, vel, spc, uint, ids, n
+    return pos, vel, species, u, ids, n
 
 
 @njit(cache=True)
-def run_stats(pos, vel, spc, uint, ids, idctr, n, duration, bkind, bp, tables, params, flags,
-              rng, icnt, fsum, ch_count, stats, cells_per_disc):
+def run_stats(pos, vel, species, internal_energy, ids, idctr, n, duration, bkind, bp, tables,
+              params, flags, rng, icnt, fsum, ch_count, stats, cells_per_disc):
     """Advance discs [0, n) exactly by ``duration`` of simulated time, as one step,
     accumulating the integrator's statistics in ``stats`` (N_STATS,) int64 (see ST_*).
 
     State and counters as for :func:`discgym.kernels.step.run_tracked`: ``pos`` (C, 2),
-    ``vel`` (C, 2), ``spc`` (C,) species index (-1: no disc), ``uint`` (C,) internal energy,
+    ``vel`` (C, 2), ``species`` (C,) species index (-1: no disc), ``internal_energy`` (C,),
     ``ids`` (C,) int64 disc identities (a fragment takes ``idctr[0]``, which is incremented),
     capacity C >= n; ``tables``, ``params``, ``flags`` from
     :class:`discgym.compiled.CompiledScene`; ``icnt``, ``fsum``, ``ch_count`` accumulated in
     place. ``cells_per_disc``: how many grid cells per disc at most (cells are never
     narrower than the largest diameter); :data:`CELLS_PER_DISC` by default. Single-threaded.
 
-    Returns ``(pos, vel, spc, uint, ids, n)``: new (larger) arrays when decompositions needed
-    more capacity, else the ones passed in. Discs consumed by combinations are removed (the
-    order of the others is kept); fragments are appended.
+    Returns ``(pos, vel, species, internal_energy, ids, n)``: new (larger) arrays when
+    decompositions needed more capacity, else the ones passed in. Discs consumed by
+    combinations are removed (the order of the others is kept); fragments are appended.
     """
-    return run_steps(State(pos, vel, spc, uint, ids, idctr), n, 1, duration, bkind, bp, tables,
-                     params, flags, rng, Counters(icnt, fsum, ch_count, stats), cells_per_disc)
+    return run_steps(State(pos, vel, species, internal_energy, ids, idctr), n, 1, duration,
+                     bkind, bp, tables, params, flags, rng, Counters(icnt, fsum, ch_count, stats),
+                     cells_per_disc)
 
 
 @njit(cache=True)
-def run_steps_rngs(pos, vel, spc, uint, ids, idctr, n, n_steps, dt, bkind, bp, tables, params,
-                   flags, rngs, icnt, fsum, ch_count):
+def run_steps_rngs(pos, vel, species, internal_energy, ids, idctr, n, n_steps, dt, bkind, bp,
+                   tables, params, flags, rngs, icnt, fsum, ch_count):
     """:func:`run_steps` on the arrays of :func:`run_stats`, with its generator passed as
     ``rngs[0]`` (a ``numba.typed.List``; see :func:`discgym.kernels.step.run_tracked_rngs`):
     the entry point of :class:`~discgym.Simulation`."""
     stats = np.zeros(N_STATS, dtype=COUNT)
-    return run_steps(State(pos, vel, spc, uint, ids, idctr), n, n_steps, dt, bkind, bp, tables,
-                     params, flags, rngs[0], Counters(icnt, fsum, ch_count, stats),
-                     CELLS_PER_DISC)
+    return run_steps(State(pos, vel, species, internal_energy, ids, idctr), n, n_steps, dt,
+                     bkind, bp, tables, params, flags, rngs[0],
+                     Counters(icnt, fsum, ch_count, stats), CELLS_PER_DISC)
