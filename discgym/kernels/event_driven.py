@@ -1,6 +1,10 @@
 """The exact, event-driven integrator: the accuracy ceiling of the time-stepped one.
 
-Discs fly in straight lines between exactly predicted events, processed in time order:
+Between events a disc flies in a straight line: it is stored as its position at the time of
+its own last event and its velocity (a row of :class:`~.event_structs.Flights`), and is
+brought forward only when an event involves it (x += (t - t_last) v, t_last = t) and, at the
+end of a call, to the common end time. Events are exactly predicted and processed in time
+order:
 
 - disc-disc contacts (the earlier root of |r + t v| = R_i + R_j, cancellation-free);
 - disc-wall contacts (box: per axis; circle: the root of |d + t v| = R_m - R_c ahead);
@@ -18,8 +22,7 @@ Discs fly in straight lines between exactly predicted events, processed in time 
 The queue is an indexed binary min-heap holding ONE event per disc, its earliest (Isobe's
 scheme): O(log N) per event, no heap growth. Each disc also has an event counter ``stamp``,
 bumped whenever its trajectory changes; an event naming a partner whose counter has moved on
-is stale and only makes its disc predict again. Positions are stored at each disc's own last
-event time (``W[:, 4]``) and only brought to the common time at the end of a step.
+is stale and only makes its disc predict again.
 
 Calls: a call of n steps is one exact run of n dt. It starts from the state alone (times
 from 0, every disc's first event predicted afresh, O(N log N); reaction times drawn afresh,
@@ -29,8 +32,8 @@ continues bit for bit as the original does under the same calls, and the arrays'
 plays no part (a fission that finds them full grows them in place). A call boundary is a
 synchronisation point: ``step(30); step(40)`` is two runs, the same physics as ``step(70)``
 but not the same round-off and random stream. Predicting every disc afresh at every step
-boundary would make them equal at ~150 ns per disc-step, several times the cost of the run
-itself at dt = 0.05 (docs/hard_cases.md, finding 19).
+boundary would make them equal, at several times the cost of the run itself at ordinary
+steps (docs/hard_cases.md, finding 19).
 
 Bounds on the work of a call (no input may make a call run without end), per step of dt in
 the call: a refused first-order reaction retries no sooner than one substep of the
@@ -50,8 +53,10 @@ The physics is shared with the time-stepped integrator, not copied: impulses com
 :func:`~discgym.kernels.collisions.bounce`, wall reflections from
 :func:`~discgym.kernels.walls.reflected`, reaction outcomes from the pure functions of
 :mod:`~discgym.kernels.reactions` (``combine_outcome``, ``exchange_outcome``,
-``fission_outcome``, ...). Reactive collisions fire at the contact when the energy along the
-line of centres, 1/2 mu v_r^2, is at least E_a (the same trigger). Products are placed only
+``fission_outcome``, ...) and what they write into the state from its ``apply_*`` functions
+(given views of the per-disc rows as positions and velocities). Reactive collisions fire at
+the contact when the energy along the line of centres, 1/2 mu v_r^2, is at least E_a (the
+same trigger). Products are placed only
 where they fit inside the bounds without overlapping any disc (no room: the collision
 bounces, a first-order reaction waits an exponential time, but at least a substep, and tries
 again); both count as ``reactions_without_room``.
@@ -60,14 +65,15 @@ Inelastic collapse (restitution e < 1) would make infinitely many collisions in 
 a collision of a disc that collided less than t_c ago is elastic (the TC model of Luding and
 McNamara; the time-stepped integrator uses t_c = its substep), with t_c = ``TC_FRACTION``
 times the time the smallest disc takes to move its radius at the root-mean-square speed
-(taken at the start of each step). The energy booked as dissipated is exactly what was lost;
+(taken at the start of each call). The energy booked as dissipated is exactly what was lost;
 such collisions are counted as ``elastic_repeats``.
 
-Counters (``icnt``, ``fsum``, ``ch_count``) are those of :mod:`discgym.kernels.step`;
+Counters (:class:`~.event_structs.Counters`) are those of :mod:`discgym.kernels.step`;
 ``events_capped`` counts the steps stopped at the event bound and the delayed first-order
 events; ``substeps`` and the other counters of the time-stepped integrator count only what it
 did finishing such steps (0 otherwise).
 """
+
 
 import math
 
@@ -77,10 +83,41 @@ from numba import njit
 from .._dtypes import COUNT, FLOAT, INDEX
 from .celllist import cell_coord
 from .collisions import bounce, normal_at
+from .event_structs import (
+    EVENT_COLUMNS,
+    KEPT_AUX,
+    KEPT_CODE,
+    KEPT_STAMP,
+    KEPT_T,
+    NEXT_AUX,
+    NEXT_CODE,
+    NEXT_STAMP,
+    NEXT_T,
+    PATH_COLUMNS,
+    PM,
+    PR,
+    PT,
+    PVX,
+    PVY,
+    PX,
+    PY,
+    Cells,
+    Counters,
+    Flights,
+    Queue,
+    Run,
+    State,
+)
+from .heap import IndexedHeap, heap_set
 from .reactions import (
     _SEP,
     COMBINATION,
     TRANSFORMATION,
+    Contact,
+    apply_combination,
+    apply_exchange,
+    apply_fission,
+    apply_transformation,
     combine_outcome,
     exchange_outcome,
     exchange_species,
@@ -90,8 +127,8 @@ from .reactions import (
     fission_outcome,
     grow1,
     grow2,
+    kind,
     released_energy,
-    transform_energy,
 )
 from .step import (
     EVENTS_PER_DISC,
@@ -118,10 +155,7 @@ EV_CELL = -2
 EV_REACT = -3
 EV_NONE = -4
 
-# Columns of the per-disc working array W (C, 8).
-W_X, W_Y, W_VX, W_VY, W_T, W_R, W_M = range(7)
-
-# Statistics (``stats``, int64, filled by :func:`run_stats`).
+# Statistics (``Counters.stats``, int64, filled by :func:`run_stats`).
 ST_EVENTS = 0  # events popped (valid or stale)
 ST_STALE = 1  # events found stale (partner changed since the prediction)
 ST_CROSSINGS = 2  # cell crossings
@@ -145,56 +179,16 @@ MAX_CELLS = 1 << 26
 _CELL_MARGIN = 1e-9  # cells are this fraction wider than the largest contact distance
 
 
-# ------------------------------------------------------------------------------ the heap
-@njit(cache=True, inline="always")
-def _hset(d, key, hk, hd, hpos):
-    """Set disc d's key in the indexed min-heap (``hk`` keys, ``hd`` discs, ``hpos`` the
-    slot of each disc; all (C,)) and restore the heap order."""
-    p = hpos[d]
-    size = hk.shape[0]
-    if key < hk[p]:
-        while p > 0:
-            q = (p - 1) >> 1
-            kq = hk[q]
-            if kq <= key:
-                break
-            hk[p] = kq
-            e = hd[q]
-            hd[p] = e
-            hpos[e] = p
-            p = q
-    else:
-        while True:
-            a = 2 * p + 1
-            if a >= size:
-                break
-            ka = hk[a]
-            b = a + 1
-            if b < size:
-                kb = hk[b]
-                if kb < ka:
-                    a = b
-                    ka = kb
-            if key <= ka:
-                break
-            hk[p] = ka
-            e = hd[a]
-            hd[p] = e
-            hpos[e] = p
-            p = a
-    hk[p] = key
-    hd[p] = d
-    hpos[d] = p
-
-
 # ------------------------------------------------------------------------------ the cells
-@njit(cache=True)
-def _cell_of(x, y, gx0, gy0, icw, ich, ncx, ncy):
-    return cell_coord(x, icw, gx0, ncx) + ncx * cell_coord(y, ich, gy0, ncy)
+@njit(cache=True, inline="always")
+def _cell_of(x, y, cells):
+    return cell_coord(x, cells.iw, cells.x0, cells.ncx) + cells.ncx * cell_coord(
+        y, cells.ih, cells.y0, cells.ncy)
 
 
 @njit(cache=True, inline="always")
-def _cell_insert(d, c, cell, head, nxt, prv):
+def _cell_insert(d, c, cells):
+    cell, head, nxt, prv = cells.cell, cells.head, cells.nxt, cells.prv
     cell[d] = c
     h = head[c]
     nxt[d] = h
@@ -205,7 +199,8 @@ def _cell_insert(d, c, cell, head, nxt, prv):
 
 
 @njit(cache=True, inline="always")
-def _cell_remove(d, cell, head, nxt, prv):
+def _cell_remove(d, cells):
+    cell, head, nxt, prv = cells.cell, cells.head, cells.nxt, cells.prv
     c = cell[d]
     a = prv[d]
     b = nxt[d]
@@ -218,274 +213,500 @@ def _cell_remove(d, cell, head, nxt, prv):
     cell[d] = -1
 
 
+@njit(cache=True, inline="always")
+def _cell_move(d, x, y, cells):
+    """Disc d, now at (x, y), into the list of its cell there (last: the list order is the
+    order neighbours are scanned in)."""
+    _cell_remove(d, cells)
+    _cell_insert(d, _cell_of(x, y, cells), cells)
+
+
 # ------------------------------------------------------------------------ the prediction
 @njit(cache=True, inline="always")
-def _predict(d, T, W, stamp, trx, cell, head, nxt, Ev, hk, hd, hpos, collide, bkind, b0, b1,
-             b2, b3, gx0, gy0, cw, ch, ncx, ncy, entered):
-    """Find disc d's earliest event after T (d must be at time T: ``W[d, W_T] == T``), store
-    it in ``Ev[d, :4]`` = (time, partner code, partner stamp, aux) and in the heap.
+def _scan_range(cx, cy, ncx, ncy, entered):
+    """Cells (qx0, qx1, qy0, qy1), half open, to scan for contacts from cell (cx, cy): all
+    3 x 3 around (``entered`` 0), or the strip that has just become adjacent after a crossing
+    (``entered``: 1 +x, 2 -x, 3 +y, 4 -y)."""
+    qx0 = max(cx - 1, 0)
+    qx1 = min(cx + 2, ncx)
+    qy0 = max(cy - 1, 0)
+    qy1 = min(cy + 2, ncy)
+    if entered == 1:
+        qx0 = cx + 1
+    elif entered == 2:
+        qx1 = cx
+    elif entered == 3:
+        qy0 = cy + 1
+    elif entered == 4:
+        qy1 = cy
+    return qx0, qx1, qy0, qy1
 
-    aux: the wall axis (box) or the cell being entered. ``Ev[d, 4:]`` keeps the earliest
-    event other than a cell crossing, so that after a crossing (``entered`` = the direction
-    came from: 1 +x, 2 -x, 3 +y, 4 -y; 0 for a full prediction) only the 3 cells that have
-    just become adjacent need a scan, unless that event's partner has changed since.
+
+@njit(cache=True, inline="always")
+def _crossing_time(x, y, vx, vy, cx, cy, cells):
+    """Time until disc at (x, y) with velocity v leaves cell (cx, cy), and the cell it
+    enters (none out of the grid: a wall comes first; (inf, -1) if it never does)."""
+    ncx, ncy = cells.ncx, cells.ncy
+    tx = INF
+    if vx > 0.0:
+        if cx < ncx - 1:
+            tx = (cells.x0 + (cx + 1) * cells.w - x) / vx
+    elif vx < 0.0:
+        if cx > 0:
+            tx = (cells.x0 + cx * cells.w - x) / vx
+    ty = INF
+    if vy > 0.0:
+        if cy < ncy - 1:
+            ty = (cells.y0 + (cy + 1) * cells.h - y) / vy
+    elif vy < 0.0:
+        if cy > 0:
+            ty = (cells.y0 + cy * cells.h - y) / vy
+    c = cx + ncx * cy
+    if tx <= ty:
+        return tx, c + 1 if vx > 0.0 else c - 1
+    return ty, c + ncx if vy > 0.0 else c - ncx
+
+
+@njit(cache=True, inline="always")
+def _earliest_contact(d, T, W, cells, span, best, code, aux):
+    """The earliest contact of disc d (at time T) with the discs of the cells ``span`` =
+    (qx0, qx1, qy0, qy1), half open, if before ``best`` (relative to T): ``(time, partner,
+    0)``, else ``(best, code, aux)`` as given."""
+    head, nxt, ncx = cells.head, cells.nxt, cells.ncx
+    qx0, qx1, qy0, qy1 = span
+    x = W[d, PX]
+    y = W[d, PY]
+    vx = W[d, PVX]
+    vy = W[d, PVY]
+    r = W[d, PR]
+    for qy in range(qy0, qy1):
+        for qx in range(qx0, qx1):
+            k = head[qx + ncx * qy]
+            while k >= 0:
+                if k != d:
+                    dtk = T - W[k, PT]
+                    wx = W[k, PVX] - vx
+                    wy = W[k, PVY] - vy
+                    rx = W[k, PX] + dtk * W[k, PVX] - x
+                    ry = W[k, PY] + dtk * W[k, PVY] - y
+                    b = rx * wx + ry * wy
+                    vv = wx * wx + wy * wy
+                    rr = rx * rx + ry * ry
+                    if b < 0.0 and b * b > APPROACH2 * rr * vv:
+                        R = r + W[k, PR]
+                        cc = rr - R * R
+                        D = b * b - vv * cc
+                        if D > 0.0:
+                            tk = cc / (math.sqrt(D) - b)
+                            if tk < best:
+                                best = max(tk, 0.0)
+                                code = k
+                                aux = 0
+                k = nxt[k]
+    return best, code, aux
+
+
+@njit(cache=True, inline="always")
+def _predict(d, T, fl, cells, queue, run, entered):
+    """Find disc d's earliest event after T (d must be at time T: ``path[d, PT] == T``),
+    store it in ``event[d, NEXT_*]`` and in the heap.
+
+    ``event[d, KEPT_*]`` keeps the earliest event other than a cell crossing, so that after a
+    crossing (``entered`` the direction, see :func:`_scan_range`; 0 for a full prediction)
+    only the 3 cells that have just become adjacent need a scan, unless that event's partner
+    has changed since.
     """
-    x = W[d, 0]
-    y = W[d, 1]
-    vx = W[d, 2]
-    vy = W[d, 3]
-    r = W[d, 5]
-    c = cell[d]
+    W = fl.path
+    stamp = fl.stamp
+    Ev = queue.event
+    ncx = cells.ncx
+    x = W[d, PX]
+    y = W[d, PY]
+    vx = W[d, PVX]
+    vy = W[d, PVY]
+    r = W[d, PR]
+    c = cells.cell[d]
     cx = c % ncx
     cy = c // ncx
     if entered != 0:
-        q = int(Ev[d, 5])
-        if q >= 0 and stamp[q] != int(Ev[d, 6]):
+        q = int(Ev[d, KEPT_CODE])
+        if q >= 0 and stamp[q] != int(Ev[d, KEPT_STAMP]):
             entered = 0  # the kept event is stale: predict afresh
     if entered == 0:
-        best = trx[d] - T  # times relative to T from here on
+        best = fl.t_reaction[d] - T  # times relative to T from here on
         code = EV_REACT if best < INF else EV_NONE
         aux = 0
-        if bkind == 0:
-            tw, axis = box_next(x, y, vx, vy, r, b0, b1, b2, b3)
+        if run.bkind == 0:
+            tw, axis = box_next(x, y, vx, vy, r, run.b0, run.b1, run.b2, run.b3)
         else:
-            tw, axis = circle_next(x, y, vx, vy, r, b0, b1, b2)
+            tw, axis = circle_next(x, y, vx, vy, r, run.b0, run.b1, run.b2)
         if tw < best:
             best = tw
             code = EV_WALL
             aux = axis
-        qx0 = max(cx - 1, 0)
-        qx1 = min(cx + 2, ncx)
-        qy0 = max(cy - 1, 0)
-        qy1 = min(cy + 2, ncy)
     else:
-        best = Ev[d, 4] - T
-        code = int(Ev[d, 5])
-        aux = int(Ev[d, 7])
-        if entered == 1:
-            qx0 = cx + 1
-            qx1 = min(cx + 2, ncx)
-            qy0 = max(cy - 1, 0)
-            qy1 = min(cy + 2, ncy)
-        elif entered == 2:
-            qx0 = max(cx - 1, 0)
-            qx1 = cx
-            qy0 = max(cy - 1, 0)
-            qy1 = min(cy + 2, ncy)
-        elif entered == 3:
-            qx0 = max(cx - 1, 0)
-            qx1 = min(cx + 2, ncx)
-            qy0 = cy + 1
-            qy1 = min(cy + 2, ncy)
-        else:
-            qx0 = max(cx - 1, 0)
-            qx1 = min(cx + 2, ncx)
-            qy0 = max(cy - 1, 0)
-            qy1 = cy
+        best = Ev[d, KEPT_T] - T
+        code = int(Ev[d, KEPT_CODE])
+        aux = int(Ev[d, KEPT_AUX])
+    collide = run.collide
     if collide:
         # contacts with the discs of the cells around (all 3 x 3, or the new strip)
-        for qy in range(qy0, qy1):
-            for qx in range(qx0, qx1):
-                k = head[qx + ncx * qy]
-                while k >= 0:
-                    if k != d:
-                        dtk = T - W[k, 4]
-                        wx = W[k, 2] - vx
-                        wy = W[k, 3] - vy
-                        rx = W[k, 0] + dtk * W[k, 2] - x
-                        ry = W[k, 1] + dtk * W[k, 3] - y
-                        b = rx * wx + ry * wy
-                        vv = wx * wx + wy * wy
-                        rr = rx * rx + ry * ry
-                        if b < 0.0 and b * b > APPROACH2 * rr * vv:
-                            R = r + W[k, 5]
-                            cc = rr - R * R
-                            D = b * b - vv * cc
-                            if D > 0.0:
-                                tk = cc / (math.sqrt(D) - b)
-                                if tk < best:
-                                    best = max(tk, 0.0)
-                                    code = k
-                                    aux = 0
-                    k = nxt[k]
+        span = _scan_range(cx, cy, ncx, cells.ncy, entered)
+        best, code, aux = _earliest_contact(d, T, W, cells, span, best, code, aux)
     t = T + best
-    Ev[d, 4] = t
-    Ev[d, 5] = code
-    Ev[d, 6] = stamp[code] if code >= 0 else 0
-    Ev[d, 7] = aux
+    Ev[d, KEPT_T] = t
+    Ev[d, KEPT_CODE] = code
+    Ev[d, KEPT_STAMP] = stamp[code] if code >= 0 else 0
+    Ev[d, KEPT_AUX] = aux
     if collide:
-        # the next cell crossing (none out of the grid: a wall comes first)
-        tx = INF
-        if vx > 0.0:
-            if cx < ncx - 1:
-                tx = (gx0 + (cx + 1) * cw - x) / vx
-        elif vx < 0.0:
-            if cx > 0:
-                tx = (gx0 + cx * cw - x) / vx
-        ty = INF
-        if vy > 0.0:
-            if cy < ncy - 1:
-                ty = (gy0 + (cy + 1) * ch - y) / vy
-        elif vy < 0.0:
-            if cy > 0:
-                ty = (gy0 + cy * ch - y) / vy
-        if tx <= ty:
-            if tx < best:
-                best = max(tx, 0.0)
-                code = EV_CELL
-                aux = c + 1 if vx > 0.0 else c - 1
-        elif ty < best:
-            best = max(ty, 0.0)
+        tx, a = _crossing_time(x, y, vx, vy, cx, cy, cells)
+        if tx < best:
+            best = max(tx, 0.0)
             code = EV_CELL
-            aux = c + ncx if vy > 0.0 else c - ncx
+            aux = a
         t = T + best
-    Ev[d, 0] = t
-    Ev[d, 1] = code
-    Ev[d, 2] = stamp[code] if code >= 0 else 0
-    Ev[d, 3] = aux
-    _hset(d, t, hk, hd, hpos)
+    Ev[d, NEXT_T] = t
+    Ev[d, NEXT_CODE] = code
+    Ev[d, NEXT_STAMP] = stamp[code] if code >= 0 else 0
+    Ev[d, NEXT_AUX] = aux
+    heap_set(queue.heap, d, t)
 
 
 @njit(cache=True)
-def _room(x, y, r, ex1, ex2, T, W, spc, cell, head, nxt, collide, bkind, bp, gx0, gy0, icw,
-          ich, ncx, ncy, rmax):
+def _room(x, y, r, ex1, ex2, T, fl, cells, run):
     """Does a disc of radius r fit at (x, y) at time T: inside the bounds and overlapping no
     live disc but ex1 and ex2 (touching is not overlapping)?"""
-    if not inside(x, y, r, bkind, bp):
+    if not inside(x, y, r, run.bkind, run.bp):
         return False
-    if not collide:
+    if not run.collide:
         return True
+    W = fl.path
+    head, nxt, ncx = cells.head, cells.nxt, cells.ncx
+    rmax = run.rmax
     reach = r + rmax + _CELL_MARGIN * (r + rmax) + 1e-12
-    c0 = _cell_of(x - reach, y - reach, gx0, gy0, icw, ich, ncx, ncy)
-    c1 = _cell_of(x + reach, y + reach, gx0, gy0, icw, ich, ncx, ncy)
+    c0 = _cell_of(x - reach, y - reach, cells)
+    c1 = _cell_of(x + reach, y + reach, cells)
     for qy in range(c0 // ncx, c1 // ncx + 1):
         for qx in range(c0 % ncx, c1 % ncx + 1):
             k = head[qx + ncx * qy]
             while k >= 0:
                 if k != ex1 and k != ex2:
-                    dtk = T - W[k, 4]
-                    dx = W[k, 0] + dtk * W[k, 2] - x
-                    dy = W[k, 1] + dtk * W[k, 3] - y
-                    R = r + W[k, 5]
+                    dtk = T - W[k, PT]
+                    dx = W[k, PX] + dtk * W[k, PVX] - x
+                    dy = W[k, PY] + dtk * W[k, PVY] - y
+                    R = r + W[k, PR]
                     if dx * dx + dy * dy < R * R:
                         return False
                 k = nxt[k]
     return True
 
 
-@njit(cache=True)
-def _next_reaction(d, T, krate, trx, tables, spc, uint, rng, always, floor):
+@njit(cache=True, inline="always")
+def _next_reaction(d, T, fl, tables, rng, always, floor):
     """Recompute disc d's first-order rate K; draw a new reaction time if K changed (or if
     ``always``), no sooner than ``floor`` after T (0: the exact exponential time)."""
-    K = first_order_rate(d, tables, spc, uint)
-    if K != krate[d] or always:
-        krate[d] = K
+    K = first_order_rate(d, tables, fl.species, fl.internal_energy)
+    if K != fl.rate[d] or always:
+        fl.rate[d] = K
         if K > 0.0:
-            trx[d] = T + max(-math.log1p(-rng.random()) / K, floor)
+            fl.t_reaction[d] = T + max(-math.log1p(-rng.random()) / K, floor)
         else:
-            trx[d] = INF
+            fl.t_reaction[d] = INF
+
+
+@njit(cache=True, inline="always")
+def _advance(d, t, W):
+    """Bring disc d along its path to time t."""
+    dt = t - W[d, PT]
+    W[d, PX] += dt * W[d, PVX]
+    W[d, PY] += dt * W[d, PVY]
+    W[d, PT] = t
+
+
+@njit(cache=True, inline="always")
+def _set_kind(d, s, W, tables):
+    """Disc d's radius and mass columns for its (new) species s."""
+    W[d, PR] = tables[0][s]
+    W[d, PM] = tables[1][s]
 
 
 # ------------------------------------------------------------------------ event handlers
-@njit(cache=True)
-def _first_order_event(d, n, t, W, spc, uint, ids, idctr, stamp, trx, krate, tcol, cell, head,
-                       nxt, prv, tables, collide, rmax, bkind, bp, gx0, gy0, icw, ich, ncx,
-                       ncy, rng, icnt, ch_count, nfo, hsub, fo_exact):
-    """Disc d (at time t) undergoes one of its first-order channels, if its products fit
-    (else it waits an exponential time, but at least ``hsub``: a certain reaction, rate
-    ~1e300, would otherwise retry at the same instant forever). After ``fo_exact`` first-order
-    events of one disc in a call (``nfo``; FO_EXACT per step), its next ones are also at least
-    ``hsub`` apart
-    (a cycle of certain reactions, A -> B -> A, would not advance the clock either), each
-    such delay counted in ``events_capped``. A fission's second fragment becomes disc n (the
-    caller made sure there is room for it). Returns n if it was created, else -1."""
-    sp_radius, sp_mass, sp_form = tables[0], tables[1], tables[2]
-    ch_kind, ch_prod = tables[3], tables[5]
-    s = spc[d]
-    K = krate[d]
-    c = first_order_pick(d, K, tables, spc, uint, rng)
-    fired = False
-    newd = -1
-    if ch_kind[c] == TRANSFORMATION:
-        p = ch_prod[c, 0]
-        if sp_radius[p] <= sp_radius[s] or _room(
-                W[d, 0], W[d, 1], sp_radius[p], d, d, t, W, spc, cell, head, nxt,
-                collide, bkind, bp, gx0, gy0, icw, ich, ncx, ncy, rmax):
-            fired = True
-            uint[d] = transform_energy(uint[d], sp_form[s], sp_form[p])
-            spc[d] = p
-            W[d, 5] = sp_radius[p]
-            W[d, 6] = sp_mass[p]
+@njit(cache=True, inline="always")
+def _remove(j, fl, cells, queue):
+    """Disc j is gone (combined away): out of its cell, the heap and the reactions."""
+    _cell_remove(j, cells)
+    heap_set(queue.heap, j, INF)
+    queue.event[j, NEXT_T] = INF
+    queue.event[j, NEXT_CODE] = EV_NONE
+    fl.t_reaction[j] = INF
+    fl.rate[j] = 0.0
+
+
+@njit(cache=True, inline="always")
+def _combine(i, j, c, t, k, fl, cells, queue, run, tables):
+    """A + B -> C at the contact k of i and j at time t, if C fits: i becomes C, j goes.
+    Returns (fired, refused: the energy could pay but there was no room)."""
+    W = fl.path
+    p = tables[5][c, 0]
+    ok, q = combine_outcome(k, kind(fl.species[i], tables), kind(fl.species[j], tables),
+                            kind(p, tables), fl.internal_energy[i], fl.internal_energy[j],
+                            0.0)
+    fits = ok and _room(q.x, q.y, tables[0][p], i, j, t, fl, cells, run)
+    if fits:
+        apply_combination(i, j, p, q, W[:, PX:PY + 1], W[:, PVX:PVY + 1], fl.species,
+                          fl.internal_energy)
+        _set_kind(i, p, W, tables)
+        _remove(j, fl, cells, queue)
+        _cell_move(i, q.x, q.y, cells)
+    return fits, ok and not fits
+
+
+@njit(cache=True, inline="always")
+def _exchange(i, j, c, t, k, fl, cells, run, tables):
+    """A + B -> C + D at the contact k of i and j at time t, if C and D fit. Returns (fired,
+    refused) as :func:`_combine`."""
+    W = fl.path
+    sp_radius = tables[0]
+    pi, pj = exchange_species(c, fl.species[i], tables[4], tables[5])
+    ok, qi, qj = exchange_outcome(k, kind(fl.species[i], tables), kind(fl.species[j], tables),
+                                  kind(pi, tables), kind(pj, tables), fl.internal_energy[i],
+                                  fl.internal_energy[j], 0.0)
+    fits = ok and _room(qi.x, qi.y, sp_radius[pi], i, j, t, fl, cells, run) and \
+        _room(qj.x, qj.y, sp_radius[pj], i, j, t, fl, cells, run)
+    if fits:
+        apply_exchange(i, j, pi, pj, qi, qj, W[:, PX:PY + 1], W[:, PVX:PVY + 1], fl.species,
+                       fl.internal_energy)
+        _set_kind(i, pi, W, tables)
+        _set_kind(j, pj, W, tables)
+        _cell_move(i, qi.x, qi.y, cells)
+        _cell_move(j, qj.x, qj.y, cells)
+    return fits, ok and not fits
+
+
+@njit(cache=True, inline="always")
+def _react(i, j, t, k, vr, fl, cells, queue, run, tables, counters):
+    """A reactive collision of i and j (contact k, normal approach speed vr > 0) if their
+    channel's trigger holds and its products fit. Returns (fired, j combined away)."""
+    W = fl.path
+    c = tables[10][fl.species[i], fl.species[j]]
+    mi = W[i, PM]
+    mj = W[j, PM]
+    if c < 0 or not 0.5 * mi * mj / (mi + mj) * vr * vr >= tables[7][c]:
+        return False, False
+    combination = tables[3][c] == COMBINATION
+    if combination:
+        fired, refused = _combine(i, j, c, t, k, fl, cells, queue, run, tables)
     else:
-        pb = ch_prod[c, 0]
-        pc = ch_prod[c, 1]
-        E = released_energy(d, c, tables, spc, uint)
-        m1 = sp_mass[pb]
-        m2 = sp_mass[pc]
-        r1 = sp_radius[pb]
-        r2 = sp_radius[pc]
-        X = W[d, 0]
-        Y = W[d, 1]
-        Vx = W[d, 2]
-        Vy = W[d, 3]
-        nx, ny = fission_direction(Vx, Vy, rng)
-        sep = (r1 + r2) * _SEP
-        for _attempt in range(2):
-            x1, y1, v1x, v1y, x2, y2, v2x, v2y = fission_outcome(X, Y, Vx, Vy, E, m1,
-                                                                 m2, sep, nx, ny)
-            if _room(x1, y1, r1, d, d, t, W, spc, cell, head, nxt, collide, bkind,
-                     bp, gx0, gy0, icw, ich, ncx, ncy, rmax) and \
-                    _room(x2, y2, r2, d, d, t, W, spc, cell, head, nxt, collide,
-                          bkind, bp, gx0, gy0, icw, ich, ncx, ncy, rmax):
-                fired = True
-                newd = n
-                n += 1
-                ids[newd] = idctr[0]
-                idctr[0] += 1
-                spc[d] = pb
-                uint[d] = 0.0
-                W[d, 0] = x1
-                W[d, 1] = y1
-                W[d, 2] = v1x
-                W[d, 3] = v1y
-                W[d, 5] = r1
-                W[d, 6] = m1
-                _cell_remove(d, cell, head, nxt, prv)
-                _cell_insert(d, _cell_of(x1, y1, gx0, gy0, icw, ich, ncx, ncy), cell,
-                             head, nxt, prv)
-                spc[newd] = pc
-                uint[newd] = 0.0
-                W[newd, 0] = x2
-                W[newd, 1] = y2
-                W[newd, 2] = v2x
-                W[newd, 3] = v2y
-                W[newd, 4] = t
-                W[newd, 5] = r2
-                W[newd, 6] = m2
-                stamp[newd] += 1
-                tcol[newd] = -INF
-                krate[newd] = 0.0
-                trx[newd] = INF
-                _cell_insert(newd, _cell_of(x2, y2, gx0, gy0, icw, ich, ncx, ncy),
-                             cell, head, nxt, prv)
-                break
-            nx = -nx
-            ny = -ny
-    nfo[d] += 1
+        fired, refused = _exchange(i, j, c, t, k, fl, cells, run, tables)
     if fired:
-        ch_count[c] += 1
-        stamp[d] += 1
-        floor = 0.0
-        if nfo[d] >= fo_exact:
-            floor = hsub
-            icnt[IC_EVENTS_CAPPED] += 1
-        _next_reaction(d, t, krate, trx, tables, spc, uint, rng, True, floor)
-        if newd >= 0:  # (lighter than d: chains of fissions end)
-            _next_reaction(newd, t, krate, trx, tables, spc, uint, rng, True, 0.0)
+        counters.ch_count[c] += 1
+        counters.icnt[IC_REACTIVE] += 1
+    elif refused:  # (not when the energy could not pay for it)
+        counters.icnt[IC_NO_ROOM] += 1
+    return fired, fired and combination
+
+
+@njit(cache=True, inline="always")
+def _bounce(i, j, t, k, fl, run, tables, rng, counters):
+    """An ordinary collision of i and j at the contact k (restitution, the TC model,
+    relaxation of internal energy)."""
+    W = fl.path
+    u = fl.internal_energy
+    e = run.e_rest
+    if e < 1.0 and (t - fl.t_collision[i] < run.tc or t - fl.t_collision[j] < run.tc):
+        e = 1.0
+        counters.icnt[IC_TC_ELASTIC] += 1
+    ui0 = u[i]
+    uj0 = u[j]
+    vxi, vyi, vxj, vyj, ui, uj, lost = bounce(k.vxi, k.vyi, k.vxj, k.vyj, W[i, PM], W[j, PM],
+                                              k.nx, k.ny, e, run.kappa, ui0, uj0)
+    counters.fsum[FS_DISSIPATED] += lost
+    W[i, PVX] = vxi
+    W[i, PVY] = vyi
+    W[j, PVX] = vxj
+    W[j, PVY] = vyj
+    counters.icnt[IC_COLLISIONS] += 1
+    if ui != ui0 or uj != uj0:
+        u[i] = ui
+        u[j] = uj
+        if run.has_uni:
+            _next_reaction(i, t, fl, tables, rng, False, 0.0)
+            _next_reaction(j, t, fl, tables, rng, False, 0.0)
+
+
+@njit(cache=True, inline="always")
+def _collision(i, j, t, fl, cells, queue, run, tables, rng, counters):
+    """Disc i (at t) meets disc j: a reaction or a bounce, unless round-off made the contact
+    tangential. Returns the partner to predict afresh (-1: it combined away)."""
+    W = fl.path
+    _advance(j, t, W)
+    # approaching, by the very arithmetic of the prediction? (else a graze that round-off
+    # made tangential: no impulse, and no new prediction of this pair)
+    rx = W[j, PX] - W[i, PX]
+    ry = W[j, PY] - W[i, PY]
+    wx = W[j, PVX] - W[i, PVX]
+    wy = W[j, PVY] - W[i, PVY]
+    b = rx * wx + ry * wy
+    if not (b < 0.0 and b * b > APPROACH2 * (rx * rx + ry * ry) * (wx * wx + wy * wy)):
+        counters.stats[ST_GRAZES] += 1
+        return j
+    vxi = W[i, PVX]
+    vyi = W[i, PVY]
+    vxj = W[j, PVX]
+    vyj = W[j, PVY]
+    xi, yi, xj, yj, nx, ny = normal_at(W[i, PX], W[i, PY], vxi, vyi, W[j, PX], W[j, PY], vxj,
+                                       vyj, 0.0)
+    k = Contact(xi, yi, xj, yj, nx, ny, vxi, vyi, vxj, vyj)
+    vr = (vxi - vxj) * nx + (vyi - vyj) * ny
+    fired = False
+    killed = False
+    if run.has_bi and vr > 0.0:
+        fired, killed = _react(i, j, t, k, vr, fl, cells, queue, run, tables, counters)
+    if not fired:
+        _bounce(i, j, t, k, fl, run, tables, rng, counters)
+    elif run.has_uni:
+        _next_reaction(i, t, fl, tables, rng, False, 0.0)
+        if not killed:
+            _next_reaction(j, t, fl, tables, rng, False, 0.0)
+    fl.t_collision[i] = t
+    fl.t_collision[j] = t
+    fl.stamp[i] += 1
+    fl.stamp[j] += 1
+    return -1 if killed else j
+
+
+@njit(cache=True, inline="always")
+def _crossing(d, cells, queue, stats):
+    """Disc d enters the cell of its event. Returns the direction it came (``entered``)."""
+    stats[ST_CROSSINGS] += 1
+    c_old = cells.cell[d]
+    c_new = int(queue.event[d, NEXT_AUX])
+    _cell_remove(d, cells)
+    _cell_insert(d, c_new, cells)
+    if c_new // cells.ncx == c_old // cells.ncx:  # same row: crossed in x
+        return 1 if c_new > c_old else 2
+    return 3 if c_new > c_old else 4
+
+
+@njit(cache=True, inline="always")
+def _wall_hit(d, fl, queue, run, counters):
+    """Disc d reflects off the wall of its event."""
+    W = fl.path
+    b0, b1 = run.b0, run.b1
+    vx0 = W[d, PVX]
+    vy0 = W[d, PVY]
+    vx, vy, vn = reflected(W[d, PX], W[d, PY], vx0, vy0, int(queue.event[d, NEXT_AUX]),
+                           run.bkind, b0, b1)
+    if run.bkind == 1:  # never tangent to the curved wall (see walls.graze_floor)
+        vx, vy = graze_floor(W[d, PX], W[d, PY], vx, vy, b0, b1)
+        nx = W[d, PX] - b0
+        ny = W[d, PY] - b1
+        nr = math.sqrt(nx * nx + ny * ny)
+        if nr > 0.0:  # the normal momentum the wall takes
+            vn = 0.5 * ((vx0 - vx) * nx + (vy0 - vy) * ny) / nr
+    W[d, PVX] = vx
+    W[d, PVY] = vy
+    counters.fsum[FS_WALL_MOMENTUM] += 2.0 * W[d, PM] * vn
+    counters.icnt[IC_WALL_HITS] += 1
+    fl.stamp[d] += 1
+
+
+@njit(cache=True)
+def _fission(d, c, n, t, fl, cells, state, run, tables, rng):
+    """A -> B + C of disc d by channel c if the fragments fit (two tries, the second with
+    the separation direction reversed): d becomes B, disc n (there is room for it) C.
+    Returns True if it fired."""
+    W = fl.path
+    sp_radius, sp_mass = tables[0], tables[1]
+    pb = tables[5][c, 0]
+    pc = tables[5][c, 1]
+    E = released_energy(d, c, tables, fl.species, fl.internal_energy)
+    m1 = sp_mass[pb]
+    m2 = sp_mass[pc]
+    r1 = sp_radius[pb]
+    r2 = sp_radius[pc]
+    X = W[d, PX]
+    Y = W[d, PY]
+    Vx = W[d, PVX]
+    Vy = W[d, PVY]
+    nx, ny = fission_direction(Vx, Vy, rng)
+    sep = (r1 + r2) * _SEP
+    for _attempt in range(2):
+        qb, qc = fission_outcome(X, Y, Vx, Vy, E, m1, m2, sep, nx, ny)
+        if _room(qb.x, qb.y, r1, d, d, t, fl, cells, run) and \
+                _room(qc.x, qc.y, r2, d, d, t, fl, cells, run):
+            state.ids[n] = state.idctr[0]
+            state.idctr[0] += 1
+            apply_fission(d, n, pb, pc, qb, qc, W[:, PX:PY + 1], W[:, PVX:PVY + 1], fl.species,
+                          fl.internal_energy)
+            W[d, PR] = r1
+            W[d, PM] = m1
+            _cell_move(d, qb.x, qb.y, cells)
+            W[n, PT] = t
+            W[n, PR] = r2
+            W[n, PM] = m2
+            fl.stamp[n] += 1
+            fl.t_collision[n] = -INF
+            fl.rate[n] = 0.0
+            fl.t_reaction[n] = INF
+            _cell_insert(n, _cell_of(qc.x, qc.y, cells), cells)
+            return True
+        nx = -nx
+        ny = -ny
+    return False
+
+
+@njit(cache=True)
+def _first_order_event(d, n, t, fl, cells, state, run, tables, rng, counters):
+    """Disc d (at time t) undergoes one of its first-order channels, if its products fit
+    (else it waits an exponential time, but at least ``run.hsub``: a certain reaction, rate
+    ~1e300, would otherwise retry at the same instant forever). After ``run.fo_exact``
+    first-order events of one disc in a call (FO_EXACT per step), its next ones are also at
+    least ``hsub`` apart (a cycle of certain reactions, A -> B -> A, would not advance the
+    clock either), each such delay counted in ``events_capped``. A fission's second fragment
+    becomes disc n (the caller made sure there is room for it). Returns n if it was created,
+    else -1."""
+    W = fl.path
+    sp_radius = tables[0]
+    s = fl.species[d]
+    K = fl.rate[d]
+    c = first_order_pick(d, K, tables, fl.species, fl.internal_energy, rng)
+    newd = -1
+    if tables[3][c] == TRANSFORMATION:
+        p = tables[5][c, 0]
+        fired = sp_radius[p] <= sp_radius[s] or _room(W[d, PX], W[d, PY], sp_radius[p], d, d,
+                                                      t, fl, cells, run)
+        if fired:
+            apply_transformation(d, p, tables[2], fl.species, fl.internal_energy)
+            _set_kind(d, p, W, tables)
     else:
-        icnt[IC_NO_ROOM] += 1
-        trx[d] = t + max(-math.log1p(-rng.random()) / K, hsub)  # wait and try again
+        fired = _fission(d, c, n, t, fl, cells, state, run, tables, rng)
+        if fired:
+            newd = n
+    fl.n_first_order[d] += 1
+    if fired:
+        counters.ch_count[c] += 1
+        fl.stamp[d] += 1
+        floor = 0.0
+        if fl.n_first_order[d] >= run.fo_exact:
+            floor = run.hsub
+            counters.icnt[IC_EVENTS_CAPPED] += 1
+        _next_reaction(d, t, fl, tables, rng, True, floor)
+        if newd >= 0:  # (lighter than d: chains of fissions end)
+            _next_reaction(newd, t, fl, tables, rng, True, 0.0)
+    else:
+        counters.icnt[IC_NO_ROOM] += 1
+        fl.t_reaction[d] = t + max(-math.log1p(-rng.random()) / K, run.hsub)  # try again
     return newd
+
+
+@njit(cache=True)
+def _may_split(s, tables):
+    """Has species s a first-order channel that makes two discs?"""
+    for q in range(tables[8][s], tables[8][s + 1]):
+        if tables[3][tables[9][q]] != TRANSFORMATION:
+            return True
+    return False
 
 
 # ------------------------------------------------------------------------------ the run
@@ -504,8 +725,220 @@ def _grow_range(a, cap):
 
 
 @njit(cache=True)
-def _simulate(pos, vel, spc_ext, uint_ext, ids, idctr, n, n_steps, step_dt, bkind, bp,
-              tables, params, flags, rng, icnt, fsum, ch_count, stats, cells_per_disc):
+def _grow(cap, state, fl, cells, queue):
+    """Every per-disc array at capacity ``cap`` (the contents kept; new slots hold no disc,
+    and heap key inf, so the order of the heap, and of the events, does not change)."""
+    state = State(grow2(state.pos, cap), grow2(state.vel, cap),
+                  _grow_fill(state.species, cap, -1), grow1(state.internal_energy, cap),
+                  grow1(state.ids, cap), state.idctr)
+    fl = Flights(grow2(fl.path, cap), _grow_fill(fl.species, cap, -1),
+                 grow1(fl.internal_energy, cap), grow1(fl.stamp, cap),
+                 _grow_fill(fl.t_collision, cap, -INF), _grow_fill(fl.t_reaction, cap, INF),
+                 grow1(fl.rate, cap), grow1(fl.n_first_order, cap), _grow_range(fl.perm, cap))
+    cells = Cells(cells.x0, cells.y0, cells.w, cells.h, cells.iw, cells.ih, cells.ncx,
+                  cells.ncy, cells.head, _grow_fill(cells.nxt, cap, -1),
+                  _grow_fill(cells.prv, cap, -1), _grow_fill(cells.cell, cap, -1))
+    heap = queue.heap
+    queue = Queue(grow2(queue.event, cap),
+                  IndexedHeap(_grow_fill(heap.key, cap, INF), _grow_range(heap.disc, cap),
+                              _grow_range(heap.slot, cap)))
+    return state, fl, cells, queue
+
+
+@njit(cache=True)
+def _run_constants(n, n_steps, step_dt, vel, species, tables, params, flags, bkind, bp):
+    """What a run of ``n_steps`` of ``step_dt`` fixes from the scene and the state at its
+    start: the substep the time-stepped integrator would take (no disc moves more than
+    max_displacement smallest radii), which is the shortest wait of a refused reaction and
+    the unit of the event bound, and the TC model's t_c (inelastic scenes only)."""
+    sp_mass = tables[1]
+    e_rest = params[0]
+    v2max = 0.0
+    for d in range(n):
+        if species[d] >= 0:
+            v2max = max(v2max, vel[d, 0] * vel[d, 0] + vel[d, 1] * vel[d, 1])
+    ksub = 1
+    q = math.sqrt(v2max) * step_dt / (params[2] * params[3])
+    if not q <= MAX_SUBSTEPS:
+        ksub = MAX_SUBSTEPS
+    elif q > 1.0:
+        ksub = int(math.ceil(q))
+    tc = 0.0
+    if e_rest < 1.0:
+        mv2 = 0.0
+        msum = 0.0
+        for d in range(n):
+            if species[d] >= 0:
+                m = sp_mass[species[d]]
+                mv2 += m * (vel[d, 0] * vel[d, 0] + vel[d, 1] * vel[d, 1])
+                msum += m
+        if mv2 > 0.0:
+            tc = TC_FRACTION * params[3] / math.sqrt(mv2 / msum)
+    return Run(n_steps * step_dt, n_steps * ksub * (EVENTS_PER_DISC * n + 1024),
+               step_dt / ksub, n_steps * FO_EXACT, tc, e_rest, params[1], params[4],
+               flags[0] != 0, flags[1] != 0, flags[2] != 0, bkind, bp, bp[0], bp[1], bp[2],
+               bp[3])
+
+
+@njit(cache=True)
+def _make_cells(n, cap, run, cells_per_disc):
+    """The grid over the bounds (one cell when discs do not collide), no disc in it yet."""
+    b0, b1, b2, b3 = run.b0, run.b1, run.b2, run.b3
+    if run.bkind == 0:
+        gx0, gy0, gx1, gy1 = b0, b1, b2, b3
+    else:
+        gx0, gy0, gx1, gy1 = b0 - b2, b1 - b2, b0 + b2, b1 + b2
+    gw = gx1 - gx0
+    gh = gy1 - gy0
+    ncx = 1
+    ncy = 1
+    if run.collide:
+        cs = max(2.0 * run.rmax * (1.0 + _CELL_MARGIN),
+                 math.sqrt(gw * gh / max(cells_per_disc * n, 1.0)),
+                 math.sqrt(gw * gh / MAX_CELLS))
+        ncx = max(1, int(gw / cs))
+        ncy = max(1, int(gh / cs))
+    return Cells(gx0, gy0, gw / ncx, gh / ncy, ncx / gw, ncy / gh, ncx, ncy,
+                 np.full(ncx * ncy, -1, dtype=INDEX), np.full(cap, -1, dtype=INDEX),
+                 np.full(cap, -1, dtype=INDEX), np.full(cap, -1, dtype=INDEX))
+
+
+@njit(cache=True)
+def _load(n, cap, state, cells, tables):
+    """The discs in the integrator's numbering: live ones in cell order (dead ones last),
+    so that neighbours are near in memory; each at time 0 and in its cell."""
+    pos, vel, spc_ext = state.pos, state.vel, state.species
+    ncells = cells.ncx * cells.ncy
+    cell = cells.cell
+    perm = np.arange(cap).astype(INDEX)  # perm[a] = the caller's index of disc a
+    cstart = np.zeros(ncells + 2, dtype=INDEX)
+    for e in range(n):
+        c = _cell_of(pos[e, 0], pos[e, 1], cells) if spc_ext[e] >= 0 else ncells
+        cell[e] = c  # scratch: reset below
+        cstart[c + 1] += 1
+    for c in range(ncells + 1):
+        cstart[c + 1] += cstart[c]
+    for e in range(n):
+        c = cell[e]
+        perm[cstart[c]] = e
+        cstart[c] += 1
+    fl = Flights(np.zeros((cap, PATH_COLUMNS), dtype=FLOAT), np.full(cap, -1, dtype=INDEX),
+                 np.zeros(cap, dtype=FLOAT), np.zeros(cap, dtype=COUNT),
+                 np.full(cap, -INF, dtype=FLOAT), np.full(cap, INF, dtype=FLOAT),
+                 np.zeros(cap, dtype=FLOAT), np.zeros(cap, dtype=COUNT), perm)
+    W = fl.path
+    for d in range(n):
+        e = perm[d]
+        cell[d] = -1
+        s = spc_ext[e]
+        fl.species[d] = s
+        fl.internal_energy[d] = state.internal_energy[e]
+        if s < 0:
+            continue
+        W[d, PX] = pos[e, 0]
+        W[d, PY] = pos[e, 1]
+        W[d, PVX] = vel[e, 0]
+        W[d, PVY] = vel[e, 1]
+        W[d, PT] = 0.0
+        _set_kind(d, s, W, tables)
+        _cell_insert(d, _cell_of(pos[e, 0], pos[e, 1], cells), cells)
+    return fl
+
+
+@njit(cache=True)
+def _first_predictions(n, fl, cells, queue, run, tables, rng, stats):
+    """Every disc's reaction time (drawn in the caller's order, independent of the grid) and
+    first event."""
+    if run.has_uni:
+        inv = np.empty(n, dtype=INDEX)
+        for d in range(n):
+            inv[fl.perm[d]] = d
+        for e in range(n):
+            d = inv[e]
+            if fl.species[d] >= 0:
+                _next_reaction(d, 0.0, fl, tables, rng, True, 0.0)
+    for d in range(n):
+        if fl.species[d] >= 0:
+            _predict(d, 0.0, fl, cells, queue, run, 0)
+    stats[ST_PREDICTIONS] += n
+
+
+@njit(cache=True)
+def _events(n, state, fl, cells, queue, run, tables, rng, counters):
+    """Process events in time order until the end of the run or its event bound. Returns
+    ``(t, n, state, fl)``: the time reached (the first event not processed, at the bound),
+    and the arrays (new ones if a fission found them full)."""
+    stats = counters.stats
+    cap = fl.path.shape[0]
+    t = 0.0
+    events = 0
+    while True:
+        d = queue.heap.disc[0]
+        t = queue.heap.key[0]
+        if not t <= run.t1:
+            t = run.t1
+            break
+        if events >= run.budget:  # (t: the event not processed)
+            break
+        events += 1
+        stats[ST_EVENTS] += 1
+        code = int(queue.event[d, NEXT_CODE])
+        _advance(d, t, fl.path)
+        p0 = d  # the discs to predict afresh after this event (-1: none)
+        p1 = -1
+        entered = 0
+        if code >= 0 and fl.stamp[code] != int(queue.event[d, NEXT_STAMP]):
+            stats[ST_STALE] += 1  # stale: predict again
+        elif code >= 0:
+            p1 = _collision(d, code, t, fl, cells, queue, run, tables, rng, counters)
+        elif code == EV_CELL:
+            entered = _crossing(d, cells, queue, stats)
+        elif code == EV_WALL:
+            _wall_hit(d, fl, queue, run, counters)
+        elif code == EV_REACT:
+            # a fission needs a free slot: make one before drawing anything
+            if n >= cap and _may_split(fl.species[d], tables):
+                stats[ST_RESTARTS] += 1
+                cap = 2 * cap + 16
+                state, fl, cells, queue = _grow(cap, state, fl, cells, queue)
+            newd = _first_order_event(d, n, t, fl, cells, state, run, tables, rng, counters)
+            if newd >= 0:
+                n += 1
+                p1 = newd
+        else:  # a disc with no event at all cannot be at the top below inf
+            p0 = -1
+            heap_set(queue.heap, d, INF)
+        for q in range(2):  # the one place predictions are made in the loop (inlined)
+            pd = p0 if q == 0 else p1
+            if pd >= 0:
+                _predict(pd, t, fl, cells, queue, run, entered if q == 0 else 0)
+                stats[ST_PREDICTIONS] += 1
+    return t, n, state, fl
+
+
+@njit(cache=True)
+def _write_back(n, t, fl, state):
+    """Every disc brought to time t, into the caller's arrays (in the caller's numbering)."""
+    W = fl.path
+    pos, vel = state.pos, state.vel
+    for d in range(n):
+        e = fl.perm[d]
+        state.species[e] = fl.species[d]
+        state.internal_energy[e] = fl.internal_energy[d]
+        if fl.species[d] >= 0:
+            dt = t - W[d, PT]
+            pos[e, 0] = W[d, PX] + dt * W[d, PVX]
+            pos[e, 1] = W[d, PY] + dt * W[d, PVY]
+            vel[e, 0] = W[d, PVX]
+            vel[e, 1] = W[d, PVY]
+        else:
+            vel[e, 0] = 0.0
+            vel[e, 1] = 0.0
+
+
+@njit(cache=True)
+def _simulate(state, n, n_steps, step_dt, bkind, bp, tables, params, flags, rng, counters,
+              cells_per_disc):
     """Advance discs [0, n) by ``n_steps`` steps of ``step_dt`` in one run, from time 0 to
     t1 = n_steps step_dt.
 
@@ -515,487 +948,88 @@ def _simulate(pos, vel, spc_ext, uint_ext, ids, idctr, n, n_steps, step_dt, bkin
     memoryless). So the outcome does not depend on the arrays' capacity: a fission that
     finds them full grows them (and the working arrays) in place and carries on.
 
-    Returns ``(pos, vel, spc, uint, ids, n, t)``: the state arrays (new ones if they grew),
-    holding the discs at t; t = t1 unless the run reached its event bound (``n_steps k (64 n
-    + 1024)`` events, the time-stepped integrator's bound for n_steps steps of k substeps):
-    then t is the time of the first event not processed, and the caller finishes the run
-    otherwise.
-    Discs consumed by combinations are left with ``spc = -1`` (the caller compacts).
-
-    Inside, discs are renumbered in cell order, so that neighbours are near in memory (at
-    N = 10^5 a random order made each collision 2.6x as expensive); fragments are appended
-    with the same index inside and out.
+    Returns ``(state, n, t)``: the state (new arrays if they grew), holding the discs at t;
+    t = t1 unless the run reached its event bound (``n_steps k (64 n + 1024)`` events, the
+    time-stepped integrator's bound for n_steps steps of k substeps): then t is the time of
+    the first event not processed, and the caller finishes the run otherwise.
+    Discs consumed by combinations are left with species -1 (the caller compacts).
+    Fragments are appended with the same index inside and out.
     """
     if n == 0:
-        return pos, vel, spc_ext, uint_ext, ids, 0, n_steps * step_dt
-    t1 = n_steps * step_dt
-    sp_radius, sp_mass, sp_form = tables[0], tables[1], tables[2]
-    ch_kind, ch_reac, ch_prod = tables[3], tables[4], tables[5]
-    ch_energy = tables[7]
-    bi_table = tables[10]
-    e_rest = params[0]
-    kappa = params[1]
-    rmax = params[4]
-    collide = flags[0] != 0
-    has_uni = flags[1] != 0
-    has_bi = flags[2] != 0
-    cap = pos.shape[0]
-    b0, b1, b2, b3 = bp[0], bp[1], bp[2], bp[3]
-    tc = 0.0  # the TC model's t_c (inelastic scenes only)
-    # the substep the time-stepped integrator would take (no disc moves more than
-    # max_displacement smallest radii): the shortest wait of a refused reaction, and the
-    # unit of the event bound
-    v2max = 0.0
-    for d in range(n):
-        if spc_ext[d] >= 0:
-            v2max = max(v2max, vel[d, 0] * vel[d, 0] + vel[d, 1] * vel[d, 1])
-    ksub = 1
-    q = math.sqrt(v2max) * step_dt / (params[2] * params[3])
-    if not q <= MAX_SUBSTEPS:
-        ksub = MAX_SUBSTEPS
-    elif q > 1.0:
-        ksub = int(math.ceil(q))
-    hsub = step_dt / ksub
-    budget = n_steps * ksub * (EVENTS_PER_DISC * n + 1024)
-    fo_exact = n_steps * FO_EXACT
-    if e_rest < 1.0:
-        mv2 = 0.0
-        msum = 0.0
-        for d in range(n):
-            if spc_ext[d] >= 0:
-                m = sp_mass[spc_ext[d]]
-                mv2 += m * (vel[d, 0] * vel[d, 0] + vel[d, 1] * vel[d, 1])
-                msum += m
-        if mv2 > 0.0:
-            tc = TC_FRACTION * params[3] / math.sqrt(mv2 / msum)
-
-    # ---- the grid (one cell when discs do not collide)
-    if bkind == 0:
-        gx0, gy0, gx1, gy1 = b0, b1, b2, b3
-    else:
-        gx0, gy0, gx1, gy1 = b0 - b2, b1 - b2, b0 + b2, b1 + b2
-    gw = gx1 - gx0
-    gh = gy1 - gy0
-    ncx = 1
-    ncy = 1
-    if collide:
-        cs = max(2.0 * rmax * (1.0 + _CELL_MARGIN),
-                 math.sqrt(gw * gh / max(cells_per_disc * n, 1.0)),
-                 math.sqrt(gw * gh / MAX_CELLS))
-        ncx = max(1, int(gw / cs))
-        ncy = max(1, int(gh / cs))
-    cw = gw / ncx
-    ch = gh / ncy
-    icw = ncx / gw
-    ich = ncy / gh
-    stats[ST_CELLS] = ncx * ncy
-
-    # ---- per-disc working state
-    W = np.zeros((cap, 8), dtype=FLOAT)
-    Ev = np.zeros((cap, 8), dtype=FLOAT)
-    nfo = np.zeros(cap, dtype=COUNT)  # first-order events of each disc in this run
-    stamp = np.zeros(cap, dtype=COUNT)
-    trx = np.full(cap, INF, dtype=FLOAT)
-    krate = np.zeros(cap, dtype=FLOAT)
-    tcol = np.full(cap, -INF, dtype=FLOAT)
-    cell = np.full(cap, -1, dtype=INDEX)
-    nxt = np.full(cap, -1, dtype=INDEX)
-    prv = np.full(cap, -1, dtype=INDEX)
-    head = np.full(ncx * ncy, -1, dtype=INDEX)
-    hk = np.full(cap, INF, dtype=FLOAT)
-    hd = np.arange(cap).astype(INDEX)
-    hpos = np.arange(cap).astype(INDEX)
-    # internal numbering: live discs in cell order (dead ones last); perm[a] = outside index
-    perm = np.arange(cap).astype(INDEX)
-    cstart = np.zeros(ncx * ncy + 2, dtype=INDEX)
-    for e in range(n):
-        c = _cell_of(pos[e, 0], pos[e, 1], gx0, gy0, icw, ich, ncx, ncy) if spc_ext[e] >= 0 \
-            else ncx * ncy
-        cell[e] = c  # scratch: reset below
-        cstart[c + 1] += 1
-    for c in range(ncx * ncy + 1):
-        cstart[c + 1] += cstart[c]
-    for e in range(n):
-        c = cell[e]
-        perm[cstart[c]] = e
-        cstart[c] += 1
-    spc = np.full(cap, -1, dtype=INDEX)
-    uint = np.zeros(cap, dtype=FLOAT)
-    for d in range(n):
-        e = perm[d]
-        cell[d] = -1
-        s = spc_ext[e]
-        spc[d] = s
-        uint[d] = uint_ext[e]
-        if s < 0:
-            continue
-        W[d, 0] = pos[e, 0]
-        W[d, 1] = pos[e, 1]
-        W[d, 2] = vel[e, 0]
-        W[d, 3] = vel[e, 1]
-        W[d, 4] = 0.0
-        W[d, 5] = sp_radius[s]
-        W[d, 6] = sp_mass[s]
-        _cell_insert(d, _cell_of(pos[e, 0], pos[e, 1], gx0, gy0, icw, ich, ncx, ncy), cell,
-                     head, nxt, prv)
-    if has_uni:  # reaction times drawn in the outside order (independent of the grid)
-        inv = np.empty(n, dtype=INDEX)
-        for d in range(n):
-            inv[perm[d]] = d
-        for e in range(n):
-            d = inv[e]
-            if spc[d] >= 0:
-                _next_reaction(d, 0.0, krate, trx, tables, spc, uint, rng, True, 0.0)
-    for d in range(n):
-        if spc[d] >= 0:
-            _predict(d, 0.0, W, stamp, trx, cell, head, nxt, Ev, hk, hd, hpos, collide, bkind,
-                     b0, b1, b2, b3, gx0, gy0, cw, ch, ncx, ncy, 0)
-    stats[ST_PREDICTIONS] += n
-
-    t = 0.0
-    events = 0
-    while True:
-        d = hd[0]
-        t = hk[0]
-        if not t <= t1:
-            t = t1
-            break
-        if events >= budget:  # (t: the event not processed)
-            break
-        events += 1
-        stats[ST_EVENTS] += 1
-        code = int(Ev[d, 1])
-        # bring d to t
-        dt = t - W[d, 4]
-        W[d, 0] += dt * W[d, 2]
-        W[d, 1] += dt * W[d, 3]
-        W[d, 4] = t
-        p0 = d  # the discs to predict afresh after this event (-1: none)
-        p1 = -1
-        entered = 0
-        if code >= 0 and stamp[code] != int(Ev[d, 2]):  # ------------- stale: predict again
-            stats[ST_STALE] += 1
-        elif code >= 0:  # ------------------------------------------------ disc-disc contact
-            j = code
-            p1 = j
-            i = d
-            dt = t - W[j, 4]
-            W[j, 0] += dt * W[j, 2]
-            W[j, 1] += dt * W[j, 3]
-            W[j, 4] = t
-            # approaching, by the very arithmetic of the prediction? (else a graze that
-            # round-off made tangential: no impulse, and no new prediction of this pair)
-            rx = W[j, 0] - W[i, 0]
-            ry = W[j, 1] - W[i, 1]
-            wx = W[j, 2] - W[i, 2]
-            wy = W[j, 3] - W[i, 3]
-            b = rx * wx + ry * wy
-            if not (b < 0.0 and b * b > APPROACH2 * (rx * rx + ry * ry) * (wx * wx + wy * wy)):
-                stats[ST_GRAZES] += 1
-            else:
-                # a reactive collision if a channel's trigger holds and its products
-                # fit, else a bounce
-                xi = W[i, 0]
-                yi = W[i, 1]
-                xj = W[j, 0]
-                yj = W[j, 1]
-                vxi = W[i, 2]
-                vyi = W[i, 3]
-                vxj = W[j, 2]
-                vyj = W[j, 3]
-                xi, yi, xj, yj, nx, ny = normal_at(xi, yi, vxi, vyi, xj, yj, vxj, vyj, 0.0)
-                vr = (vxi - vxj) * nx + (vyi - vyj) * ny
-                si = spc[i]
-                sj = spc[j]
-                mi = W[i, 6]
-                mj = W[j, 6]
-                fired = False
-                killed = False
-                if has_bi and vr > 0.0:
-                    c = bi_table[si, sj]
-                    if c >= 0 and 0.5 * mi * mj / (mi + mj) * vr * vr >= ch_energy[c]:
-                        if ch_kind[c] == COMBINATION:
-                            p = ch_prod[c, 0]
-                            ok, X, Y, Vx, Vy, U = combine_outcome(
-                                mi, mj, vxi, vyi, vxj, vyj, xi, yi, xj, yj, uint[i], uint[j],
-                                sp_form[si], sp_form[sj], sp_form[p], 0.0)
-                            fits = ok and _room(X, Y, sp_radius[p], i, j, t, W, spc, cell,
-                                                head, nxt, collide, bkind, bp, gx0, gy0, icw,
-                                                ich, ncx, ncy, rmax)
-                            refused = ok and not fits
-                            if fits:
-                                fired = True
-                                killed = True
-                                spc[i] = p
-                                W[i, 0] = X
-                                W[i, 1] = Y
-                                W[i, 2] = Vx
-                                W[i, 3] = Vy
-                                W[i, 5] = sp_radius[p]
-                                W[i, 6] = sp_mass[p]
-                                uint[i] = U
-                                spc[j] = -1
-                                uint[j] = 0.0
-                                W[j, 2] = 0.0
-                                W[j, 3] = 0.0
-                                _cell_remove(j, cell, head, nxt, prv)
-                                _hset(j, INF, hk, hd, hpos)
-                                Ev[j, 0] = INF
-                                Ev[j, 1] = EV_NONE
-                                trx[j] = INF
-                                krate[j] = 0.0
-                                _cell_remove(i, cell, head, nxt, prv)
-                                _cell_insert(i, _cell_of(X, Y, gx0, gy0, icw, ich, ncx, ncy),
-                                             cell, head, nxt, prv)
-                        else:
-                            pi, pj = exchange_species(c, si, ch_reac, ch_prod)
-                            ok, XC, YC, vCx, vCy, XD, YD, vDx, vDy = exchange_outcome(
-                                mi, mj, sp_mass[pi], sp_mass[pj], sp_radius[pi], sp_radius[pj],
-                                vxi, vyi, vxj, vyj, xi, yi, xj, yj, nx, ny, uint[i], uint[j],
-                                sp_form[si], sp_form[sj], sp_form[pi], sp_form[pj], 0.0)
-                            fits = ok and _room(XC, YC, sp_radius[pi], i, j, t, W, spc, cell,
-                                                head, nxt, collide, bkind, bp, gx0, gy0, icw,
-                                                ich, ncx, ncy, rmax) and \
-                                _room(XD, YD, sp_radius[pj], i, j, t, W, spc, cell, head, nxt,
-                                      collide, bkind, bp, gx0, gy0, icw, ich, ncx, ncy, rmax)
-                            refused = ok and not fits
-                            if fits:
-                                fired = True
-                                spc[i] = pi
-                                spc[j] = pj
-                                W[i, 0] = XC
-                                W[i, 1] = YC
-                                W[i, 2] = vCx
-                                W[i, 3] = vCy
-                                W[i, 5] = sp_radius[pi]
-                                W[i, 6] = sp_mass[pi]
-                                W[j, 0] = XD
-                                W[j, 1] = YD
-                                W[j, 2] = vDx
-                                W[j, 3] = vDy
-                                W[j, 5] = sp_radius[pj]
-                                W[j, 6] = sp_mass[pj]
-                                uint[i] = 0.0
-                                uint[j] = 0.0
-                                _cell_remove(i, cell, head, nxt, prv)
-                                _cell_insert(i, _cell_of(XC, YC, gx0, gy0, icw, ich, ncx, ncy),
-                                             cell, head, nxt, prv)
-                                _cell_remove(j, cell, head, nxt, prv)
-                                _cell_insert(j, _cell_of(XD, YD, gx0, gy0, icw, ich, ncx, ncy),
-                                             cell, head, nxt, prv)
-                        if fired:
-                            ch_count[c] += 1
-                            icnt[IC_REACTIVE] += 1
-                        elif refused:  # (not when the energy could not pay for it)
-                            icnt[IC_NO_ROOM] += 1
-                if not fired:
-                    e = e_rest
-                    if e < 1.0 and (t - tcol[i] < tc or t - tcol[j] < tc):
-                        e = 1.0
-                        icnt[IC_TC_ELASTIC] += 1
-                    ui0 = uint[i]
-                    uj0 = uint[j]
-                    vxi, vyi, vxj, vyj, ui, uj, lost = bounce(vxi, vyi, vxj, vyj, mi, mj, nx, ny,
-                                                              e, kappa, ui0, uj0)
-                    fsum[FS_DISSIPATED] += lost
-                    W[i, 2] = vxi
-                    W[i, 3] = vyi
-                    W[j, 2] = vxj
-                    W[j, 3] = vyj
-                    icnt[IC_COLLISIONS] += 1
-                    if ui != ui0 or uj != uj0:
-                        uint[i] = ui
-                        uint[j] = uj
-                        if has_uni:
-                            _next_reaction(i, t, krate, trx, tables, spc, uint, rng, False, 0.0)
-                            _next_reaction(j, t, krate, trx, tables, spc, uint, rng, False, 0.0)
-                elif has_uni:
-                    _next_reaction(i, t, krate, trx, tables, spc, uint, rng, False, 0.0)
-                    if not killed:
-                        _next_reaction(j, t, krate, trx, tables, spc, uint, rng, False, 0.0)
-                tcol[i] = t
-                tcol[j] = t
-                stamp[i] += 1
-                stamp[j] += 1
-                if killed:
-                    p1 = -1
-        elif code == EV_CELL:  # -------------------------------------------- cell crossing
-            stats[ST_CROSSINGS] += 1
-            c_old = cell[d]
-            c_new = int(Ev[d, 3])
-            _cell_remove(d, cell, head, nxt, prv)
-            _cell_insert(d, c_new, cell, head, nxt, prv)
-            if c_new // ncx == c_old // ncx:  # same row: crossed in x
-                entered = 1 if c_new > c_old else 2
-            else:
-                entered = 3 if c_new > c_old else 4
-        elif code == EV_WALL:  # -------------------------------------------------- a wall
-            vx0 = W[d, 2]
-            vy0 = W[d, 3]
-            vx, vy, vn = reflected(W[d, 0], W[d, 1], vx0, vy0, int(Ev[d, 3]), bkind, b0, b1)
-            if bkind == 1:  # never tangent to the curved wall (see walls.graze_floor)
-                vx, vy = graze_floor(W[d, 0], W[d, 1], vx, vy, b0, b1)
-                nx = W[d, 0] - b0
-                ny = W[d, 1] - b1
-                nr = math.sqrt(nx * nx + ny * ny)
-                if nr > 0.0:  # the normal momentum the wall takes
-                    vn = 0.5 * ((vx0 - vx) * nx + (vy0 - vy) * ny) / nr
-            W[d, 2] = vx
-            W[d, 3] = vy
-            fsum[FS_WALL_MOMENTUM] += 2.0 * W[d, 6] * vn
-            icnt[IC_WALL_HITS] += 1
-            stamp[d] += 1
-        elif code == EV_REACT:  # ------------------------------------ first-order reaction
-            s = spc[d]
-            # a fission needs a free slot: stop before drawing anything if there is none
-            fission_possible = False
-            for q in range(tables[8][s], tables[8][s + 1]):
-                if ch_kind[tables[9][q]] != TRANSFORMATION:
-                    fission_possible = True
-            if fission_possible and n >= cap:  # grow everything, keep going
-                stats[ST_RESTARTS] += 1
-                cap = 2 * cap + 16
-                pos = grow2(pos, cap)
-                vel = grow2(vel, cap)
-                spc_ext = _grow_fill(spc_ext, cap, -1)
-                uint_ext = grow1(uint_ext, cap)
-                ids = grow1(ids, cap)
-                W = grow2(W, cap)
-                Ev = grow2(Ev, cap)
-                nfo = grow1(nfo, cap)
-                stamp = grow1(stamp, cap)
-                trx = _grow_fill(trx, cap, INF)
-                krate = grow1(krate, cap)
-                tcol = _grow_fill(tcol, cap, -INF)
-                cell = _grow_fill(cell, cap, -1)
-                nxt = _grow_fill(nxt, cap, -1)
-                prv = _grow_fill(prv, cap, -1)
-                hk = _grow_fill(hk, cap, INF)  # (slots past n hold inf: the order of the
-                hd = _grow_range(hd, cap)  # heap, and so of the events, does not change)
-                hpos = _grow_range(hpos, cap)
-                perm = _grow_range(perm, cap)
-                spc = _grow_fill(spc, cap, -1)
-                uint = grow1(uint, cap)
-            newd = _first_order_event(d, n, t, W, spc, uint, ids, idctr, stamp, trx, krate,
-                                      tcol, cell, head, nxt, prv, tables, collide, rmax,
-                                      bkind, bp, gx0, gy0, icw, ich, ncx, ncy, rng, icnt,
-                                      ch_count, nfo, hsub, fo_exact)
-            if newd >= 0:
-                n += 1
-                p1 = newd
-        else:  # a disc with no event at all cannot be at the top below inf
-            p0 = -1
-            _hset(d, INF, hk, hd, hpos)
-        for q in range(2):  # the one place predictions are made in the loop (inlined)
-            pd = p0 if q == 0 else p1
-            if pd >= 0:
-                _predict(pd, t, W, stamp, trx, cell, head, nxt, Ev, hk, hd, hpos, collide,
-                         bkind, b0, b1, b2, b3, gx0, gy0, cw, ch, ncx, ncy,
-                         entered if q == 0 else 0)
-                stats[ST_PREDICTIONS] += 1
-    # ---- bring everyone to the common time t and write back (in the outside numbering)
-    for d in range(n):
-        e = perm[d]
-        spc_ext[e] = spc[d]
-        uint_ext[e] = uint[d]
-        if spc[d] >= 0:
-            dt = t - W[d, 4]
-            pos[e, 0] = W[d, 0] + dt * W[d, 2]
-            pos[e, 1] = W[d, 1] + dt * W[d, 3]
-            vel[e, 0] = W[d, 2]
-            vel[e, 1] = W[d, 3]
-        else:
-            vel[e, 0] = 0.0
-            vel[e, 1] = 0.0
-    return pos, vel, spc_ext, uint_ext, ids, n, t
+        return state, 0, n_steps * step_dt
+    run = _run_constants(n, n_steps, step_dt, state.vel, state.species, tables, params, flags,
+                         bkind, bp)
+    cap = state.pos.shape[0]
+    cells = _make_cells(n, cap, run, cells_per_disc)
+    counters.stats[ST_CELLS] = cells.ncx * cells.ncy
+    fl = _load(n, cap, state, cells, tables)
+    queue = Queue(np.zeros((cap, EVENT_COLUMNS), dtype=FLOAT),
+                  IndexedHeap(np.full(cap, INF, dtype=FLOAT), np.arange(cap).astype(INDEX),
+                              np.arange(cap).astype(INDEX)))
+    _first_predictions(n, fl, cells, queue, run, tables, rng, counters.stats)
+    t, n, state, fl = _events(n, state, fl, cells, queue, run, tables, rng, counters)
+    _write_back(n, t, fl, state)
+    return state, n, t
 
 
 @njit(cache=True)
-def run_steps(pos, vel, spc, uint, ids, idctr, n, n_steps, dt, bkind, bp, tables, params,
-              flags, rng, icnt, fsum, ch_count, stats, cells_per_disc):
+def run_steps(state, n, n_steps, dt, bkind, bp, tables, params, flags, rng, counters,
+              cells_per_disc):
     """Advance ``n_steps`` steps of ``dt`` in one exact run (every disc brought to the end).
     A run that reaches its event bound (see :func:`_simulate`) is finished from the time of
     the bound by the time-stepped integrator (steps of ``dt``, single-threaded; counted in
-    ``events_capped``), whose own bounds hold. ``stats``: see :func:`run_stats`. Returns
-    ``(pos, vel, spc, uint, ids, n)``."""
-    pos, vel, spc, uint, ids, n, t = _simulate(pos, vel, spc, uint, ids, idctr, n, n_steps, dt,
-                                               bkind, bp, tables, params, flags, rng, icnt,
-                                               fsum, ch_count, stats, cells_per_disc)
-    n = _compact(n, pos, vel, spc, uint, ids)
+    ``events_capped``), whose own bounds hold. Returns ``(pos, vel, species,
+    internal_energy, ids, n)``."""
+    state, n, t = _simulate(state, n, n_steps, dt, bkind, bp, tables, params, flags, rng,
+                            counters, cells_per_disc)
+    pos, vel, species, u, ids, idctr = state
+    icnt, fsum, ch_count = counters.icnt, counters.fsum, counters.ch_count
+    n = _compact(n, pos, vel, species, u, ids)
     rest = n_steps * dt - t
     if rest > 0.0:
         icnt[IC_EVENTS_CAPPED] += 1
         whole = min(int(rest / dt), n_steps)
         if whole > 0:
-            pos, vel, spc, uint, ids, n, _w = step_run(
-                pos, vel, spc, uint, n, whole, dt, bkind, bp, tables, params, flags, rng,
+            pos, vel, species, u, ids, n, _w = step_run(
+                pos, vel, species, u, n, whole, dt, bkind, bp, tables, params, flags, rng,
                 icnt, fsum, ch_count, 1, ids, idctr, 0, 0, empty_work())
         if rest - whole * dt > 0.0:
-            pos, vel, spc, uint, ids, n, _w = step_run(
-                pos, vel, spc, uint, n, 1, rest - whole * dt, bkind, bp, tables, params, flags,
+            pos, vel, species, u, ids, n, _w = step_run(
+                pos, vel, species, u, n, 1, rest - whole * dt, bkind, bp, tables, params, flags,
                 rng, icnt, fsum, ch_count, 1, ids, idctr, 0, 0, empty_work())
-    return pos, vel, spc, uint, ids, n
+    return pos, vel, species, u, ids, n
 
 
 @njit(cache=True)
-def run_stats(pos, vel, spc, uint, ids, idctr, n, duration, bkind, bp, tables, params, flags,
-              rng, icnt, fsum, ch_count, stats, cells_per_disc):
-    """:func:`run_tracked`, also accumulating the integrator's statistics in ``stats``
-    (N_STATS,) int64 (see ST_*). ``cells_per_disc``: how many grid cells per disc at most
-    (cells are never narrower than the largest diameter); :data:`CELLS_PER_DISC` by default.
-    """
-    return run_steps(pos, vel, spc, uint, ids, idctr, n, 1, duration, bkind, bp, tables,
-                     params, flags, rng, icnt, fsum, ch_count, stats, cells_per_disc)
-
-
-@njit(cache=True)
-def run_steps_rngs(pos, vel, spc, uint, ids, idctr, n, n_steps, dt, bkind, bp, tables, params,
-                   flags, rngs, icnt, fsum, ch_count):
-    """:func:`run_steps` with its generator passed as ``rngs[0]`` (a ``numba.typed.List``;
-    see :func:`discgym.kernels.step.run_tracked_rngs`): the entry point of
-    :class:`~discgym.Simulation`."""
-    stats = np.zeros(N_STATS, dtype=COUNT)
-    return run_steps(pos, vel, spc, uint, ids, idctr, n, n_steps, dt, bkind, bp, tables,
-                     params, flags, rngs[0], icnt, fsum, ch_count, stats, CELLS_PER_DISC)
-
-
-@njit(cache=True)
-def run_tracked(pos, vel, spc, uint, ids, idctr, n, duration, bkind, bp, tables, params, flags,
-                rng, icnt, fsum, ch_count):
-    """Advance discs [0, n) exactly by ``duration`` of simulated time, as one step.
+def run_stats(pos, vel, species, internal_energy, ids, idctr, n, duration, bkind, bp, tables,
+              params, flags, rng, icnt, fsum, ch_count, stats, cells_per_disc):
+    """Advance discs [0, n) exactly by ``duration`` of simulated time, as one step,
+    accumulating the integrator's statistics in ``stats`` (N_STATS,) int64 (see ST_*).
 
     State and counters as for :func:`discgym.kernels.step.run_tracked`: ``pos`` (C, 2),
-    ``vel`` (C, 2), ``spc`` (C,) species index (-1: no disc), ``uint`` (C,) internal energy,
+    ``vel`` (C, 2), ``species`` (C,) species index (-1: no disc), ``internal_energy`` (C,),
     ``ids`` (C,) int64 disc identities (a fragment takes ``idctr[0]``, which is incremented),
     capacity C >= n; ``tables``, ``params``, ``flags`` from
     :class:`discgym.compiled.CompiledScene`; ``icnt``, ``fsum``, ``ch_count`` accumulated in
-    place. Single-threaded.
+    place. ``cells_per_disc``: how many grid cells per disc at most (cells are never
+    narrower than the largest diameter); :data:`CELLS_PER_DISC` by default. Single-threaded.
 
-    Returns ``(pos, vel, spc, uint, ids, n)``: new (larger) arrays when decompositions needed
-    more capacity, else the ones passed in. Discs consumed by combinations are removed (the
-    order of the others is kept); fragments are appended.
+    Returns ``(pos, vel, species, internal_energy, ids, n)``: new (larger) arrays when
+    decompositions needed more capacity, else the ones passed in. Discs consumed by
+    combinations are removed (the order of the others is kept); fragments are appended.
     """
+    return run_steps(State(pos, vel, species, internal_energy, ids, idctr), n, 1, duration,
+                     bkind, bp, tables, params, flags, rng, Counters(icnt, fsum, ch_count, stats),
+                     cells_per_disc)
+
+
+@njit(cache=True)
+def run_steps_rngs(pos, vel, species, internal_energy, ids, idctr, n, n_steps, dt, bkind, bp,
+                   tables, params, flags, rngs, icnt, fsum, ch_count):
+    """:func:`run_steps` on the arrays of :func:`run_stats`, with its generator passed as
+    ``rngs[0]`` (a ``numba.typed.List``; see :func:`discgym.kernels.step.run_tracked_rngs`):
+    the entry point of :class:`~discgym.Simulation`."""
     stats = np.zeros(N_STATS, dtype=COUNT)
-    return run_stats(pos, vel, spc, uint, ids, idctr, n, duration, bkind, bp, tables, params,
-                     flags, rng, icnt, fsum, ch_count, stats, CELLS_PER_DISC)
-
-
-@njit(cache=True)
-def run_tracked_rngs(pos, vel, spc, uint, ids, idctr, n, duration, bkind, bp, tables, params,
-                     flags, rngs, icnt, fsum, ch_count):
-    """:func:`run_tracked` with its generator passed as ``rngs[0]`` (a ``numba.typed.List``;
-    see :func:`discgym.kernels.step.run_tracked_rngs`)."""
-    return run_tracked(pos, vel, spc, uint, ids, idctr, n, duration, bkind, bp, tables, params,
-                       flags, rngs[0], icnt, fsum, ch_count)
-
-
-@njit(cache=True)
-def run(pos, vel, spc, uint, n, duration, bkind, bp, tables, params, flags, rng, icnt, fsum,
-        ch_count):
-    """:func:`run_tracked` without disc identities. Returns ``(pos, vel, spc, uint, n)``."""
-    ids = np.zeros(pos.shape[0], dtype=COUNT)
-    idctr = np.zeros(1, dtype=COUNT)
-    pos, vel, spc, uint, ids, n = run_tracked(pos, vel, spc, uint, ids, idctr, n, duration,
-                                              bkind, bp, tables, params, flags, rng, icnt, fsum,
-                                              ch_count)
-    return pos, vel, spc, uint, n
+    return run_steps(State(pos, vel, species, internal_energy, ids, idctr), n, n_steps, dt,
+                     bkind, bp, tables, params, flags, rngs[0],
+                     Counters(icnt, fsum, ch_count, stats), CELLS_PER_DISC)

@@ -23,6 +23,7 @@ integrator at least one substep of the time-stepped one later).
 """
 
 import math
+from typing import NamedTuple
 
 import numpy as np
 from numba import njit
@@ -35,8 +36,95 @@ FIRED, NO_ENERGY, NO_ROOM = 1, 0, -1  # outcomes of a reactive collision
 _SEP = 1.0 + 1e-9  # products are placed this fraction farther apart than touching
 
 
+class Contact(NamedTuple):
+    """Discs i and j at the instant they touch (floats): centres (xi, yi), (xj, yj), unit
+    normal (nx, ny) from i to j, velocities (vxi, vyi), (vxj, vyj)."""
+
+    xi: float
+    yi: float
+    xj: float
+    yj: float
+    nx: float
+    ny: float
+    vxi: float
+    vyi: float
+    vxj: float
+    vyj: float
+
+
+class Kind(NamedTuple):
+    """A species' constants as a reaction uses them (floats)."""
+
+    mass: float
+    radius: float
+    formation: float
+
+
+class Product(NamedTuple):
+    """A disc a reaction makes (floats): position, velocity and internal energy u."""
+
+    x: float
+    y: float
+    vx: float
+    vy: float
+    u: float
+
+
+
 @njit(cache=True)
-def room(x, y, r, t, ex1, ex2, collide, bkind, bp, pos, vel, spc, sp_radius, grid, cell_start,
+def kind(s, tables):
+    """Species s's :class:`Kind` from the compiled tables."""
+    return Kind(tables[1][s], tables[0][s], tables[2][s])
+
+
+# ---------------------------------------------------------------------- the state writes
+# What a reaction does to the state, for both integrators (the event-driven one passes views
+# of its per-disc rows as pos and vel).
+@njit(cache=True)
+def write_product(i, s, q, pos, vel, species, internal_energy):
+    """Disc i becomes the product q of species s."""
+    species[i] = s
+    pos[i, 0] = q.x
+    pos[i, 1] = q.y
+    vel[i, 0] = q.vx
+    vel[i, 1] = q.vy
+    internal_energy[i] = q.u
+
+
+@njit(cache=True)
+def apply_combination(i, j, s, q, pos, vel, species, internal_energy):
+    """A + B -> C: i becomes the product q of species s; j is removed (species -1, at rest,
+    no internal energy)."""
+    write_product(i, s, q, pos, vel, species, internal_energy)
+    species[j] = -1
+    vel[j, 0] = 0.0
+    vel[j, 1] = 0.0
+    internal_energy[j] = 0.0
+
+
+@njit(cache=True)
+def apply_exchange(i, j, si, sj, qi, qj, pos, vel, species, internal_energy):
+    """A + B -> C + D: i becomes qi (species si), j becomes qj (species sj)."""
+    write_product(i, si, qi, pos, vel, species, internal_energy)
+    write_product(j, sj, qj, pos, vel, species, internal_energy)
+
+
+@njit(cache=True)
+def apply_fission(i, k, sb, sc, qb, qc, pos, vel, species, internal_energy):
+    """A -> B + C: i becomes the fragment qb (species sb), disc k the fragment qc (sc)."""
+    write_product(i, sb, qb, pos, vel, species, internal_energy)
+    write_product(k, sc, qc, pos, vel, species, internal_energy)
+
+
+@njit(cache=True)
+def apply_transformation(i, s, sp_form, species, internal_energy):
+    """A -> B: disc i becomes species s (velocity unchanged, see :func:`transform_energy`)."""
+    internal_energy[i] = transform_energy(internal_energy[i], sp_form[species[i]], sp_form[s])
+    species[i] = s
+
+
+@njit(cache=True)
+def room(x, y, r, t, ex1, ex2, collide, bkind, bp, pos, vel, species, sp_radius, grid, cell_start,
          cell_items, nbin, n, reach):
     """Is there room for a disc of radius r at (x, y) at time t (<= 0: the contact time of a
     reactive collision, 0 for a first-order reaction at the end of the substep), inside the
@@ -45,64 +133,54 @@ def room(x, y, r, t, ex1, ex2, collide, bkind, bp, pos, vel, spc, sp_radius, gri
         return False
     if not collide:
         return True
-    return not overlaps_any(x, y, r, t, ex1, ex2, pos, vel, spc, sp_radius, grid, cell_start,
+    return not overlaps_any(x, y, r, t, ex1, ex2, pos, vel, species, sp_radius, grid, cell_start,
                             cell_items, nbin, n, reach)
 
 
 @njit(cache=True)
-def combine_outcome(mi, mj, vxi, vyi, vxj, vyj, xi, yi, xj, yj, ui, uj, fa, fb, fp, t):
-    """The product of A + B -> C (pure: scalars in, scalars out).
+def combine_outcome(k, A, B, P, ui, uj, t):
+    """The product of A + B -> P (pure).
 
-    Reactants of masses mi, mj with velocities v_i, v_j at contact positions (xi, yi),
-    (xj, yj); internal energies ui, uj; formation energies fa, fb of the reactants and fp of
-    the product. C sits at the centre of mass, wound forward by -t (t <= 0: the contact was
-    -t ago; 0 for the event-driven integrator), with the centre-of-mass velocity, and stores
-    U = ui + uj + 1/2 mu |v_i - v_j|^2 + fa + fb - fp. Returns ``(ok, X, Y, Vx, Vy, U)``,
-    ok False (and zeros) when U < 0 (an endothermic combination the energy cannot pay for).
+    Reactants of kinds A (disc i) and B (disc j) touching as :class:`Contact` k, internal
+    energies ui, uj. P sits at the centre of mass, wound forward by -t (t <= 0: the contact
+    was -t ago; 0 for the event-driven integrator), with the centre-of-mass velocity, and
+    stores U = ui + uj + 1/2 mu |v_i - v_j|^2 + f_A + f_B - f_P. Returns ``(ok, product)``,
+    ok False when U < 0 (an endothermic combination the energy cannot pay for).
     """
+    mi = A.mass
+    mj = B.mass
+    vxi, vyi, vxj, vyj = k.vxi, k.vyi, k.vxj, k.vyj
     M = mi + mj
     mu = mi * mj / M
     dvx = vxi - vxj
     dvy = vyi - vyj
-    U = ui + uj + 0.5 * mu * (dvx * dvx + dvy * dvy) + fa + fb - fp
+    U = ui + uj + 0.5 * mu * (dvx * dvx + dvy * dvy) + A.formation + B.formation - P.formation
     if U < 0.0:
-        return False, 0.0, 0.0, 0.0, 0.0, 0.0
+        return False, Product(0.0, 0.0, 0.0, 0.0, 0.0)
     Vx = (mi * vxi + mj * vxj) / M
     Vy = (mi * vyi + mj * vyj) / M
-    X = (mi * xi + mj * xj) / M - t * Vx
-    Y = (mi * yi + mj * yj) / M - t * Vy
-    return True, X, Y, Vx, Vy, U
+    X = (mi * k.xi + mj * k.xj) / M - t * Vx
+    Y = (mi * k.yi + mj * k.yj) / M - t * Vy
+    return True, Product(X, Y, Vx, Vy, U)
 
 
 @njit(cache=True)
-def combine(i, j, c, t, xi, yi, xj, yj, tables, pos, vel, spc, uint, bkind, bp, grid,
+def combine(i, j, c, t, xi, yi, xj, yj, tables, pos, vel, species, internal_energy, bkind, bp, grid,
             cell_start, cell_items, nbin, n, reach):
-    """A + B -> C at contact time t; i becomes C, j dies (spc = -1). Returns FIRED, or
+    """A + B -> C at contact time t; i becomes C, j dies (species = -1). Returns FIRED, or
     NO_ENERGY (an endothermic product the energy cannot pay for) or NO_ROOM."""
-    sp_radius, sp_mass, sp_form = tables[0], tables[1], tables[2]
-    ch_prod = tables[5]
-    a = spc[i]
-    b = spc[j]
-    p = ch_prod[c, 0]
-    ok, X, Y, Vx, Vy, U = combine_outcome(
-        sp_mass[a], sp_mass[b], vel[i, 0], vel[i, 1], vel[j, 0], vel[j, 1], xi, yi, xj, yj,
-        uint[i], uint[j], sp_form[a], sp_form[b], sp_form[p], t)
+    sp_radius = tables[0]
+    p = tables[5][c, 0]
+    k = Contact(xi, yi, xj, yj, 0.0, 0.0, vel[i, 0], vel[i, 1], vel[j, 0], vel[j, 1])
+    ok, q = combine_outcome(k, kind(species[i], tables), kind(species[j], tables), kind(p, tables),
+                            internal_energy[i], internal_energy[j], t)
     if not ok:
         return NO_ENERGY
     # room where C appears: at the contact, not where it would be at the end of the substep
-    if not room(X + t * Vx, Y + t * Vy, sp_radius[p], t, i, j, True, bkind, bp, pos, vel, spc,
-                sp_radius, grid, cell_start, cell_items, nbin, n, reach):
+    if not room(q.x + t * q.vx, q.y + t * q.vy, sp_radius[p], t, i, j, True, bkind, bp, pos,
+                vel, species, sp_radius, grid, cell_start, cell_items, nbin, n, reach):
         return NO_ROOM
-    spc[i] = p
-    pos[i, 0] = X
-    pos[i, 1] = Y
-    vel[i, 0] = Vx
-    vel[i, 1] = Vy
-    uint[i] = U
-    spc[j] = -1
-    vel[j, 0] = 0.0
-    vel[j, 1] = 0.0
-    uint[j] = 0.0
+    apply_combination(i, j, p, q, pos, vel, species, internal_energy)
     return FIRED
 
 
@@ -115,27 +193,27 @@ def exchange_species(c, a, ch_reac, ch_prod):
 
 
 @njit(cache=True)
-def exchange_outcome(mi, mj, mC, mD, rC, rD, vxi, vyi, vxj, vyj, xi, yi, xj, yj, nx, ny, ui,
-                     uj, fa, fb, fC, fD, t):
-    """The products of A + B -> C + D (pure: scalars in, scalars out).
+def exchange_outcome(k, A, B, C, D, ui, uj, t):
+    """The products of A + B -> C + D (pure).
 
-    Reactants i (-> C) and j (-> D) of masses mi, mj at contact positions (xi, yi), (xj, yj)
-    with unit normal n from i to j; products of masses mC, mD and radii rC, rD; internal
-    energies ui, uj; formation energies fa, fb (reactants), fC, fD (products). The products
-    leave the centre of mass along the direction an elastic bounce gives the relative
-    velocity, with the relative speed the available energy E = 1/2 mu |w|^2 + ui + uj + fa +
-    fb - fC - fD sets; they are placed (rC + rD)(1 + 1e-9) apart along n about the centre of
-    mass, wound forward by -t (t <= 0). Returns ``(ok, XC, YC, vCx, vCy, XD, YD, vDx, vDy)``,
-    ok False (and zeros) when E < 0.
+    Reactants of kinds A (disc i, -> C) and B (disc j, -> D) touching as :class:`Contact` k
+    (normal n from i to j), internal energies ui, uj. The products leave the centre of mass
+    along the direction an elastic bounce gives the relative velocity, with the relative
+    speed the available energy E = 1/2 mu |w|^2 + ui + uj + f_A + f_B - f_C - f_D sets;
+    they are placed (r_C + r_D)(1 + 1e-9) apart along n about the centre of mass, wound
+    forward by -t (t <= 0), with no internal energy. Returns ``(ok, product C, product D)``,
+    ok False when E < 0.
     """
+    mi, mj, mC, mD, rC, rD = A.mass, B.mass, C.mass, D.mass, C.radius, D.radius
+    vxi, vyi, vxj, vyj, nx, ny = k.vxi, k.vyi, k.vxj, k.vyj, k.nx, k.ny
     M = mi + mj
     mu = mi * mj / M
     wx = vxi - vxj
     wy = vyi - vyj
     w2 = wx * wx + wy * wy
-    E = 0.5 * mu * w2 + ui + uj + fa + fb - fC - fD
+    E = 0.5 * mu * w2 + ui + uj + A.formation + B.formation - C.formation - D.formation
     if E < 0.0:
-        return False, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
+        return False, Product(0.0, 0.0, 0.0, 0.0, 0.0), Product(0.0, 0.0, 0.0, 0.0, 0.0)
     Mp = mC + mD
     muCD = mC * mD / Mp
     # direction of the elastic outcome of the relative velocity
@@ -157,44 +235,36 @@ def exchange_outcome(mi, mj, mC, mD, rC, rD, vxi, vyi, vxj, vyj, xi, yi, xj, yj,
     vDx = Vx - mC / Mp * s * ux
     vDy = Vy - mC / Mp * s * uy
     d = (rC + rD) * _SEP
-    cx = (mi * xi + mj * xj) / M
-    cy = (mi * yi + mj * yj) / M
+    cx = (mi * k.xi + mj * k.xj) / M
+    cy = (mi * k.yi + mj * k.yj) / M
     XC = cx - mD / Mp * d * nx - t * vCx
     YC = cy - mD / Mp * d * ny - t * vCy
     XD = cx + mC / Mp * d * nx - t * vDx
     YD = cy + mC / Mp * d * ny - t * vDy
-    return True, XC, YC, vCx, vCy, XD, YD, vDx, vDy
+    return True, Product(XC, YC, vCx, vCy, 0.0), Product(XD, YD, vDx, vDy, 0.0)
 
 
 @njit(cache=True)
-def exchange(i, j, c, t, xi, yi, xj, yj, nx, ny, tables, pos, vel, spc, uint, bkind, bp,
-             grid, cell_start, cell_items, nbin, n, reach):
+def exchange(i, j, c, t, xi, yi, xj, yj, nx, ny, tables, pos, vel, species, internal_energy,
+             bkind, bp, grid, cell_start, cell_items, nbin, n, reach):
     """A + B -> C + D at contact time t (n from i to j); i and j become the products.
     Returns FIRED, NO_ENERGY or NO_ROOM (as :func:`combine`)."""
-    sp_radius, sp_mass, sp_form = tables[0], tables[1], tables[2]
-    ch_reac, ch_prod = tables[4], tables[5]
-    a = spc[i]
-    b = spc[j]
-    pi, pj = exchange_species(c, a, ch_reac, ch_prod)
-    ok, XC, YC, vCx, vCy, XD, YD, vDx, vDy = exchange_outcome(
-        sp_mass[a], sp_mass[b], sp_mass[pi], sp_mass[pj], sp_radius[pi], sp_radius[pj],
-        vel[i, 0], vel[i, 1], vel[j, 0], vel[j, 1], xi, yi, xj, yj, nx, ny, uint[i], uint[j],
-        sp_form[a], sp_form[b], sp_form[pi], sp_form[pj], t)
+    sp_radius = tables[0]
+    pi, pj = exchange_species(c, species[i], tables[4], tables[5])
+    k = Contact(xi, yi, xj, yj, nx, ny, vel[i, 0], vel[i, 1], vel[j, 0], vel[j, 1])
+    ok, qi, qj = exchange_outcome(k, kind(species[i], tables), kind(species[j], tables),
+                                  kind(pi, tables), kind(pj, tables), internal_energy[i],
+                                  internal_energy[j], t)
     if not ok:
         return NO_ENERGY
     # room where the products appear, at the contact
-    if not room(XC + t * vCx, YC + t * vCy, sp_radius[pi], t, i, j, True, bkind, bp, pos, vel,
-                spc, sp_radius, grid, cell_start, cell_items, nbin, n, reach):
+    if not room(qi.x + t * qi.vx, qi.y + t * qi.vy, sp_radius[pi], t, i, j, True, bkind, bp,
+                pos, vel, species, sp_radius, grid, cell_start, cell_items, nbin, n, reach):
         return NO_ROOM
-    if not room(XD + t * vDx, YD + t * vDy, sp_radius[pj], t, i, j, True, bkind, bp, pos, vel,
-                spc, sp_radius, grid, cell_start, cell_items, nbin, n, reach):
+    if not room(qj.x + t * qj.vx, qj.y + t * qj.vy, sp_radius[pj], t, i, j, True, bkind, bp,
+                pos, vel, species, sp_radius, grid, cell_start, cell_items, nbin, n, reach):
         return NO_ROOM
-    spc[i] = pi
-    spc[j] = pj
-    pos[i, 0], pos[i, 1], vel[i, 0], vel[i, 1] = XC, YC, vCx, vCy
-    pos[j, 0], pos[j, 1], vel[j, 0], vel[j, 1] = XD, YD, vDx, vDy
-    uint[i] = 0.0
-    uint[j] = 0.0
+    apply_exchange(i, j, pi, pj, qi, qj, pos, vel, species, internal_energy)
     return FIRED
 
 
@@ -212,36 +282,36 @@ def channel_energy(kind, u, f_parent, f_prod1, f_prod2, barrier):
 
 
 @njit(cache=True)
-def released_energy(i, c, tables, spc, uint):
+def released_energy(i, c, tables, species, internal_energy):
     """Energy a first-order channel c would release from disc i, or -1 if it cannot fire."""
     sp_form = tables[2]
     ch_prod = tables[5]
-    return channel_energy(tables[3][c], uint[i], sp_form[spc[i]], sp_form[ch_prod[c, 0]],
-                          sp_form[ch_prod[c, 1]], tables[7][c])
+    return channel_energy(tables[3][c], internal_energy[i], sp_form[species[i]],
+                          sp_form[ch_prod[c, 0]], sp_form[ch_prod[c, 1]], tables[7][c])
 
 
 @njit(cache=True)
 def first_order_draws(n, h, sp_form, ch_kind, ch_prod, ch_rate, ch_energy, uni_start,
-                      uni_chan, spc, uint, rng, out_disc, out_chan):
+                      uni_chan, species, internal_energy, rng, out_disc, out_chan):
     """Draw which discs [0, n) undergo a first-order reaction in a step of length h.
 
     Each disc's competing channels with rates k_c (only those whose energy condition holds
     now): one fires with probability 1 - exp(-K h), K = sum k_c, channel c with probability
     k_c / K. The reacting discs and their channels are written to ``out_disc``,
     ``out_chan`` (n,); returns how many. One pass taking the arrays once: per-disc helpers
-    taking arrays cost a reference count per array per call (measured: 70-110 ns per disc
-    for a rate computation that takes 7 ns written out, as here).
+    taking arrays cost a reference count per array per call, many times the cost of the
+    rate computation written out, as here.
     """
     m = 0
     for i in range(n):
-        s = spc[i]
+        s = species[i]
         if s < 0:
             continue
         q0 = uni_start[s]
         q1 = uni_start[s + 1]
         if q0 == q1:  # no channel for this species
             continue
-        u = uint[i]
+        u = internal_energy[i]
         fs = sp_form[s]
         K = 0.0
         for q in range(q0, q1):
@@ -268,33 +338,33 @@ def first_order_draws(n, h, sp_form, ch_kind, ch_prod, ch_rate, ch_energy, uni_s
 
 
 @njit(cache=True)
-def first_order_rate(i, tables, spc, uint):
+def first_order_rate(i, tables, species, internal_energy):
     """Total rate K of the first-order channels of disc i whose energy condition holds now
     (per event, for the event-driven integrator; :func:`first_order_draws` is the per-step
     pass). K changes only when the disc's species or internal energy does."""
     ch_rate = tables[6]
     uni_start, uni_chan = tables[8], tables[9]
-    s = spc[i]
+    s = species[i]
     K = 0.0
     for q in range(uni_start[s], uni_start[s + 1]):
         c = uni_chan[q]
-        if released_energy(i, c, tables, spc, uint) >= 0.0:
+        if released_energy(i, c, tables, species, internal_energy) >= 0.0:
             K += ch_rate[c]
     return K
 
 
 @njit(cache=True)
-def first_order_pick(i, K, tables, spc, uint, rng):
+def first_order_pick(i, K, tables, species, internal_energy, rng):
     """Which eligible first-order channel of disc i fires (channel c with chance k_c / K; K
     from :func:`first_order_rate`, > 0). Draws one random number."""
     ch_rate = tables[6]
     uni_start, uni_chan = tables[8], tables[9]
-    s = spc[i]
+    s = species[i]
     x = rng.random() * K
     last = -1
     for q in range(uni_start[s], uni_start[s + 1]):
         c = uni_chan[q]
-        if released_energy(i, c, tables, spc, uint) >= 0.0:
+        if released_energy(i, c, tables, species, internal_energy) >= 0.0:
             last = c
             x -= ch_rate[c]
             if x < 0.0:
@@ -314,17 +384,17 @@ def transform_energy(u, fa, fp):
 
 
 @njit(cache=True)
-def transform(i, c, collide, tables, pos, vel, spc, uint, bkind, bp, grid, cell_start,
-              cell_items, nbin, n, reach):
-    sp_radius, sp_form = tables[0], tables[2]
+def transform(i, c, collide, tables, pos, vel, species, internal_energy, bkind, bp, grid,
+              cell_start, cell_items, nbin, n, reach):
+    """A -> B on disc i by channel c if B fits where A is (B no larger than A always does).
+    Returns True if fired."""
+    sp_radius = tables[0]
     p = tables[5][c, 0]
-    a = spc[i]
-    if sp_radius[p] > sp_radius[a] and not room(
-            pos[i, 0], pos[i, 1], sp_radius[p], 0.0, i, i, collide, bkind, bp, pos, vel, spc,
+    if sp_radius[p] > sp_radius[species[i]] and not room(
+            pos[i, 0], pos[i, 1], sp_radius[p], 0.0, i, i, collide, bkind, bp, pos, vel, species,
             sp_radius, grid, cell_start, cell_items, nbin, n, reach):
         return False
-    uint[i] = transform_energy(uint[i], sp_form[a], sp_form[p])
-    spc[i] = p
+    apply_transformation(i, p, tables[2], species, internal_energy)
     return True
 
 
@@ -352,20 +422,21 @@ def fission_outcome(X, Y, Vx, Vy, E, m1, m2, d, nx, ny):
     """The fragments of A -> B + C (pure): parent at (X, Y) with velocity V, energy released
     E, fragment masses m1 (B), m2 (C), centre distance d, separation direction n (from B to
     C). They sit about the parent's centre of mass and carry equal and opposite momenta
-    |P| = sqrt(2 mu E) in its frame. Returns ``(x1, y1, v1x, v1y, x2, y2, v2x, v2y)``."""
+    |P| = sqrt(2 mu E) in its frame, with no internal energy. Returns the products
+    ``(B, C)``."""
     M = m1 + m2
     P = math.sqrt(2.0 * (m1 * m2 / M) * max(E, 0.0))
     x1 = X - m2 / M * d * nx
     y1 = Y - m2 / M * d * ny
     x2 = X + m1 / M * d * nx
     y2 = Y + m1 / M * d * ny
-    return x1, y1, Vx - P / m1 * nx, Vy - P / m1 * ny, x2, y2, Vx + P / m2 * nx, \
-        Vy + P / m2 * ny
+    return Product(x1, y1, Vx - P / m1 * nx, Vy - P / m1 * ny, 0.0), \
+        Product(x2, y2, Vx + P / m2 * nx, Vy + P / m2 * ny, 0.0)
 
 
 @njit(cache=True)
-def fission(i, c, n, collide, tables, pos, vel, spc, uint, bkind, bp, grid, cell_start,
-            cell_items, nbin, reach, rng):
+def fission(i, c, n, collide, tables, pos, vel, species, internal_energy, bkind, bp, grid,
+            cell_start, cell_items, nbin, reach, rng):
     """A -> B + C (decomposition or reverse combination): i becomes B, disc n becomes C.
 
     The caller guarantees capacity for disc n. Returns True if fired.
@@ -373,7 +444,7 @@ def fission(i, c, n, collide, tables, pos, vel, spc, uint, bkind, bp, grid, cell
     sp_radius, sp_mass = tables[0], tables[1]
     b = tables[5][c, 0]
     cc = tables[5][c, 1]
-    E = released_energy(i, c, tables, spc, uint)
+    E = released_energy(i, c, tables, species, internal_energy)
     m1 = sp_mass[b]
     m2 = sp_mass[cc]
     Vx = vel[i, 0]
@@ -383,22 +454,12 @@ def fission(i, c, n, collide, tables, pos, vel, spc, uint, bkind, bp, grid, cell
     X = pos[i, 0]
     Y = pos[i, 1]
     for _attempt in range(2):
-        x1, y1, v1x, v1y, x2, y2, v2x, v2y = fission_outcome(X, Y, Vx, Vy, E, m1, m2, d, nx,
-                                                             ny)
-        if room(x1, y1, sp_radius[b], 0.0, i, i, collide, bkind, bp, pos, vel, spc, sp_radius,
-                grid, cell_start, cell_items, nbin, n, reach) and \
-                room(x2, y2, sp_radius[cc], 0.0, i, i, collide, bkind, bp, pos, vel, spc,
+        qb, qc = fission_outcome(X, Y, Vx, Vy, E, m1, m2, d, nx, ny)
+        if room(qb.x, qb.y, sp_radius[b], 0.0, i, i, collide, bkind, bp, pos, vel, species,
+                sp_radius, grid, cell_start, cell_items, nbin, n, reach) and \
+                room(qc.x, qc.y, sp_radius[cc], 0.0, i, i, collide, bkind, bp, pos, vel, species,
                      sp_radius, grid, cell_start, cell_items, nbin, n, reach):
-            spc[i] = b
-            pos[i, 0], pos[i, 1] = x1, y1
-            vel[i, 0] = v1x
-            vel[i, 1] = v1y
-            uint[i] = 0.0
-            spc[n] = cc
-            pos[n, 0], pos[n, 1] = x2, y2
-            vel[n, 0] = v2x
-            vel[n, 1] = v2y
-            uint[n] = 0.0
+            apply_fission(i, n, b, cc, qb, qc, pos, vel, species, internal_energy)
             return True
         nx = -nx
         ny = -ny
