@@ -106,7 +106,6 @@ from .event_structs import (
     Flights,
     Queue,
     Run,
-    State,
 )
 from .heap import IndexedHeap, heap_set
 from .reactions import (
@@ -145,6 +144,7 @@ from .step import (
     empty_work,
 )
 from .step import run_tracked as step_run
+from .structs import Discs
 from .walls import box_next, circle_next, graze_floor, inside, reflected
 
 INF = math.inf
@@ -426,8 +426,8 @@ def _advance(d, t, W):
 @njit(cache=True, inline="always")
 def _set_kind(d, s, W, tables):
     """Disc d's radius and mass columns for its (new) species s."""
-    W[d, PR] = tables[0][s]
-    W[d, PM] = tables[1][s]
+    W[d, PR] = tables.sp_radius[s]
+    W[d, PM] = tables.sp_mass[s]
 
 
 # ------------------------------------------------------------------------ event handlers
@@ -447,11 +447,11 @@ def _combine(i, j, c, t, k, fl, cells, queue, run, tables):
     """A + B -> C at the contact k of i and j at time t, if C fits: i becomes C, j goes.
     Returns (fired, refused: the energy could pay but there was no room)."""
     W = fl.path
-    p = tables[5][c, 0]
+    p = tables.ch_prod[c, 0]
     ok, q = combine_outcome(k, kind(fl.species[i], tables), kind(fl.species[j], tables),
                             kind(p, tables), fl.internal_energy[i], fl.internal_energy[j],
                             0.0)
-    fits = ok and _room(q.x, q.y, tables[0][p], i, j, t, fl, cells, run)
+    fits = ok and _room(q.x, q.y, tables.sp_radius[p], i, j, t, fl, cells, run)
     if fits:
         apply_combination(i, j, p, q, W[:, PX:PY + 1], W[:, PVX:PVY + 1], fl.species,
                           fl.internal_energy)
@@ -466,8 +466,8 @@ def _exchange(i, j, c, t, k, fl, cells, run, tables):
     """A + B -> C + D at the contact k of i and j at time t, if C and D fit. Returns (fired,
     refused) as :func:`_combine`."""
     W = fl.path
-    sp_radius = tables[0]
-    pi, pj = exchange_species(c, fl.species[i], tables[4], tables[5])
+    sp_radius = tables.sp_radius
+    pi, pj = exchange_species(c, fl.species[i], tables.ch_reac, tables.ch_prod)
     ok, qi, qj = exchange_outcome(k, kind(fl.species[i], tables), kind(fl.species[j], tables),
                                   kind(pi, tables), kind(pj, tables), fl.internal_energy[i],
                                   fl.internal_energy[j], 0.0)
@@ -488,12 +488,12 @@ def _react(i, j, t, k, vr, fl, cells, queue, run, tables, counters):
     """A reactive collision of i and j (contact k, normal approach speed vr > 0) if their
     channel's trigger holds and its products fit. Returns (fired, j combined away)."""
     W = fl.path
-    c = tables[10][fl.species[i], fl.species[j]]
+    c = tables.bi_table[fl.species[i], fl.species[j]]
     mi = W[i, PM]
     mj = W[j, PM]
-    if c < 0 or not 0.5 * mi * mj / (mi + mj) * vr * vr >= tables[7][c]:
+    if c < 0 or not 0.5 * mi * mj / (mi + mj) * vr * vr >= tables.ch_energy[c]:
         return False, False
-    combination = tables[3][c] == COMBINATION
+    combination = tables.ch_kind[c] == COMBINATION
     if combination:
         fired, refused = _combine(i, j, c, t, k, fl, cells, queue, run, tables)
     else:
@@ -617,9 +617,9 @@ def _fission(d, c, n, t, fl, cells, state, run, tables, rng):
     the separation direction reversed): d becomes B, disc n (there is room for it) C.
     Returns True if it fired."""
     W = fl.path
-    sp_radius, sp_mass = tables[0], tables[1]
-    pb = tables[5][c, 0]
-    pc = tables[5][c, 1]
+    sp_radius, sp_mass = tables.sp_radius, tables.sp_mass
+    pb = tables.ch_prod[c, 0]
+    pc = tables.ch_prod[c, 1]
     E = released_energy(d, c, tables, fl.species, fl.internal_energy)
     m1 = sp_mass[pb]
     m2 = sp_mass[pc]
@@ -635,8 +635,8 @@ def _fission(d, c, n, t, fl, cells, state, run, tables, rng):
         qb, qc = fission_outcome(X, Y, Vx, Vy, E, m1, m2, sep, nx, ny)
         if _room(qb.x, qb.y, r1, d, d, t, fl, cells, run) and \
                 _room(qc.x, qc.y, r2, d, d, t, fl, cells, run):
-            state.ids[n] = state.idctr[0]
-            state.idctr[0] += 1
+            state.ids[n] = state.next_id[0]
+            state.next_id[0] += 1
             apply_fission(d, n, pb, pc, qb, qc, W[:, PX:PY + 1], W[:, PVX:PVY + 1], fl.species,
                           fl.internal_energy)
             W[d, PR] = r1
@@ -667,17 +667,17 @@ def _first_order_event(d, n, t, fl, cells, state, run, tables, rng, counters):
     becomes disc n (the caller made sure there is room for it). Returns n if it was created,
     else -1."""
     W = fl.path
-    sp_radius = tables[0]
+    sp_radius = tables.sp_radius
     s = fl.species[d]
     K = fl.rate[d]
     c = first_order_pick(d, K, tables, fl.species, fl.internal_energy, rng)
     newd = -1
-    if tables[3][c] == TRANSFORMATION:
-        p = tables[5][c, 0]
+    if tables.ch_kind[c] == TRANSFORMATION:
+        p = tables.ch_prod[c, 0]
         fired = sp_radius[p] <= sp_radius[s] or _room(W[d, PX], W[d, PY], sp_radius[p], d, d,
                                                       t, fl, cells, run)
         if fired:
-            apply_transformation(d, p, tables[2], fl.species, fl.internal_energy)
+            apply_transformation(d, p, tables.sp_form, fl.species, fl.internal_energy)
             _set_kind(d, p, W, tables)
     else:
         fired = _fission(d, c, n, t, fl, cells, state, run, tables, rng)
@@ -703,8 +703,8 @@ def _first_order_event(d, n, t, fl, cells, state, run, tables, rng, counters):
 @njit(cache=True)
 def _may_split(s, tables):
     """Has species s a first-order channel that makes two discs?"""
-    for q in range(tables[8][s], tables[8][s + 1]):
-        if tables[3][tables[9][q]] != TRANSFORMATION:
+    for q in range(tables.uni_start[s], tables.uni_start[s + 1]):
+        if tables.ch_kind[tables.uni_chan[q]] != TRANSFORMATION:
             return True
     return False
 
@@ -728,9 +728,9 @@ def _grow_range(a, cap):
 def _grow(cap, state, fl, cells, queue):
     """Every per-disc array at capacity ``cap`` (the contents kept; new slots hold no disc,
     and heap key inf, so the order of the heap, and of the events, does not change)."""
-    state = State(grow2(state.pos, cap), grow2(state.vel, cap),
+    state = Discs(grow2(state.pos, cap), grow2(state.vel, cap),
                   _grow_fill(state.species, cap, -1), grow1(state.internal_energy, cap),
-                  grow1(state.ids, cap), state.idctr)
+                  grow1(state.ids, cap), state.next_id)
     fl = Flights(grow2(fl.path, cap), _grow_fill(fl.species, cap, -1),
                  grow1(fl.internal_energy, cap), grow1(fl.stamp, cap),
                  _grow_fill(fl.t_collision, cap, -INF), _grow_fill(fl.t_reaction, cap, INF),
@@ -751,7 +751,7 @@ def _run_constants(n, n_steps, step_dt, vel, species, tables, params, flags, bki
     start: the substep the time-stepped integrator would take (no disc moves more than
     max_displacement smallest radii), which is the shortest wait of a refused reaction and
     the unit of the event bound, and the TC model's t_c (inelastic scenes only)."""
-    sp_mass = tables[1]
+    sp_mass = tables.sp_mass
     e_rest = params[0]
     v2max = 0.0
     for d in range(n):
@@ -1018,7 +1018,7 @@ def run_stats(pos, vel, species, internal_energy, ids, idctr, n, duration, bkind
     decompositions needed more capacity, else the ones passed in. Discs consumed by
     combinations are removed (the order of the others is kept); fragments are appended.
     """
-    return run_steps(State(pos, vel, species, internal_energy, ids, idctr), n, 1, duration,
+    return run_steps(Discs(pos, vel, species, internal_energy, ids, idctr), n, 1, duration,
                      bkind, bp, tables, params, flags, rng, Counters(icnt, fsum, ch_count, stats),
                      cells_per_disc)
 
@@ -1027,9 +1027,9 @@ def run_stats(pos, vel, species, internal_energy, ids, idctr, n, duration, bkind
 def run_steps_rngs(pos, vel, species, internal_energy, ids, idctr, n, n_steps, dt, bkind, bp,
                    tables, params, flags, rngs, icnt, fsum, ch_count):
     """:func:`run_steps` on the arrays of :func:`run_stats`, with its generator passed as
-    ``rngs[0]`` (a ``numba.typed.List``; see :func:`discgym.kernels.step.run_tracked_rngs`):
+    ``rngs[0]`` (a ``numba.typed.List``; see :func:`discgym.kernels.step.advance_rngs`):
     the entry point of :class:`~discgym.Simulation`."""
     stats = np.zeros(N_STATS, dtype=COUNT)
-    return run_steps(State(pos, vel, species, internal_energy, ids, idctr), n, n_steps, dt,
+    return run_steps(Discs(pos, vel, species, internal_energy, ids, idctr), n, n_steps, dt,
                      bkind, bp, tables, params, flags, rngs[0],
                      Counters(icnt, fsum, ch_count, stats), CELLS_PER_DISC)

@@ -1,7 +1,9 @@
 """The structs of the event-driven integrator (:mod:`discgym.kernels.event_driven`).
 
 NamedTuples of arrays and scalars, so the kernels take a few named arguments; C is the
-capacity of the state arrays, discs [0, n) are in use. The per-disc tables are one row per
+capacity of the state arrays, discs [0, n) are in use. The reactor's own state is the shared
+:class:`discgym.kernels.structs.Discs`; the counters here add the integrator's statistics to
+those of :class:`discgym.kernels.structs.Counters`. The per-disc tables are one row per
 disc, so that a prediction, which reads a neighbour's whole row, touches one cache line.
 """
 
@@ -21,22 +23,6 @@ PATH_COLUMNS = 8
 # other than a cell crossing (KEPT_*), kept so a crossing needs only a partial prediction.
 NEXT_T, NEXT_CODE, NEXT_STAMP, NEXT_AUX, KEPT_T, KEPT_CODE, KEPT_STAMP, KEPT_AUX = range(8)
 EVENT_COLUMNS = 8
-
-
-class State(NamedTuple):
-    """The reactor's state in the caller's numbering (the arrays a Simulation owns).
-
-    pos: (C, 2) float64 positions; vel: (C, 2) float64 velocities;
-    species: (C,) int32 species index (-1: no disc); internal_energy: (C,) float64;
-    ids: (C,) int64 disc identities; idctr: (1,) int64 the next identity to hand out.
-    """
-
-    pos: np.ndarray
-    vel: np.ndarray
-    species: np.ndarray
-    internal_energy: np.ndarray
-    ids: np.ndarray
-    idctr: np.ndarray
 
 
 class Counters(NamedTuple):

@@ -74,7 +74,7 @@ class Product(NamedTuple):
 @njit(cache=True)
 def kind(s, tables):
     """Species s's :class:`Kind` from the compiled tables."""
-    return Kind(tables[1][s], tables[0][s], tables[2][s])
+    return Kind(tables.sp_mass[s], tables.sp_radius[s], tables.sp_form[s])
 
 
 # ---------------------------------------------------------------------- the state writes
@@ -169,8 +169,8 @@ def combine(i, j, c, t, xi, yi, xj, yj, tables, pos, vel, species, internal_ener
             cell_start, cell_items, nbin, n, reach):
     """A + B -> C at contact time t; i becomes C, j dies (species = -1). Returns FIRED, or
     NO_ENERGY (an endothermic product the energy cannot pay for) or NO_ROOM."""
-    sp_radius = tables[0]
-    p = tables[5][c, 0]
+    sp_radius = tables.sp_radius
+    p = tables.ch_prod[c, 0]
     k = Contact(xi, yi, xj, yj, 0.0, 0.0, vel[i, 0], vel[i, 1], vel[j, 0], vel[j, 1])
     ok, q = combine_outcome(k, kind(species[i], tables), kind(species[j], tables), kind(p, tables),
                             internal_energy[i], internal_energy[j], t)
@@ -249,8 +249,8 @@ def exchange(i, j, c, t, xi, yi, xj, yj, nx, ny, tables, pos, vel, species, inte
              bkind, bp, grid, cell_start, cell_items, nbin, n, reach):
     """A + B -> C + D at contact time t (n from i to j); i and j become the products.
     Returns FIRED, NO_ENERGY or NO_ROOM (as :func:`combine`)."""
-    sp_radius = tables[0]
-    pi, pj = exchange_species(c, species[i], tables[4], tables[5])
+    sp_radius = tables.sp_radius
+    pi, pj = exchange_species(c, species[i], tables.ch_reac, tables.ch_prod)
     k = Contact(xi, yi, xj, yj, nx, ny, vel[i, 0], vel[i, 1], vel[j, 0], vel[j, 1])
     ok, qi, qj = exchange_outcome(k, kind(species[i], tables), kind(species[j], tables),
                                   kind(pi, tables), kind(pj, tables), internal_energy[i],
@@ -284,10 +284,10 @@ def channel_energy(kind, u, f_parent, f_prod1, f_prod2, barrier):
 @njit(cache=True)
 def released_energy(i, c, tables, species, internal_energy):
     """Energy a first-order channel c would release from disc i, or -1 if it cannot fire."""
-    sp_form = tables[2]
-    ch_prod = tables[5]
-    return channel_energy(tables[3][c], internal_energy[i], sp_form[species[i]],
-                          sp_form[ch_prod[c, 0]], sp_form[ch_prod[c, 1]], tables[7][c])
+    sp_form = tables.sp_form
+    ch_prod = tables.ch_prod
+    return channel_energy(tables.ch_kind[c], internal_energy[i], sp_form[species[i]],
+                          sp_form[ch_prod[c, 0]], sp_form[ch_prod[c, 1]], tables.ch_energy[c])
 
 
 @njit(cache=True)
@@ -342,8 +342,8 @@ def first_order_rate(i, tables, species, internal_energy):
     """Total rate K of the first-order channels of disc i whose energy condition holds now
     (per event, for the event-driven integrator; :func:`first_order_draws` is the per-step
     pass). K changes only when the disc's species or internal energy does."""
-    ch_rate = tables[6]
-    uni_start, uni_chan = tables[8], tables[9]
+    ch_rate = tables.ch_rate
+    uni_start, uni_chan = tables.uni_start, tables.uni_chan
     s = species[i]
     K = 0.0
     for q in range(uni_start[s], uni_start[s + 1]):
@@ -357,8 +357,8 @@ def first_order_rate(i, tables, species, internal_energy):
 def first_order_pick(i, K, tables, species, internal_energy, rng):
     """Which eligible first-order channel of disc i fires (channel c with chance k_c / K; K
     from :func:`first_order_rate`, > 0). Draws one random number."""
-    ch_rate = tables[6]
-    uni_start, uni_chan = tables[8], tables[9]
+    ch_rate = tables.ch_rate
+    uni_start, uni_chan = tables.uni_start, tables.uni_chan
     s = species[i]
     x = rng.random() * K
     last = -1
@@ -388,13 +388,13 @@ def transform(i, c, collide, tables, pos, vel, species, internal_energy, bkind, 
               cell_start, cell_items, nbin, n, reach):
     """A -> B on disc i by channel c if B fits where A is (B no larger than A always does).
     Returns True if fired."""
-    sp_radius = tables[0]
-    p = tables[5][c, 0]
+    sp_radius = tables.sp_radius
+    p = tables.ch_prod[c, 0]
     if sp_radius[p] > sp_radius[species[i]] and not room(
             pos[i, 0], pos[i, 1], sp_radius[p], 0.0, i, i, collide, bkind, bp, pos, vel, species,
             sp_radius, grid, cell_start, cell_items, nbin, n, reach):
         return False
-    apply_transformation(i, p, tables[2], species, internal_energy)
+    apply_transformation(i, p, tables.sp_form, species, internal_energy)
     return True
 
 
@@ -441,9 +441,9 @@ def fission(i, c, n, collide, tables, pos, vel, species, internal_energy, bkind,
 
     The caller guarantees capacity for disc n. Returns True if fired.
     """
-    sp_radius, sp_mass = tables[0], tables[1]
-    b = tables[5][c, 0]
-    cc = tables[5][c, 1]
+    sp_radius, sp_mass = tables.sp_radius, tables.sp_mass
+    b = tables.ch_prod[c, 0]
+    cc = tables.ch_prod[c, 1]
     E = released_energy(i, c, tables, species, internal_energy)
     m1 = sp_mass[b]
     m2 = sp_mass[cc]

@@ -34,8 +34,7 @@ F_COLLISIONS, F_UNI, F_BI, F_FISSION = range(4)
 
 class Tables(NamedTuple):
     """The per-species and per-channel tables of a compiled scene (built by
-    :func:`discgym.compiled.compile_scene`; the field order is the positional order some
-    kernels still index by)."""
+    :func:`discgym.compiled.compile_scene`); kernels read them by name."""
 
     sp_radius: np.ndarray  #: (S,) FLOAT, disc radius of each species
     sp_mass: np.ndarray  #: (S,) FLOAT
