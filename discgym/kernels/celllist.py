@@ -32,15 +32,15 @@ BIG_MIN = 32
 
 
 @njit(cache=True)
-def cell_radius(spc, n, sp_radius):
+def cell_radius(species, n, sp_radius):
     """The cell radius for discs [0, n): the smallest species radius r such that the discs
     larger than BIG_RATIO * r are at most max(BIG_MIN, BIG_SHARE * n) (the largest radius,
     which always qualifies, when no smaller one does)."""
     S = sp_radius.shape[0]
     count = np.zeros(S, dtype=np.int64)
     for i in range(n):
-        if spc[i] >= 0:
-            count[spc[i]] += 1
+        if species[i] >= 0:
+            count[species[i]] += 1
     limit = max(BIG_MIN, int(BIG_SHARE * n))
     best = sp_radius.max()
     for s in range(S):
@@ -101,8 +101,8 @@ def cell_coord(x, icw, x0, nc):
 
 
 @njit(cache=True)
-def build(n, pos, spc, sp_radius, grid, cell_start, cell_items, cell_of):
-    """Counting sort of the live discs (spc >= 0) into cells (big discs into the big cell).
+def build(n, pos, species, sp_radius, grid, cell_start, cell_items, cell_of):
+    """Counting sort of the live discs (species >= 0) into cells (big discs into the big cell).
 
     Fills ``cell_start`` (ncells + 2,) and ``cell_items`` (n,); ``cell_of`` (n,) gets each
     disc's cell (-1 for dead discs). Returns the number of discs binned.
@@ -115,10 +115,10 @@ def build(n, pos, spc, sp_radius, grid, cell_start, cell_items, cell_of):
     for c in range(nc + 1):
         cell_start[c] = 0
     for i in range(n):
-        if spc[i] < 0:
+        if species[i] < 0:
             cell_of[i] = -1
             continue
-        if sp_radius[spc[i]] > rcell:
+        if sp_radius[species[i]] > rcell:
             c = nc - 1
         else:
             c = cell_coord(pos[i, 0], icx, x0, ncx) + ncx * cell_coord(pos[i, 1], icy, y0, ncy)
@@ -149,7 +149,7 @@ def cell_range(x, y, reach, grid):
 
 
 @njit(cache=True)
-def overlaps_any(x, y, r, t, ex1, ex2, pos, vel, spc, sp_radius, grid, cell_start, cell_items,
+def overlaps_any(x, y, r, t, ex1, ex2, pos, vel, species, sp_radius, grid, cell_start, cell_items,
                  nbin, n, reach):
     """Does a disc of radius r at (x, y) at time t (<= 0, relative to the end of the substep)
     overlap any live disc other than ex1 and ex2, each taken at ``pos + t * vel`` on its
@@ -165,23 +165,23 @@ def overlaps_any(x, y, r, t, ex1, ex2, pos, vel, spc, sp_radius, grid, cell_star
     for cy in range(cy0, cy1 + 1):
         for a in range(cell_start[cx0 + ncx * cy], cell_start[cx1 + 1 + ncx * cy]):
             k = cell_items[a]
-            if _hits(x, y, r, t, k, ex1, ex2, pos, vel, spc, sp_radius):
+            if _hits(x, y, r, t, k, ex1, ex2, pos, vel, species, sp_radius):
                 return True
     nb = big_cell(grid)
     for a in range(cell_start[nb], cell_start[nb + 1]):
-        if _hits(x, y, r, t, cell_items[a], ex1, ex2, pos, vel, spc, sp_radius):
+        if _hits(x, y, r, t, cell_items[a], ex1, ex2, pos, vel, species, sp_radius):
             return True
     for k in range(nbin, n):
-        if _hits(x, y, r, t, k, ex1, ex2, pos, vel, spc, sp_radius):
+        if _hits(x, y, r, t, k, ex1, ex2, pos, vel, species, sp_radius):
             return True
     return False
 
 
 @njit(cache=True, inline="always")
-def _hits(x, y, r, t, k, ex1, ex2, pos, vel, spc, sp_radius):
-    if k == ex1 or k == ex2 or spc[k] < 0:
+def _hits(x, y, r, t, k, ex1, ex2, pos, vel, species, sp_radius):
+    if k == ex1 or k == ex2 or species[k] < 0:
         return False
-    R = r + sp_radius[spc[k]]
+    R = r + sp_radius[species[k]]
     dx = pos[k, 0] + t * vel[k, 0] - x
     dy = pos[k, 1] + t * vel[k, 1] - y
     return dx * dx + dy * dy < R * R

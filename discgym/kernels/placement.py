@@ -21,7 +21,7 @@ def _cell(x, y, grid):
 
 
 @njit(cache=True)
-def _free(x, y, r, pos, spc, sp_radius, grid, head, nxt, rmax):
+def _free(x, y, r, pos, species, sp_radius, grid, head, nxt, rmax):
     reach = r + rmax
     cx0 = cell_coord(x - reach, grid[2], grid[0], int(grid[4]))
     cx1 = cell_coord(x + reach, grid[2], grid[0], int(grid[4]))
@@ -32,7 +32,7 @@ def _free(x, y, r, pos, spc, sp_radius, grid, head, nxt, rmax):
         for cx in range(cx0, cx1 + 1):
             k = head[cx + ncx * cy]
             while k >= 0:
-                R = r + sp_radius[spc[k]]
+                R = r + sp_radius[species[k]]
                 dx = pos[k, 0] - x
                 dy = pos[k, 1] - y
                 if dx * dx + dy * dy < R * R:
@@ -69,7 +69,7 @@ def _clamp_inside(x, y, r, bkind, bp):
 
 
 @njit(cache=True)
-def _place_one(tx, ty, r, pos, spc, sp_radius, bkind, bp, grid, head, nxt, rmax, rng,
+def _place_one(tx, ty, r, pos, species, sp_radius, bkind, bp, grid, head, nxt, rmax, rng,
                attempts):
     """A free spot for a disc of radius r: at the target (tx, ty) clamped inside if free,
     then at random points ever farther around it, then anywhere in the bounds (NaN target:
@@ -87,13 +87,13 @@ def _place_one(tx, ty, r, pos, spc, sp_radius, bkind, bp, grid, head, nxt, rmax,
                                      r, bkind, bp)
         else:
             x, y = _sample(r, bkind, bp, rng)
-        if _free(x, y, r, pos, spc, sp_radius, grid, head, nxt, rmax):
+        if _free(x, y, r, pos, species, sp_radius, grid, head, nxt, rmax):
             return True, x, y
     return False, x, y
 
 
 @njit(cache=True)
-def place(pos, spc, n, todo, targets, sp_radius, bkind, bp, rng, attempts):
+def place(pos, species, n, todo, targets, sp_radius, bkind, bp, rng, attempts):
     """Place discs of species ``todo`` (M,) after the n placed ones; returns how many fit.
 
     ``targets`` (M, 2): where each disc should go if that spot is free (NaN: anywhere); see
@@ -114,11 +114,11 @@ def place(pos, spc, n, todo, targets, sp_radius, bkind, bp, rng, attempts):
     for q in range(m):
         s = todo[q]
         k = n + q
-        spc[k] = s
-        ok, x, y = _place_one(targets[q, 0], targets[q, 1], sp_radius[s], pos, spc, sp_radius,
+        species[k] = s
+        ok, x, y = _place_one(targets[q, 0], targets[q, 1], sp_radius[s], pos, species, sp_radius,
                               bkind, bp, grid, head, nxt, rmax, rng, attempts)
         if not ok:
-            spc[k] = -1
+            species[k] = -1
             return q
         pos[k, 0] = x
         pos[k, 1] = y
@@ -129,7 +129,7 @@ def place(pos, spc, n, todo, targets, sp_radius, bkind, bp, rng, attempts):
 
 
 @njit(cache=True)
-def relocate(pos, spc, n, sp_radius, bkind, bp, rng, attempts):
+def relocate(pos, species, n, sp_radius, bkind, bp, rng, attempts):
     """Move each disc of [0, n) that lies outside the bounds (after they shrank) to the
     nearest free spot found inside (:func:`_place_one`, its position as the target), in disc
     order; the discs inside stay put. Returns the number of discs that found no room: if
@@ -143,7 +143,7 @@ def relocate(pos, spc, n, sp_radius, bkind, bp, rng, attempts):
     out = np.empty(n, dtype=INDEX)
     m = 0
     for k in range(n):
-        r = sp_radius[spc[k]]
+        r = sp_radius[species[k]]
         if inside(work[k, 0], work[k, 1], r, bkind, bp):
             c = _cell(work[k, 0], work[k, 1], grid)
             nxt[k] = head[c]
@@ -153,7 +153,8 @@ def relocate(pos, spc, n, sp_radius, bkind, bp, rng, attempts):
             m += 1
     for q in range(m):
         k = out[q]
-        ok, x, y = _place_one(work[k, 0], work[k, 1], sp_radius[spc[k]], work, spc, sp_radius,
+        ok, x, y = _place_one(work[k, 0], work[k, 1], sp_radius[species[k]], work, species,
+                              sp_radius,
                               bkind, bp, grid, head, nxt, rmax, rng, attempts)
         if not ok:
             return m - q
@@ -167,7 +168,7 @@ def relocate(pos, spc, n, sp_radius, bkind, bp, rng, attempts):
 
 
 @njit(cache=True)
-def overlapping_pairs(pos, spc, n, sp_radius, bkind, bp, tol):
+def overlapping_pairs(pos, species, n, sp_radius, bkind, bp, tol):
     """Count pairs among [0, n) overlapping by more than ``tol`` (relative to R_i + R_j)."""
     rmax = sp_radius.max()
     grid = make_grid(bkind, bp, rmax, n)
@@ -178,7 +179,7 @@ def overlapping_pairs(pos, spc, n, sp_radius, bkind, bp, tol):
     for i in range(n):
         x = pos[i, 0]
         y = pos[i, 1]
-        r = sp_radius[spc[i]]
+        r = sp_radius[species[i]]
         reach = r + rmax
         ncx = int(grid[4])
         cx0 = cell_coord(x - reach, grid[2], grid[0], ncx)
@@ -189,7 +190,7 @@ def overlapping_pairs(pos, spc, n, sp_radius, bkind, bp, tol):
             for cx in range(cx0, cx1 + 1):
                 k = head[cx + ncx * cy]
                 while k >= 0:
-                    R = (r + sp_radius[spc[k]]) * (1.0 - tol)
+                    R = (r + sp_radius[species[k]]) * (1.0 - tol)
                     dx = pos[k, 0] - x
                     dy = pos[k, 1] - y
                     if dx * dx + dy * dy < R * R:
@@ -202,13 +203,13 @@ def overlapping_pairs(pos, spc, n, sp_radius, bkind, bp, tol):
 
 
 @njit(cache=True)
-def place_rngs(pos, spc, n, todo, targets, sp_radius, bkind, bp, rngs, attempts):
+def place_rngs(pos, species, n, todo, targets, sp_radius, bkind, bp, rngs, attempts):
     """:func:`place` with its generator passed as ``rngs[0]`` (a ``numba.typed.List``; see
     :func:`discgym.kernels.step.advance_rngs`)."""
-    return place(pos, spc, n, todo, targets, sp_radius, bkind, bp, rngs[0], attempts)
+    return place(pos, species, n, todo, targets, sp_radius, bkind, bp, rngs[0], attempts)
 
 
 @njit(cache=True)
-def relocate_rngs(pos, spc, n, sp_radius, bkind, bp, rngs, attempts):
+def relocate_rngs(pos, species, n, sp_radius, bkind, bp, rngs, attempts):
     """:func:`relocate` with its generator passed as ``rngs[0]`` (a ``numba.typed.List``)."""
-    return relocate(pos, spc, n, sp_radius, bkind, bp, rngs[0], attempts)
+    return relocate(pos, species, n, sp_radius, bkind, bp, rngs[0], attempts)

@@ -90,7 +90,7 @@ def _wall_fix(i, pos, vel, r, m, bkind, bp):
 
 
 @njit(cache=True)
-def _repair_pair(i, j, pos, vel, spc, sp_radius, sp_mass, e, bkind, bp):
+def _repair_pair(i, j, pos, vel, species, sp_radius, sp_mass, e, bkind, bp):
     """Push discs i and j apart if they overlap (see the module docstring); returns
     ``(repaired, kinetic energy lost)``.
 
@@ -98,8 +98,8 @@ def _repair_pair(i, j, pos, vel, spc, sp_radius, sp_mass, e, bkind, bp):
     its partner takes the rest of the separation. (Splitting it by mass and leaving the wall
     to the next pass let a ring of discs pressed against the circle wall by an inner cluster
     converge by a few percent per pass: 64 passes left overlaps of 5e-6.)"""
-    si = spc[i]
-    sj = spc[j]
+    si = species[i]
+    sj = species[j]
     R = sp_radius[si] + sp_radius[sj]
     dx = pos[j, 0] - pos[i, 0]
     dy = pos[j, 1] - pos[i, 1]
@@ -139,7 +139,7 @@ def _repair_pair(i, j, pos, vel, spc, sp_radius, sp_mass, e, bkind, bp):
             sgn = 1.0 if k == j else -1.0
             pos[k, 0] += sgn * rest * ex
             pos[k, 1] += sgn * rest * ey
-            _move_inside(k, pos, sp_radius[spc[k]], bkind, bp)
+            _move_inside(k, pos, sp_radius[species[k]], bkind, bp)
     lost = 0.0
     vr = (vel[i, 0] - vel[j, 0]) * nx + (vel[i, 1] - vel[j, 1]) * ny
     if vr > 0.0:
@@ -154,7 +154,7 @@ def _repair_pair(i, j, pos, vel, spc, sp_radius, sp_mass, e, bkind, bp):
 
 
 @njit(cache=True)
-def resolve(n, pos, vel, spc, sp_radius, sp_mass, e, collide, bkind, bp, grid, cell_start,
+def resolve(n, pos, vel, species, sp_radius, sp_mass, e, collide, bkind, bp, grid, cell_start,
             cell_items, cell_of):
     """Repair discs [0, n) (see the module docstring). Leaves the cell list built at the final
     positions. Returns ``(repairs, wall_momentum, dissipated)``."""
@@ -169,21 +169,21 @@ def resolve(n, pos, vel, spc, sp_radius, sp_mass, e, collide, bkind, bp, grid, c
     for _pass in range(passes):
         fixed = 0
         for i in range(n):
-            s = spc[i]
+            s = species[i]
             if s >= 0 and not inside(pos[i, 0], pos[i, 1], sp_radius[s], bkind, bp):
                 wall_dp += _wall_fix(i, pos, vel, sp_radius[s], sp_mass[s], bkind, bp)
                 fixed += 1
         if collide:
-            build(n, pos, spc, sp_radius, grid, cell_start, cell_items, cell_of)
+            build(n, pos, species, sp_radius, grid, cell_start, cell_items, cell_of)
             for i in range(n):
-                if spc[i] < 0:
+                if species[i] < 0:
                     continue
                 # cells that can hold an overlapping partner: a small disc's 3 x 3 around
                 # its cell, a big disc's within its radius + rcell; and every big disc
                 c = cell_of[i]
                 if c == nbc:
                     x0, x1, y0, y1 = cell_range(pos[i, 0], pos[i, 1],
-                                                sp_radius[spc[i]] + rcell, grid)
+                                                sp_radius[species[i]] + rcell, grid)
                     x1 += 1
                     y1 += 1
                 else:
@@ -197,14 +197,14 @@ def resolve(n, pos, vel, spc, sp_radius, sp_mass, e, collide, bkind, bp, grid, c
                         for a in range(cell_start[cc], cell_start[cc + 1]):
                             j = cell_items[a]
                             if j > i:
-                                ok, dl = _repair_pair(i, j, pos, vel, spc, sp_radius, sp_mass,
+                                ok, dl = _repair_pair(i, j, pos, vel, species, sp_radius, sp_mass,
                                                       e, bkind, bp)
                                 fixed += ok
                                 lost += dl
                 for a in range(cell_start[nbc], cell_start[nbc + 1]):
                     j = cell_items[a]
                     if j > i:
-                        ok, dl = _repair_pair(i, j, pos, vel, spc, sp_radius, sp_mass, e, bkind,
+                        ok, dl = _repair_pair(i, j, pos, vel, species, sp_radius, sp_mass, e, bkind,
                                               bp)
                         fixed += ok
                         lost += dl
@@ -212,5 +212,5 @@ def resolve(n, pos, vel, spc, sp_radius, sp_mass, e, collide, bkind, bp, grid, c
         if fixed == 0:
             break
     if collide:
-        build(n, pos, spc, sp_radius, grid, cell_start, cell_items, cell_of)
+        build(n, pos, species, sp_radius, grid, cell_start, cell_items, cell_of)
     return repairs, wall_dp, lost

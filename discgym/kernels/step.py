@@ -123,7 +123,7 @@ REORDER_CELLS = 1 << 19  # the reordering grid: cells of 2 r_max, at most about 
 
 # ----------------------------------------------------------------------------- phase 1: drift
 @njit(cache=True)
-def _drift_range(lo, hi, h, pos, vel, spc, sp_radius, bkind, bp, tlast, wall_t, wflag, grid,
+def _drift_range(lo, hi, h, pos, vel, species, sp_radius, bkind, bp, tlast, wall_t, wflag, grid,
                  cell_of, collide):
     """Move discs [lo, hi) by h; note their wall contacts; bin them (if collide).
 
@@ -144,7 +144,7 @@ def _drift_range(lo, hi, h, pos, vel, spc, sp_radius, bkind, bp, tlast, wall_t, 
         pos[i, 0] = x
         pos[i, 1] = y
         tlast[i] = -h
-        r = sp_radius[spc[i]]
+        r = sp_radius[species[i]]
         if bkind == 0:
             t, axis, inward = box_contact(x, y, vx, vy, r, b0, b1, b2, b3)
         else:
@@ -164,10 +164,10 @@ def _drift_range(lo, hi, h, pos, vel, spc, sp_radius, bkind, bp, tlast, wall_t, 
 
 
 @njit(cache=True, parallel=True)
-def _drift_parallel(nch, n, h, pos, vel, spc, sp_radius, bkind, bp, tlast, wall_t, wflag, grid,
+def _drift_parallel(nch, n, h, pos, vel, species, sp_radius, bkind, bp, tlast, wall_t, wflag, grid,
                     cell_of, collide):
     for c in prange(nch):
-        _drift_range(c * n // nch, (c + 1) * n // nch, h, pos, vel, spc, sp_radius, bkind, bp,
+        _drift_range(c * n // nch, (c + 1) * n // nch, h, pos, vel, species, sp_radius, bkind, bp,
                      tlast, wall_t, wflag, grid, cell_of, collide)
 
 
@@ -208,7 +208,7 @@ def _strips(c, ncx, ncy, cell_start):
 
 
 @njit(cache=True)
-def _scan_rows(r0, r1, ncx, ncy, cell_start, cell_items, pos, spc, sp_radius, sx, sy, sr,
+def _scan_rows(r0, r1, ncx, ncy, cell_start, cell_items, pos, species, sp_radius, sx, sy, sr,
                ov_n, ov_b):
     """Overlapping pairs among discs binned in rows [r0, r1), in sorted order.
 
@@ -256,32 +256,32 @@ def _scan_rows(r0, r1, ncx, ncy, cell_start, cell_items, pos, spc, sp_radius, sx
 
 
 @njit(cache=True)
-def _gather(lo, hi, cell_items, pos, spc, sp_radius, sx, sy, sr):
+def _gather(lo, hi, cell_items, pos, species, sp_radius, sx, sy, sr):
     for a in range(lo, hi):
         i = cell_items[a]
         sx[a] = pos[i, 0]
         sy[a] = pos[i, 1]
-        sr[a] = sp_radius[spc[i]]
+        sr[a] = sp_radius[species[i]]
 
 
 @njit(cache=True, parallel=True)
-def _broad_parallel(nch, n, ncx, ncy, cell_start, cell_items, pos, spc, sp_radius, sx, sy, sr,
+def _broad_parallel(nch, n, ncx, ncy, cell_start, cell_items, pos, species, sp_radius, sx, sy, sr,
                     ov_n, ov_b):
     for c in prange(nch):
-        _gather(c * n // nch, (c + 1) * n // nch, cell_items, pos, spc, sp_radius, sx, sy, sr)
+        _gather(c * n // nch, (c + 1) * n // nch, cell_items, pos, species, sp_radius, sx, sy, sr)
     for c in prange(nch):
         _scan_rows(c * ncy // nch, (c + 1) * ncy // nch, ncx, ncy, cell_start, cell_items,
-                   pos, spc, sp_radius, sx, sy, sr, ov_n, ov_b)
+                   pos, species, sp_radius, sx, sy, sr, ov_n, ov_b)
 
 
 # ------------------------------------------------------------------ phase 3: event queue
 @njit(cache=True)
-def _try_pair(i, j, sp_radius, pos, vel, spc, tlast, stamp, H, size, icnt):
+def _try_pair(i, j, sp_radius, pos, vel, species, tlast, stamp, H, size, icnt):
     """Queue the contact of i and j if they overlap and touched in this step (room for one
     event must be reserved); returns the new heap size. A pair left overlapping while
     separating (``pair_time`` +inf) is counted in ``icnt[IC_LEFT_OVERLAPPING]``."""
-    t = pair_time(pos[i, 0], pos[i, 1], vel[i, 0], vel[i, 1], sp_radius[spc[i]], tlast[i],
-                  pos[j, 0], pos[j, 1], vel[j, 0], vel[j, 1], sp_radius[spc[j]], tlast[j])
+    t = pair_time(pos[i, 0], pos[i, 1], vel[i, 0], vel[i, 1], sp_radius[species[i]], tlast[i],
+                  pos[j, 0], pos[j, 1], vel[j, 0], vel[j, 1], sp_radius[species[j]], tlast[j])
     if math.isnan(t):
         return size
     if t == math.inf:
@@ -293,7 +293,7 @@ def _try_pair(i, j, sp_radius, pos, vel, spc, tlast, stamp, H, size, icnt):
 
 
 @njit(cache=True)
-def _queue_initial(n, collide, sp_radius, pos, vel, spc, sc, grid, H, icnt):
+def _queue_initial(n, collide, sp_radius, pos, vel, species, sc, grid, H, icnt):
     """Queue every wall contact and every overlapping pair of the substep: the pairs the
     broad phase found (``sc.ov_n``, ``sc.ov_b``: small discs, half stencil) and those of the
     big discs (found here: each big disc against the cells within its radius + rcell and the
@@ -330,26 +330,26 @@ def _queue_initial(n, collide, sp_radius, pos, vel, spc, sc, grid, H, icnt):
         i = cell_items[a]
         if k <= OV_SLOTS:
             for q in range(k):
-                size = _try_pair(i, cell_items[ov_b[a, q]], sp_radius, pos, vel, spc, tlast,
+                size = _try_pair(i, cell_items[ov_b[a, q]], sp_radius, pos, vel, species, tlast,
                                  stamp, H, size, icnt)
             continue
         # more partners than slots: scan this disc's stencil again
         e1, lo2, hi2 = _strips(cell_of[i], ncx, ncy, cell_start)
         for b in range(a + 1, e1):
-            size = _try_pair(i, cell_items[b], sp_radius, pos, vel, spc, tlast, stamp, H, size,
+            size = _try_pair(i, cell_items[b], sp_radius, pos, vel, species, tlast, stamp, H, size,
                              icnt)
         for b in range(lo2, hi2):
-            size = _try_pair(i, cell_items[b], sp_radius, pos, vel, spc, tlast, stamp, H, size,
+            size = _try_pair(i, cell_items[b], sp_radius, pos, vel, species, tlast, stamp, H, size,
                              icnt)
     for a in range(cell_start[nbc], cell_start[nbc + 1]):  # the big discs
         i = cell_items[a]
         cx0, cx1, cy0, cy1 = cell_range(sx[a], sy[a], sr[a] + rcell, grid)
         for cy in range(cy0, cy1 + 1):
             for b in range(cell_start[cx0 + ncx * cy], cell_start[cx1 + 1 + ncx * cy]):
-                size = _try_pair(i, cell_items[b], sp_radius, pos, vel, spc, tlast, stamp, H,
+                size = _try_pair(i, cell_items[b], sp_radius, pos, vel, species, tlast, stamp, H,
                                  size, icnt)
         for b in range(a + 1, cell_start[nbc + 1]):
-            size = _try_pair(i, cell_items[b], sp_radius, pos, vel, spc, tlast, stamp, H, size,
+            size = _try_pair(i, cell_items[b], sp_radius, pos, vel, species, tlast, stamp, H, size,
                              icnt)
     return H, size
 
@@ -367,13 +367,13 @@ def _big_candidates(a, sx, sy, sr, rcell, grid, cell_start):
 
 
 @njit(cache=True)
-def _schedule(d, sp_radius, pos, vel, spc, tlast, stamp, n, collide, bkind, bp, grid,
+def _schedule(d, sp_radius, pos, vel, species, tlast, stamp, n, collide, bkind, bp, grid,
               cell_start, cell_items, nbin, reach, H, size, icnt):
     """Queue the next contacts of disc d (a wall, and every overlapping disc).
 
     Reserves room first (one wall event plus every disc in the cells searched), so the loops
     below never reallocate the heap. Returns the heap and its new size."""
-    r = sp_radius[spc[d]]
+    r = sp_radius[species[d]]
     x = pos[d, 0]
     y = pos[d, 1]
     vx = vel[d, 0]
@@ -402,10 +402,10 @@ def _schedule(d, sp_radius, pos, vel, spc, tlast, stamp, n, collide, bkind, bp, 
     for cy in range(cy0, cy1 + 1):
         for a in range(cell_start[cx0 + ncx * cy], cell_start[cx1 + 1 + ncx * cy]):
             k = cell_items[a]
-            if k == d or spc[k] < 0:
+            if k == d or species[k] < 0:
                 continue
             tc = pair_time(x, y, vx, vy, r, td, pos[k, 0], pos[k, 1], vel[k, 0], vel[k, 1],
-                           sp_radius[spc[k]], tlast[k])
+                           sp_radius[species[k]], tlast[k])
             if tc == math.inf:
                 icnt[IC_LEFT_OVERLAPPING] += 1
             elif not math.isnan(tc):
@@ -415,16 +415,16 @@ def _schedule(d, sp_radius, pos, vel, spc, tlast, stamp, n, collide, bkind, bp, 
                     size = push(H, size, tc, k, d, stamp[k], sd)
     for a in range(cell_start[nbc], cell_start[nbc + 1]):  # the big discs (celllist)
         k = cell_items[a]
-        if k != d and spc[k] >= 0:
-            size = _try_pair(d, k, sp_radius, pos, vel, spc, tlast, stamp, H, size, icnt)
+        if k != d and species[k] >= 0:
+            size = _try_pair(d, k, sp_radius, pos, vel, species, tlast, stamp, H, size, icnt)
     for k in range(nbin, n):
-        if k != d and spc[k] >= 0:
-            size = _try_pair(d, k, sp_radius, pos, vel, spc, tlast, stamp, H, size, icnt)
+        if k != d and species[k] >= 0:
+            size = _try_pair(d, k, sp_radius, pos, vel, species, tlast, stamp, H, size, icnt)
     return H, size
 
 
 @njit(cache=True)
-def _glide(i, tw, T, xc, yc, tau, psi, vn, r, mi, pos, vel, spc, sp_radius, tlast, collide,
+def _glide(i, tw, T, xc, yc, tau, psi, vn, r, mi, pos, vel, species, sp_radius, tlast, collide,
            bp, grid, cell_start, cell_items, nbin, n, reach, icnt, fsum):
     """Disc i, just reflected at (xc, yc) at time tw, grazes the circle wall so closely that
     more than GLIDE_CHORDS chords ``(tau, psi, vn)`` fit in the time T it glides: move it
@@ -440,7 +440,7 @@ def _glide(i, tw, T, xc, yc, tau, psi, vn, r, mi, pos, vel, spc, sp_radius, tlas
     vy = vel[i, 1]
     gx, gy, ux, uy, rest, imp = circle_glide(xc, yc, vx, vy, r, b0, b1, b2, tau, psi, vn, T)
     s = T
-    if collide and overlaps_any(gx, gy, r, tw + T, i, i, pos, vel, spc, sp_radius, grid,
+    if collide and overlaps_any(gx, gy, r, tw + T, i, i, pos, vel, species, sp_radius, grid,
                                 cell_start, cell_items, nbin, n, reach):
         lo = 0.0
         hi = T
@@ -448,7 +448,7 @@ def _glide(i, tw, T, xc, yc, tau, psi, vn, r, mi, pos, vel, spc, sp_radius, tlas
             mid = 0.5 * (lo + hi)
             x, y, _ux, _uy, _rest, _imp = circle_glide(xc, yc, vx, vy, r, b0, b1, b2, tau,
                                                        psi, vn, mid)
-            if overlaps_any(x, y, r, tw + mid, i, i, pos, vel, spc, sp_radius, grid,
+            if overlaps_any(x, y, r, tw + mid, i, i, pos, vel, species, sp_radius, grid,
                             cell_start, cell_items, nbin, n, reach):
                 hi = mid
             else:
@@ -512,7 +512,7 @@ def _events(n, H, size, tables, discs, sc, bounds, grid, cnt, rc, sub_id, h, vfa
     ch_kind = tables.ch_kind
     ch_energy = tables.ch_energy
     bi_table = tables.bi_table
-    pos, vel, spc, uint = discs.pos, discs.vel, discs.species, discs.internal_energy
+    pos, vel, species, internal_energy = discs.pos, discs.vel, discs.species, discs.internal_energy
     tlast, stamp, lastcol, partner, nev = sc.tlast, sc.stamp, sc.lastcol, sc.partner, sc.nev
     binx, biny, cell_start, cell_items = sc.binx, sc.biny, sc.cell_start, sc.cell_items
     bkind, bp = bounds.kind, bounds.params
@@ -542,12 +542,12 @@ def _events(n, H, size, tables, discs, sc, bounds, grid, cnt, rc, sub_id, h, vfa
         if j >= 0:
             nev[j] += 1
         if j < 0:
-            r = sp_radius[spc[i]]
+            r = sp_radius[species[i]]
             tw, axis, inward = contact(pos[i, 0], pos[i, 1], vel[i, 0], vel[i, 1], r, bkind, bp)
             if tw == math.inf:
                 continue
             tw = max(tw, tlast[i])
-            mi = sp_mass[spc[i]]
+            mi = sp_mass[species[i]]
             fsum[FS_WALL_MOMENTUM] += reflect(i, tw, axis, pos, vel, mi, bkind, bp)
             icnt[IC_WALL_HITS] += 1
             partner[i] = -1
@@ -565,11 +565,11 @@ def _events(n, H, size, tables, discs, sc, bounds, grid, cnt, rc, sub_id, h, vfa
                     # ... but the glide is closed form only while the discs near it keep
                     # their trajectories: with one near, stop at the next queued event
                     sweep = (math.hypot(vel[i, 0], vel[i, 1]) + vfast) * T
-                    if overlaps_any(xc, yc, r + sweep, tw, i, i, pos, vel, spc, sp_radius,
+                    if overlaps_any(xc, yc, r + sweep, tw, i, i, pos, vel, species, sp_radius,
                                     grid, cell_start, cell_items, nbin, n, reach + sweep):
                         T = min(T, H[0, 0] - tw)
                 if tau * GLIDE_CHORDS < T:
-                    if not _glide(i, tw, T, xc, yc, tau, psi, vn, r, mi, pos, vel, spc,
+                    if not _glide(i, tw, T, xc, yc, tau, psi, vn, r, mi, pos, vel, species,
                                   sp_radius, tlast, collide, bp, grid, cell_start, cell_items,
                                   nbin, n, reach, icnt, fsum):
                         nev[i] = DISC_EVENTS  # wedged: no finite sequence of events frees it
@@ -578,7 +578,7 @@ def _events(n, H, size, tables, discs, sc, bounds, grid, cnt, rc, sub_id, h, vfa
             stamp[i] += 1
             if collide:
                 delta = max(delta, math.hypot(pos[i, 0] - binx[i], pos[i, 1] - biny[i]))
-            H, size = _schedule(i, sp_radius, pos, vel, spc, tlast, stamp, n, collide, bkind,
+            H, size = _schedule(i, sp_radius, pos, vel, species, tlast, stamp, n, collide, bkind,
                                 bp, grid, cell_start, cell_items, nbin, rcell + delta, H, size,
                                 icnt)
             continue
@@ -597,18 +597,20 @@ def _events(n, H, size, tables, discs, sc, bounds, grid, cnt, rc, sub_id, h, vfa
         fired = False
         released = False  # energy went into motion: the speeds it leaves are checked below
         if has_bi:
-            c = bi_table[spc[i], spc[j]]
+            c = bi_table[species[i], species[j]]
             if c >= 0:
-                mi = sp_mass[spc[i]]
-                mj = sp_mass[spc[j]]
+                mi = sp_mass[species[i]]
+                mj = sp_mass[species[j]]
                 if 0.5 * mi * mj / (mi + mj) * vr * vr >= ch_energy[c]:
                     if ch_kind[c] == COMBINATION:
-                        outcome = combine(i, j, c, t, xi, yi, xj, yj, tables, pos, vel, spc,
-                                          uint, bkind, bp, grid, cell_start, cell_items, nbin,
+                        outcome = combine(i, j, c, t, xi, yi, xj, yj, tables, pos, vel, species,
+                                          internal_energy, bkind, bp, grid, cell_start,
+                                              cell_items, nbin,
                                           n, rcell + delta + h * vfast)
                     else:
                         outcome = exchange(i, j, c, t, xi, yi, xj, yj, nx, ny, tables, pos,
-                                           vel, spc, uint, bkind, bp, grid, cell_start,
+                                           vel, species, internal_energy, bkind, bp, grid,
+                                               cell_start,
                                            cell_items, nbin, n, rcell + delta + h * vfast)
                     fired = outcome == FIRED
                     if fired:
@@ -627,17 +629,18 @@ def _events(n, H, size, tables, discs, sc, bounds, grid, cnt, rc, sub_id, h, vfa
                     icnt[IC_TC_ELASTIC] += 1
                 lastcol[i] = sub_id
                 lastcol[j] = sub_id
-            released = kappa > 0.0 and uint[i] + uint[j] > 0.0  # (bounce releases a share)
-            vxi, vyi, vxj, vyj, ui, uj, lost = bounce(vxi, vyi, vxj, vyj, sp_mass[spc[i]],
-                                                      sp_mass[spc[j]], nx, ny, e_eff, kappa,
-                                                      uint[i], uint[j])
+            # the bounce releases a share of the pair's internal energy
+            released = kappa > 0.0 and internal_energy[i] + internal_energy[j] > 0.0
+            vxi, vyi, vxj, vyj, ui, uj, lost = bounce(vxi, vyi, vxj, vyj, sp_mass[species[i]],
+                                                      sp_mass[species[j]], nx, ny, e_eff, kappa,
+                                                      internal_energy[i], internal_energy[j])
             fsum[FS_DISSIPATED] += lost
             vel[i, 0] = vxi
             vel[i, 1] = vyi
             vel[j, 0] = vxj
             vel[j, 1] = vyj
-            uint[i] = ui
-            uint[j] = uj
+            internal_energy[i] = ui
+            internal_energy[j] = uj
             pos[i, 0] = xi - t * vxi
             pos[i, 1] = yi - t * vyi
             pos[j, 0] = xj - t * vxj
@@ -652,7 +655,7 @@ def _events(n, H, size, tables, discs, sc, bounds, grid, cnt, rc, sub_id, h, vfa
         delta = max(delta, math.hypot(pos[i, 0] - binx[i], pos[i, 1] - biny[i]))
         vi = math.hypot(vel[i, 0], vel[i, 1])
         vfast = max(vfast, vi)
-        if spc[j] >= 0:
+        if species[j] >= 0:
             delta = max(delta, math.hypot(pos[j, 0] - binx[j], pos[j, 1] - biny[j]))
             vj = math.hypot(vel[j, 0], vel[j, 1])
             vfast = max(vfast, vj)
@@ -663,23 +666,23 @@ def _events(n, H, size, tables, discs, sc, bounds, grid, cnt, rc, sub_id, h, vfa
                 # the substep's contact checks come too late for it: end the substep here
                 t_cut = t
                 break
-        H, size = _schedule(i, sp_radius, pos, vel, spc, tlast, stamp, n, collide, bkind, bp,
+        H, size = _schedule(i, sp_radius, pos, vel, species, tlast, stamp, n, collide, bkind, bp,
                             grid, cell_start, cell_items, nbin, rcell + delta, H, size, icnt)
-        if spc[j] >= 0:
-            H, size = _schedule(j, sp_radius, pos, vel, spc, tlast, stamp, n, collide, bkind,
+        if species[j] >= 0:
+            H, size = _schedule(j, sp_radius, pos, vel, species, tlast, stamp, n, collide, bkind,
                                 bp, grid, cell_start, cell_items, nbin, rcell + delta, H, size,
                                 icnt)
     return H, n_dead, delta, dropped, vfast, vrel, t_cut
 
 
 @njit(cache=True)
-def _rewind(n, t, pos, vel, spc, binx, biny, collide):
+def _rewind(n, t, pos, vel, species, binx, biny, collide):
     """End the substep at time t < 0 (see :func:`_events`): every disc, on its straight
     trajectory since its latest event (none after t), goes back to where it is at t. Returns
     the largest distance of a disc from where it was binned (if ``collide``)."""
     delta = 0.0
     for q in range(n):
-        if spc[q] < 0:
+        if species[q] < 0:
             continue
         pos[q, 0] += t * vel[q, 0]
         pos[q, 1] += t * vel[q, 1]
@@ -699,7 +702,7 @@ def _first_order(n, h, tables, discs, fission_possible, bounds, grid, sc, delta,
     the state arrays (new ones if they grew) as :class:`~.structs.Discs`, the new n and the
     largest speed of a fragment made (0 if none).
     """
-    pos, vel, spc, uint = discs.pos, discs.vel, discs.species, discs.internal_energy
+    pos, vel, species, internal_energy = discs.pos, discs.vel, discs.species, discs.internal_energy
     ids, idctr = discs.ids, discs.next_id
     bkind, bp = bounds.kind, bounds.params
     cell_start, cell_items, cell_of = sc.cell_start, sc.cell_items, sc.cell_of
@@ -712,34 +715,37 @@ def _first_order(n, h, tables, discs, fission_possible, bounds, grid, sc, delta,
         cap = capacity_for_discs(n0)
         pos = grow2(pos, cap)
         vel = grow2(vel, cap)
-        spc = grow1(spc, cap)
-        spc[n0:] = -1
-        uint = grow1(uint, cap)
+        species = grow1(species, cap)
+        species[n0:] = -1
+        internal_energy = grow1(internal_energy, cap)
         ids = grow1(ids, cap)
     if collide and fission_possible and cell_items.shape[0] < pos.shape[0]:
         cell_items = np.empty(pos.shape[0], dtype=INDEX)
         cell_of = np.empty(pos.shape[0], dtype=INDEX)
-        build(n, pos, spc, tables.sp_radius, grid, cell_start, cell_items, cell_of)
+        build(n, pos, species, tables.sp_radius, grid, cell_start, cell_items, cell_of)
     react = np.empty(n0, dtype=INDEX)
     chan = np.empty(n0, dtype=INDEX)
     m = first_order_draws(n0, h, tables.sp_form, ch_kind, tables.ch_prod, tables.ch_rate,
-                          tables.ch_energy, tables.uni_start, tables.uni_chan, spc, uint, rng,
+                          tables.ch_energy, tables.uni_start, tables.uni_chan, species,
+                              internal_energy, rng,
                           react, chan)
     vfrag = 0.0
     for q in range(m):
         i = react[q]
         c = chan[q]
         if ch_kind[c] == TRANSFORMATION:
-            fired = transform(i, c, collide, tables, pos, vel, spc, uint, bkind, bp, grid,
+            fired = transform(i, c, collide, tables, pos, vel, species, internal_energy, bkind,
+                              bp, grid,
                               cell_start, cell_items, nbin, n, rcell + delta)
         else:
             if collide and n - nbin > REBUILD_UNBINNED:
-                build(n, pos, spc, tables.sp_radius, grid, cell_start, cell_items, cell_of)
+                build(n, pos, species, tables.sp_radius, grid, cell_start, cell_items, cell_of)
                 nbin = n
                 delta = 0.0
             x_old = pos[i, 0]
             y_old = pos[i, 1]
-            fired = fission(i, c, n, collide, tables, pos, vel, spc, uint, bkind, bp, grid,
+            fired = fission(i, c, n, collide, tables, pos, vel, species, internal_energy, bkind,
+                            bp, grid,
                             cell_start, cell_items, nbin, rcell + delta, rng)
             if fired:
                 ids[n] = idctr[0]
@@ -753,32 +759,32 @@ def _first_order(n, h, tables, discs, fission_possible, bounds, grid, sc, delta,
             ch_count[c] += 1
         else:
             icnt[IC_NO_ROOM] += 1
-    return Discs(pos, vel, spc, uint, ids, idctr), n, vfrag
+    return Discs(pos, vel, species, internal_energy, ids, idctr), n, vfrag
 
 
 # -------------------------------------------------------------------------- phase 5: removal
 @njit(cache=True)
-def _compact(n, pos, vel, spc, uint, ids):
-    """Remove discs with spc < 0, keeping the order of the others; returns the new n."""
+def _compact(n, pos, vel, species, internal_energy, ids):
+    """Remove discs with species < 0, keeping the order of the others; returns the new n."""
     m = 0
     for i in range(n):
-        if spc[i] >= 0:
+        if species[i] >= 0:
             if m != i:
                 pos[m, 0] = pos[i, 0]
                 pos[m, 1] = pos[i, 1]
                 vel[m, 0] = vel[i, 0]
                 vel[m, 1] = vel[i, 1]
-                spc[m] = spc[i]
-                uint[m] = uint[i]
+                species[m] = species[i]
+                internal_energy[m] = internal_energy[i]
                 ids[m] = ids[i]
             m += 1
     for i in range(m, n):
-        spc[i] = -1
+        species[i] = -1
     return m
 
 
 @njit(cache=True)
-def _reorder(n, pos, vel, spc, uint, ids, grid, work):
+def _reorder(n, pos, vel, species, internal_energy, ids, grid, work):
     """Permute discs [0, n) into cell order (stable), so that neighbours are neighbours in
     memory. Disc identity is kept in ``ids``. Without it, from about 1e5 discs the gather
     and event phases are bound by cache misses. The copies are made in the
@@ -805,9 +811,9 @@ def _reorder(n, pos, vel, spc, uint, ids, grid, work):
     v2 = fw[2 * n:4 * n].reshape((n, 2))
     v2[:] = vel[:n]
     u2 = fw[4 * n:5 * n]
-    u2[:] = uint[:n]
+    u2[:] = internal_energy[:n]
     s2 = iw[2 * n:3 * n]
-    s2[:] = spc[:n]
+    s2[:] = species[:n]
     d2 = cw[0:n]
     d2[:] = ids[:n]
     for a in range(n):
@@ -816,13 +822,13 @@ def _reorder(n, pos, vel, spc, uint, ids, grid, work):
         pos[a, 1] = p2[i, 1]
         vel[a, 0] = v2[i, 0]
         vel[a, 1] = v2[i, 1]
-        spc[a] = s2[i]
-        uint[a] = u2[i]
+        species[a] = s2[i]
+        internal_energy[a] = u2[i]
         ids[a] = d2[i]
 
 
 @njit(cache=True)
-def _resplit(n, vel, spc, rem, h, cut, dt, maxdisp, vfast, capped, k, sub, icnt):
+def _resplit(n, vel, species, rem, h, cut, dt, maxdisp, vfast, capped, k, sub, icnt):
     """Split the time ``rem`` left in a step anew after energy was released in its last
     substep (of length ``h``; ``cut``: ended early, see :func:`_events`), into substeps of
     at most ``maxdisp`` for the fastest disc now. As for the first split of a step, the
@@ -835,7 +841,7 @@ def _resplit(n, vel, spc, rem, h, cut, dt, maxdisp, vfast, capped, k, sub, icnt)
         return k, h, vfast, capped, sub
     v2max = 0.0
     for i in range(n):
-        if spc[i] >= 0:
+        if species[i] >= 0:
             v2 = vel[i, 0] * vel[i, 0] + vel[i, 1] * vel[i, 1]
             if v2 > v2max:
                 v2max = v2
@@ -920,11 +926,12 @@ def _carve(work, ws, nstart):
 
 
 @njit(cache=True)
-def run_tracked(pos, vel, spc, uint, n, n_steps, dt, bkind, bp, tables, params, flags, rng, icnt,
+def run_tracked(pos, vel, species, internal_energy, n, n_steps, dt, bkind, bp, tables, params,
+                flags, rng, icnt,
                 fsum, ch_count, threads, ids, idctr, step0, reorder_every, work):
     """:func:`advance` with the state, bounds and counters as separate arrays. Returns
     ``(pos, vel, species, internal_energy, ids, n, work)``."""
-    discs, n, work = advance(Discs(pos, vel, spc, uint, ids, idctr), n, n_steps, dt,
+    discs, n, work = advance(Discs(pos, vel, species, internal_energy, ids, idctr), n, n_steps, dt,
                              Bounds(bkind, bp), tables, params, flags, rng,
                              Counters(icnt, fsum, ch_count), threads, step0, reorder_every,
                              work)
@@ -965,7 +972,7 @@ def advance(discs, n, n_steps, dt, bounds, tables, params, flags, rng, cnt, thre
     Returns ``(discs, n, work)``: new (larger) state arrays when a decomposition needed more
     capacity, else the ones passed in; the scratch buffers used.
     """
-    pos, vel, spc, uint = discs.pos, discs.vel, discs.species, discs.internal_energy
+    pos, vel, species, internal_energy = discs.pos, discs.vel, discs.species, discs.internal_energy
     ids, idctr = discs.ids, discs.next_id
     bkind, bp = bounds.kind, bounds.params
     icnt = cnt.icnt
@@ -978,7 +985,7 @@ def advance(discs, n, n_steps, dt, bounds, tables, params, flags, rng, cnt, thre
 
     H = new_heap(256)
     # cells sized by the small discs; the few much larger ones in the big cell (celllist)
-    rcell = cell_radius(spc, n, sp_radius)
+    rcell = cell_radius(species, n, sp_radius)
     rc = RunConsts(e, params[P_RELAX], maxdisp, rcell, collide, flags[F_BI] != 0)
     grid = make_grid(bkind, bp, rcell, max(n, 1))
     ncx = int(grid[4])
@@ -990,12 +997,12 @@ def advance(discs, n, n_steps, dt, bounds, tables, params, flags, rng, cnt, thre
     sc = _carve(work, ws, nstart)
     for s in range(n_steps):
         if reorder_every > 0 and n >= REORDER_MIN and (step0 + s) % reorder_every == 0:
-            _reorder(n, pos, vel, spc, uint, ids, rgrid, work)
+            _reorder(n, pos, vel, species, internal_energy, ids, rgrid, work)
         # first-order reactions run only if some disc has a first-order channel: a scene
         # whose first-order species are absent pays this lookup, not a pass per substep
         uni_live = False
         if has_uni:
-            uni_live = _any_first_order(spc, n, tables.uni_start)
+            uni_live = _any_first_order(species, n, tables.uni_start)
             reactive0 = icnt[IC_REACTIVE]
         # substeps so that no disc moves more than maxdisp
         k, capped, vfast = _first_split(vel, n, dt, maxdisp, icnt)
@@ -1004,34 +1011,36 @@ def advance(discs, n, n_steps, dt, bounds, tables, params, flags, rng, cnt, thre
         sub = 0
         while sub < k:
             icnt[IC_SUBSTEPS] += 1
-            _drift_and_bin(threads, n, h, pos, vel, spc, sp_radius, bkind, bp, grid, sc,
+            _drift_and_bin(threads, n, h, pos, vel, species, sp_radius, bkind, bp, grid, sc,
                            collide)
             left0 = icnt[IC_LEFT_OVERLAPPING]
-            H, size = _queue_initial(n, collide, sp_radius, pos, vel, spc, sc, grid, H, icnt)
+            H, size = _queue_initial(n, collide, sp_radius, pos, vel, species, sc, grid, H, icnt)
             # a substep is cut short (at a reaction, see _events) only while the step has
             # taken fewer than MAX_SUBSTEPS substeps and not shorter than the capped substep
             # dt / MAX_SUBSTEPS: a step of a finite number of substeps, each of them useful
             cut_after = dt / MAX_SUBSTEPS if taken < MAX_SUBSTEPS else math.inf
             taken += 1
             H, n_dead, delta, dropped, vfast, vrel, t_cut = _events(
-                n, H, size, tables, Discs(pos, vel, spc, uint, ids, idctr), sc, bounds, grid,
-                cnt, rc, icnt[IC_SUBSTEPS], h, vfast, cut_after)
+                n, H, size, tables, Discs(pos, vel, species, internal_energy, ids, idctr), sc,
+                bounds, grid, cnt, rc, icnt[IC_SUBSTEPS], h, vfast, cut_after)
             hu = h  # the length of this substep
             if t_cut < 0.0:
                 icnt[IC_CUTS] += 1
-                delta = _rewind(n, t_cut, pos, vel, spc, sc.binx, sc.biny, collide)
+                delta = _rewind(n, t_cut, pos, vel, species, sc.binx, sc.biny, collide)
                 hu = h + t_cut
             left = icnt[IC_LEFT_OVERLAPPING] != left0
             if dropped or left:
-                _repair(dropped, n, pos, vel, spc, tables, e, collide, bkind, bp, grid, sc, cnt)
+                _repair(dropped, n, pos, vel, species, tables, e, collide, bkind, bp, grid, sc, cnt)
                 delta = 0.0  # resolve() leaves the grid built at the final positions
             # (a reactive collision may have made a species with first-order channels)
             if has_uni and (uni_live or icnt[IC_REACTIVE] != reactive0):
                 uni_live = True
                 grown, n, vfrag = _first_order(
-                    n, hu, tables, Discs(pos, vel, spc, uint, ids, idctr), fission_possible,
+                    n, hu, tables, Discs(pos, vel, species, internal_energy, ids, idctr),
+                        fission_possible,
                     bounds, grid, sc, delta, rc, rng, cnt)
-                pos, vel, spc, uint = grown.pos, grown.vel, grown.species, grown.internal_energy
+                pos, vel = grown.pos, grown.vel
+                species, internal_energy = grown.species, grown.internal_energy
                 ids = grown.ids
                 # fragments are binned where they end the next substep: the reach of its
                 # room checks must cover their speed
@@ -1042,7 +1051,7 @@ def advance(discs, n, n_steps, dt, bounds, tables, params, flags, rng, cnt, thre
                     work = _fit_work(work, ws, nstart)
                     sc = _carve(work, ws, nstart)
             if n_dead:
-                n = _compact(n, pos, vel, spc, uint, ids)
+                n = _compact(n, pos, vel, species, internal_energy, ids)
             sub += 1
             # Energy released in this substep may have made a disc faster than the remaining
             # substeps allow (they were sized by the speeds at the start of the step): the
@@ -1050,17 +1059,17 @@ def advance(discs, n, n_steps, dt, bounds, tables, params, flags, rng, cnt, thre
             # of internal energy are checked (vrel, from their products alone), so a substep
             # without them costs one comparison.
             if t_cut < 0.0 or vrel * h > maxdisp:
-                k, h, vfast, capped, sub = _resplit(n, vel, spc, (k - sub) * h + (h - hu), h,
+                k, h, vfast, capped, sub = _resplit(n, vel, species, (k - sub) * h + (h - hu), h,
                                                     t_cut < 0.0, dt, maxdisp, vfast, capped,
                                                     k, sub, icnt)
-    return Discs(pos, vel, spc, uint, ids, idctr), n, work
+    return Discs(pos, vel, species, internal_energy, ids, idctr), n, work
 
 
 @njit(cache=True)
-def _any_first_order(spc, n, uni_start):
+def _any_first_order(species, n, uni_start):
     """Does some disc of [0, n) have a species with first-order channels?"""
     for i in range(n):
-        s_i = spc[i]
+        s_i = species[i]
         if s_i >= 0 and uni_start[s_i + 1] > uni_start[s_i]:
             return True
     return False
@@ -1090,16 +1099,16 @@ def _first_split(vel, n, dt, maxdisp, icnt):
 
 
 @njit(cache=True)
-def _drift_and_bin(threads, n, h, pos, vel, spc, sp_radius, bkind, bp, grid, sc, collide):
+def _drift_and_bin(threads, n, h, pos, vel, species, sp_radius, bkind, bp, grid, sc, collide):
     """Phases 1 and 2 of a substep: the drift (and wall contacts), then, if ``collide``, the
     discs sorted into their cells and the overlapping pairs found (in parallel over
     ``threads`` chunks from PARALLEL_MIN discs); resets the per-disc event counts."""
     par = threads > 1 and n >= PARALLEL_MIN
     if par:
-        _drift_parallel(threads, n, h, pos, vel, spc, sp_radius, bkind, bp, sc.tlast,
+        _drift_parallel(threads, n, h, pos, vel, species, sp_radius, bkind, bp, sc.tlast,
                         sc.wall_t, sc.wflag, grid, sc.cell_of, collide)
     else:
-        _drift_range(0, n, h, pos, vel, spc, sp_radius, bkind, bp, sc.tlast, sc.wall_t,
+        _drift_range(0, n, h, pos, vel, species, sp_radius, bkind, bp, sc.tlast, sc.wall_t,
                      sc.wflag, grid, sc.cell_of, collide)
     nev = sc.nev
     for q in range(n):
@@ -1110,11 +1119,11 @@ def _drift_and_bin(threads, n, h, pos, vel, spc, sp_radius, bkind, bp, grid, sc,
         cell_start, cell_items = sc.cell_start, sc.cell_items
         _sort(n, sc.cell_of, cell_start, cell_items)
         if par:
-            _broad_parallel(threads, n, ncx, ncy, cell_start, cell_items, pos, spc,
+            _broad_parallel(threads, n, ncx, ncy, cell_start, cell_items, pos, species,
                             sp_radius, sc.sx, sc.sy, sc.sr, sc.ov_n, sc.ov_b)
         else:
-            _gather(0, n, cell_items, pos, spc, sp_radius, sc.sx, sc.sy, sc.sr)
-            _scan_rows(0, ncy, ncx, ncy, cell_start, cell_items, pos, spc, sp_radius,
+            _gather(0, n, cell_items, pos, species, sp_radius, sc.sx, sc.sy, sc.sr)
+            _scan_rows(0, ncy, ncx, ncy, cell_start, cell_items, pos, species, sp_radius,
                        sc.sx, sc.sy, sc.sr, sc.ov_n, sc.ov_b)
         binx, biny, partner = sc.binx, sc.biny, sc.partner
         for q in range(n):
@@ -1124,7 +1133,7 @@ def _drift_and_bin(threads, n, h, pos, vel, spc, sp_radius, bkind, bp, grid, sc,
 
 
 @njit(cache=True)
-def _repair(dropped, n, pos, vel, spc, tables, e, collide, bkind, bp, grid, sc, cnt):
+def _repair(dropped, n, pos, vel, species, tables, e, collide, bkind, bp, grid, sc, cnt):
     """The fallback after a substep that ran out of events (``dropped``) or left a pair
     overlapping: :func:`~discgym.kernels.resolve.resolve`, and its counts."""
     icnt, fsum = cnt.icnt, cnt.fsum
@@ -1132,7 +1141,7 @@ def _repair(dropped, n, pos, vel, spc, tables, e, collide, bkind, bp, grid, sc, 
         icnt[IC_EVENTS_CAPPED] += 1
     else:
         icnt[IC_GRAZE_REPAIRS] += 1
-    fixes, wdp, lost = resolve(n, pos, vel, spc, tables.sp_radius, tables.sp_mass, e, collide,
+    fixes, wdp, lost = resolve(n, pos, vel, species, tables.sp_radius, tables.sp_mass, e, collide,
                                bkind, bp, grid, sc.cell_start, sc.cell_items, sc.cell_of)
     icnt[IC_RESOLVED] += fixes
     fsum[FS_WALL_MOMENTUM] += wdp
