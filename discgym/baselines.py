@@ -16,8 +16,8 @@ from collections.abc import Callable, Sequence
 
 import numpy as np
 
-from ._dtypes import FLOAT
 from .env import DEFAULTS, ReactorConfig
+from .kernels.structs import FLOAT
 from .vector import DiscReactorVectorEnv
 
 __all__ = [

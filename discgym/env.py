@@ -40,7 +40,6 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
-from ._dtypes import FLOAT, INDEX
 from .compiled import P_MAXDISP, P_RMIN, CompiledScene, bounds_params, compile_scene
 from .kernels.batch import (
     O_BLOCKED,
@@ -53,6 +52,8 @@ from .kernels.batch import (
 )
 from .kernels.step import MAX_SUBSTEPS, REORDER_EVERY
 from .kernels.structs import (
+    FLOAT,
+    INDEX,
     Episodes,
     ReactorConsts,
     Reactors,

@@ -17,7 +17,6 @@ import numba
 import numpy as np
 from numba import typed
 
-from ._dtypes import COUNT, FLOAT, INDEX
 from .compiled import CIRCLE, bounds_params, compile_scene
 from .compiled import P_RMAX as _P_RMAX
 from .kernels import controls as _controls
@@ -25,7 +24,17 @@ from .kernels import event_driven as _event
 from .kernels import step as _step
 from .kernels import walls as _walls
 from .kernels.placement import overlapping_pairs, place_rngs, relocate_rngs
-from .kernels.structs import P_MAXDISP, P_RMIN, Bounds, Counters, Discs, speed_limit
+from .kernels.structs import (
+    COUNT,
+    FLOAT,
+    INDEX,
+    P_MAXDISP,
+    P_RMIN,
+    Bounds,
+    Counters,
+    Discs,
+    speed_limit,
+)
 from .scene import (
     MAX_MAGNITUDE,
     Box,

@@ -43,7 +43,6 @@ from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 from numba import typed
 
-from ._dtypes import COUNT, FLOAT, INDEX
 from .env import (
     DEFAULTS,
     MAX_RENDER_SIZE,
@@ -68,7 +67,7 @@ from .kernels.batch import (
     env_step,
     env_step_parallel,
 )
-from .kernels.structs import Episodes, Reactors
+from .kernels.structs import COUNT, FLOAT, INDEX, Episodes, Reactors
 
 __all__ = ["DiscReactorVectorEnv"]
 

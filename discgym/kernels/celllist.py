@@ -23,7 +23,7 @@ import math
 import numpy as np
 from numba import njit
 
-from .._dtypes import FLOAT
+from .structs import FLOAT
 
 MAX_CELLS = 1 << 26
 BIG_RATIO = 2.0  # a big species is more than this many times larger than rcell

@@ -80,7 +80,6 @@ import math
 import numpy as np
 from numba import njit
 
-from .._dtypes import COUNT, FLOAT, INDEX
 from .celllist import cell_coord
 from .collisions import bounce, normal_at
 from .event_structs import (
@@ -144,7 +143,7 @@ from .step import (
     empty_work,
 )
 from .step import run_tracked as step_run
-from .structs import Discs
+from .structs import COUNT, FLOAT, INDEX, Discs
 from .walls import box_next, circle_next, graze_floor, inside, reflected
 
 INF = math.inf

@@ -19,7 +19,7 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from .._dtypes import FLOAT
+from .structs import FLOAT
 
 
 class IndexedHeap(NamedTuple):

@@ -9,8 +9,8 @@ import math
 import numpy as np
 from numba import njit
 
-from .._dtypes import INDEX
 from .celllist import cell_coord, make_grid
+from .structs import INDEX
 from .walls import inside
 
 
