@@ -41,7 +41,9 @@ TRANSFORMATION, DECOMPOSITION, COMBINATION, EXCHANGE, REVERSE = 0, 1, 2, 3, 4
 _K_MAX = 1e300  # rate standing for a certain reaction (probability 1 per unit time)
 
 
-def bounds_params(bounds) -> tuple[int, np.ndarray]:
+def kernel_bounds(bounds) -> tuple[int, np.ndarray]:
+    """``(kind, params)`` of :class:`~discgym.kernels.structs.Bounds` for a Box or Circle:
+    BOX and (xmin, ymin, xmax, ymax), or CIRCLE and (cx, cy, radius, 0)."""
     if isinstance(bounds, Box):
         return BOX, np.array(bounds.extent, dtype=FLOAT)
     if isinstance(bounds, Circle):

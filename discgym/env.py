@@ -40,7 +40,7 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
-from .compiled import P_MAXDISP, P_RMIN, CompiledScene, bounds_params, compile_scene
+from .compiled import P_MAXDISP, P_RMIN, CompiledScene, compile_scene, kernel_bounds
 from .kernels.batch import (
     O_BLOCKED,
     O_ENERGY_HEAT,
@@ -608,8 +608,8 @@ def lattice_sites(bounds, radius: float) -> int:
     sites[:, :, 0] = xs[None, :] + shift[:, None]
     sites[:, :, 1] = ys[:, None]
     sites = sites.reshape(-1, 2)
-    bkind, bp = bounds_params(bounds)
-    return int(_inside(sites, np.full(len(sites), r), bkind, bp).sum())
+    bounds_kind, bounds_params = kernel_bounds(bounds)
+    return int(_inside(sites, np.full(len(sites), r), bounds_kind, bounds_params).sum())
 
 
 def _check_placeable(scene: Scene, most: list, name: str) -> None:
@@ -833,8 +833,8 @@ class DiscReactorEnv(gym.Env):
         self._temp = np.zeros(1, dtype=FLOAT)
         self._kin = np.zeros(1, dtype=FLOAT)
         self._ksteps = np.zeros(1, dtype=np.int64)
-        self._bkind = np.zeros(1, dtype=np.int64)
-        self._bp = np.zeros((1, 4), dtype=FLOAT)
+        self._bounds_kind = np.zeros(1, dtype=np.int64)
+        self._bounds_params = np.zeros((1, 4), dtype=FLOAT)
         self._act = np.zeros((1, 2 + F), dtype=FLOAT)
         self._fout = np.zeros((1, 2 + F), dtype=FLOAT)
         self._iout = np.zeros((1, 3 + 2 * F), dtype=np.int64)
@@ -901,7 +901,8 @@ class DiscReactorEnv(gym.Env):
         # what Simulation.step and its controls book
         self._n_seen = n = self._n.item()
         self._size_now = size = self._size.item()
-        moved = (partial(cfg.bounds_of, size), self._bp[0].copy()) if size != size0 else None
+        moved = (partial(cfg.bounds_of, size), self._bounds_params[0].copy()) \
+            if size != size0 else None
         sim.book_env_step(n, self._ksteps.item(), self._step_k, self._step_dt,
                           fo[O_ENERGY_HEAT:], moved)
         self._temperature = temperature = self._temp.item()
@@ -990,8 +991,8 @@ class DiscReactorEnv(gym.Env):
         icnt, fsum, ch_count = sim.kernel_counters()
         self._bound = arrays[:5]
         self._rx = Reactors(pos[None], vel[None], species[None], internal_energy[None],
-                            ids[None], next_id[None], self._n, self._ksteps, self._bkind,
-                            self._bp, icnt[None], fsum[None], ch_count[None])
+                            ids[None], next_id[None], self._n, self._ksteps, self._bounds_kind,
+                            self._bounds_params, icnt[None], fsum[None], ch_count[None])
         self._args = (self._rx, self._ep, cfg.tables, cs.params, cs.flags, cfg.consts,
                       sim.kernel_rngs, _ONE, self._act)
 

@@ -17,13 +17,13 @@ import numba
 import numpy as np
 from numba import typed
 
-from .compiled import CIRCLE, bounds_params, compile_scene
+from .compiled import CIRCLE, compile_scene, kernel_bounds
 from .compiled import P_RMAX as _P_RMAX
 from .kernels import controls as _controls
 from .kernels import event_driven as _event
 from .kernels import step as _step
 from .kernels import walls as _walls
-from .kernels.placement import overlapping_pairs, place_rngs, relocate_rngs
+from .kernels.placement import overlapping_pairs, place_rngs
 from .kernels.structs import (
     COUNT,
     FLOAT,
@@ -36,6 +36,7 @@ from .kernels.structs import (
     speed_limit,
 )
 from .scene import (
+    HEX_PACKING,
     MAX_MAGNITUDE,
     Box,
     Circle,
@@ -43,7 +44,6 @@ from .scene import (
     SceneError,
     _finite,
     check_bounds_scale,
-    check_fits,
     plain,
     validated_counts,
 )
@@ -126,7 +126,7 @@ class Simulation:
             placed = self._place_lattice(todo)
         self._n = placed
         self._new_ids(0, placed)
-        self._vel[: self._n] = self._maxwell(self._spc[: self._n], temperature)
+        self._vel[: self._n] = self._maxwell(self._species[: self._n], temperature)
         if self._n > 1:
             m = self.masses
             p = (m[:, None] * self._vel[: self._n]).sum(axis=0)
@@ -145,13 +145,13 @@ class Simulation:
         self._species_of = {sp.name: k for k, sp in enumerate(scene.species)}
         self._bounds = scene.bounds
         self._bounds_factory = None
-        self._bkind, self._bp = bounds_params(scene.bounds)
+        self._bounds_kind, self._bounds_params = kernel_bounds(scene.bounds)
         self._set_rng(_rng(seed))
         cap = 16
         self._pos = np.zeros((cap, 2), dtype=FLOAT)
         self._vel = np.zeros((cap, 2), dtype=FLOAT)
-        self._spc = np.full(cap, -1, dtype=INDEX)
-        self._uint = np.zeros(cap, dtype=FLOAT)
+        self._species = np.full(cap, -1, dtype=INDEX)
+        self._internal_energy = np.zeros(cap, dtype=FLOAT)
         self._ids = np.zeros(cap, dtype=COUNT)
         self._idctr = np.zeros(1, dtype=COUNT)  # the next disc identity
         self._n = 0
@@ -194,7 +194,7 @@ class Simulation:
         u = np.zeros(n) if internal_energy is None else np.asarray(internal_energy, FLOAT)
         if u.shape != (n,):
             raise ValueError(f"internal_energy must be ({n},), got {u.shape}")
-        _check_discs(pos, vel, spc, u, self._cs.sp_radius, self._bkind, self._bp,
+        _check_discs(pos, vel, spc, u, self._cs.sp_radius, self._bounds_kind, self._bounds_params,
                      scene.bounds)
         if n and not u.max() <= MAX_MAGNITUDE:  # (the energy range of scene.MAX_MAGNITUDE)
             raise ValueError(f"internal_energy of disc {int(np.argmax(u))} is {u.max():g}, "
@@ -204,13 +204,13 @@ class Simulation:
         self._reserve(n)
         self._pos[:n] = pos
         self._vel[:n] = vel
-        self._spc[:n] = spc
-        self._uint[:n] = u
+        self._species[:n] = spc
+        self._internal_energy[:n] = u
         self._n = n
         self._new_ids(0, n)
         if scene.collisions and n > 1:
-            bad = overlapping_pairs(self._pos, self._spc, n, self._cs.sp_radius, self._bkind,
-                                    self._bp, 1e-12)
+            bad = overlapping_pairs(self._pos, self._species, n, self._cs.sp_radius,
+                                    self._bounds_kind, self._bounds_params, 1e-12)
             if bad:
                 raise ValueError(f"{bad} pair(s) of discs overlap; discs must not overlap "
                                  "initially")
@@ -250,14 +250,16 @@ class Simulation:
         return speed_limit(_step.MAX_SUBSTEPS, cs.params[P_MAXDISP], cs.params[P_RMIN],
                            self.scene.dt)
 
+    def _too_fast(self, v: float, what: str) -> str:
+        return (f"{what}: a disc would move at speed {v:.3g}, above the speed limit "
+                f"{self.speed_limit:.3g} (65536 substeps of max_displacement x the smallest "
+                "radius per step of dt); lower the temperature or dt")
+
     def _check_speeds(self, vel: np.ndarray, what: str) -> None:
         if len(vel):
             v = float(np.sqrt((vel * vel).sum(axis=1)).max())
             if not v <= self.speed_limit:
-                raise ValueError(
-                    f"{what}: a disc would move at speed {v:.3g}, above the speed limit "
-                    f"{self.speed_limit:.3g} (65536 substeps of max_displacement x the "
-                    "smallest radius per step of dt); lower the temperature or dt")
+                raise ValueError(self._too_fast(v, what))
 
     def _check_energy(self, what: str) -> None:
         if not math.isfinite(self.total_energy()):
@@ -273,7 +275,7 @@ class Simulation:
 
     def _reserve(self, extra: int) -> None:
         need = self._n + extra
-        cap = len(self._spc)
+        cap = len(self._species)
         if need <= cap:
             return
         cap = max(need, 2 * cap)
@@ -282,12 +284,12 @@ class Simulation:
             a[: self._n] = getattr(self, name)[: self._n]
             setattr(self, name, a)
         spc = np.full(cap, -1, dtype=INDEX)
-        spc[: self._n] = self._spc[: self._n]
+        spc[: self._n] = self._species[: self._n]
         uint = np.zeros(cap, dtype=FLOAT)
-        uint[: self._n] = self._uint[: self._n]
+        uint[: self._n] = self._internal_energy[: self._n]
         ids = np.zeros(cap, dtype=COUNT)
         ids[: self._n] = self._ids[: self._n]
-        self._spc, self._uint, self._ids = spc, uint, ids
+        self._species, self._internal_energy, self._ids = spc, uint, ids
 
     def _new_ids(self, lo: int, hi: int) -> None:
         """Give discs [lo, hi) fresh identities."""
@@ -295,13 +297,17 @@ class Simulation:
         self._ids[lo:hi] = np.arange(k, k + hi - lo)
         self._idctr[0] = k + hi - lo
 
+    def _discs(self) -> Discs:
+        return Discs(self._pos, self._vel, self._species, self._internal_energy, self._ids,
+                     self._idctr)
+
     def _place(self, todo: np.ndarray, targets: np.ndarray | None) -> int:
         if targets is None:
             targets = np.full((len(todo), 2), np.nan)
         self._reserve(len(todo))
-        return place_rngs(self._pos, self._spc, self._n, todo,
+        return place_rngs(self._pos, self._species, self._n, todo,
                           np.ascontiguousarray(targets, dtype=FLOAT), self._cs.sp_radius,
-                          self._bkind, self._bp, self._rngs, PLACEMENT_ATTEMPTS)
+                          self._bounds_kind, self._bounds_params, self._rngs, PLACEMENT_ATTEMPTS)
 
     def _place_lattice(self, todo: np.ndarray) -> int:
         """Dense initial populations: a hexagonal lattice of the largest diameter."""
@@ -312,14 +318,15 @@ class Simulation:
         ys = np.arange(y0 + rmax, y1 - rmax + 1e-12, a * math.sqrt(3) / 2)
         sites = np.array([(x + (0.5 * a if k % 2 else 0.0), y) for k, y in enumerate(ys)
                           for x in xs]).reshape(-1, 2)
-        sites = sites[_inside(sites, np.full(len(sites), rmax), self._bkind, self._bp)]
+        sites = sites[_inside(sites, np.full(len(sites), rmax), self._bounds_kind,
+                              self._bounds_params)]
         if len(sites) < len(todo):
             raise PlacementError(
                 f"counts: {len(todo)} discs do not fit in {self.bounds} (random placement "
                 f"failed and a hexagonal lattice has only {len(sites)} sites)")
         chosen = sites[self._rng.choice(len(sites), size=len(todo), replace=False)]
         self._pos[: len(todo)] = chosen
-        self._spc[: len(todo)] = todo
+        self._species[: len(todo)] = todo
         return len(todo)
 
     def _maxwell(self, spc: np.ndarray, temperature: float) -> np.ndarray:
@@ -371,19 +378,18 @@ class Simulation:
 
     def _run(self, n_steps: int, dt: float) -> None:
         cs = self._cs
+        bounds = Bounds(self._bounds_kind, self._bounds_params)
+        counters = Counters(self._icnt, self._fsum, self._ch_count)
         if self._integrator == "event":  # one exact run of n_steps * dt
-            pos, vel, spc, uint, ids, n = _event.run_steps_rngs(
-                self._pos, self._vel, self._spc, self._uint, self._ids, self._idctr, self._n,
-                n_steps, dt, self._bkind, self._bp, cs.tables, cs.params, cs.flags,
-                self._rngs, self._icnt, self._fsum, self._ch_count)
+            discs, n = _event.run_steps_rngs(self._discs(), self._n, n_steps, dt, bounds,
+                                             cs.tables, cs.params, cs.flags, self._rngs,
+                                             counters)
         else:
             discs, n, self._work = _step.advance_rngs(
-                Discs(self._pos, self._vel, self._spc, self._uint, self._ids, self._idctr),
-                self._n, n_steps, dt, Bounds(self._bkind, self._bp), cs.tables, cs.params,
-                cs.flags, self._rngs, Counters(self._icnt, self._fsum, self._ch_count),
-                self._threads, self._steps, _step.REORDER_EVERY, self._work)
-            pos, vel, spc, uint, ids = discs[:5]
-        self._pos, self._vel, self._spc, self._uint, self._ids = pos, vel, spc, uint, ids
+                self._discs(), self._n, n_steps, dt, bounds, cs.tables, cs.params, cs.flags,
+                self._rngs, counters, self._threads, self._steps, _step.REORDER_EVERY,
+                self._work)
+        self._pos, self._vel, self._species, self._internal_energy, self._ids = discs[:5]
         self._n = n
         self._steps += n_steps
         self._tick(n_steps, dt)
@@ -412,7 +418,7 @@ class Simulation:
         """``(pos, vel, species, internal_energy, ids, next_id)``: the state arrays themselves
         (capacity C >= N, not copies; discs [0, N) live): (C, 2), (C, 2), (C,) INDEX,
         (C,) FLOAT, (C,) COUNT, (1,) COUNT. Internal, for discgym's environments."""
-        return (self._pos, self._vel, self._spc, self._uint, self._ids, self._idctr)
+        return (self._pos, self._vel, self._species, self._internal_energy, self._ids, self._idctr)
 
     def kernel_counters(self) -> tuple:
         """``(icnt, fsum, ch_count)``: the counter arrays themselves (see
@@ -426,7 +432,7 @@ class Simulation:
 
     def reserve_capacity(self, capacity: int) -> None:
         """Grow the state arrays (if needed) to hold at least ``capacity`` discs."""
-        if len(self._spc) < capacity:
+        if len(self._species) < capacity:
             self._reserve(capacity - self._n)
 
     def move_into(self, pos, vel, species, internal_energy, ids, next_id, icnt, fsum,
@@ -442,12 +448,12 @@ class Simulation:
         ids[:] = 0
         pos[:n] = self._pos[:n]
         vel[:n] = self._vel[:n]
-        species[:n] = self._spc[:n]
-        internal_energy[:n] = self._uint[:n]
+        species[:n] = self._species[:n]
+        internal_energy[:n] = self._internal_energy[:n]
         ids[:n] = self._ids[:n]
         next_id[:] = self._idctr
-        self._pos, self._vel, self._spc, self._uint = pos, vel, species, internal_energy
-        self._ids, self._idctr = ids, next_id
+        self._pos, self._vel, self._species = pos, vel, species
+        self._internal_energy, self._ids, self._idctr = internal_energy, ids, next_id
         icnt[:] = self._icnt
         fsum[:] = self._fsum
         ch_count[:] = self._ch_count
@@ -458,8 +464,8 @@ class Simulation:
         ``reactors`` (a :class:`~discgym.kernels.structs.Reactors`)."""
         reactors.n[r] = self._n
         reactors.ksteps[r] = self._steps
-        reactors.bounds_kind[r] = self._bkind
-        reactors.bounds_params[r] = self._bp
+        reactors.bounds_kind[r] = self._bounds_kind
+        reactors.bounds_params[r] = self._bounds_params
 
     def book_env_step(self, n: int, steps: int, n_steps: int, dt: float, energies,
                       bounds: tuple | None = None) -> None:
@@ -495,14 +501,14 @@ class Simulation:
             b = self._bounds = self._bounds_factory()
         return b
 
-    def _defer_bounds(self, factory: Callable[[], Box | Circle], bp: np.ndarray) -> None:
-        """The bounds were changed by compiled code to the parameters ``bp`` (4,); the
+    def _defer_bounds(self, factory: Callable[[], Box | Circle], bounds_params: np.ndarray) -> None:
+        """The bounds were changed by compiled code to the parameters ``bounds_params`` (4,); the
         :class:`Box` or :class:`Circle` object is built by ``factory()`` only when asked for
         (building it costs a noticeable share of what a reinforcement-learning step may spend
         in Python)."""
         self._bounds = None
         self._bounds_factory = factory
-        self._bp = bp
+        self._bounds_params = bounds_params
 
     @property
     def positions(self) -> np.ndarray:
@@ -517,17 +523,17 @@ class Simulation:
     @property
     def species(self) -> np.ndarray:
         """(N,) species index of each disc (into ``scene.species``)."""
-        return self._spc[: self._n].copy()
+        return self._species[: self._n].copy()
 
     @property
     def radii(self) -> np.ndarray:
         """(N,) radius of each disc."""
-        return self._cs.sp_radius[self._spc[: self._n]]
+        return self._cs.sp_radius[self._species[: self._n]]
 
     @property
     def masses(self) -> np.ndarray:
         """(N,) mass of each disc."""
-        return self._cs.sp_mass[self._spc[: self._n]]
+        return self._cs.sp_mass[self._species[: self._n]]
 
     @property
     def ids(self) -> np.ndarray:
@@ -540,18 +546,18 @@ class Simulation:
     @property
     def internal_energy(self) -> np.ndarray:
         """(N,) internal energy of each disc (stored by combination products)."""
-        return self._uint[: self._n].copy()
+        return self._internal_energy[: self._n].copy()
 
     # ------------------------------------------------------------------ observables
     def counts(self) -> dict:
         """``{species name: number of discs}`` (every species of the scene, zeros included)."""
-        c = np.bincount(self._spc[: self._n], minlength=len(self.scene.species))
+        c = np.bincount(self._species[: self._n], minlength=len(self.scene.species))
         return {s.name: int(k) for s, k in zip(self.scene.species, c)}
 
     def _energies(self) -> tuple[float, float, float]:
         cs = self._cs
-        return _controls.energies(self._vel, self._spc, self._uint, cs.sp_mass, cs.sp_form,
-                                  self._n)
+        return _controls.energies(self._vel, self._species, self._internal_energy, cs.sp_mass,
+                                  cs.sp_form, self._n)
 
     def kinetic_energy(self) -> float:
         return self._energies()[0]
@@ -634,8 +640,8 @@ class Simulation:
                              f"distance), got {tol}")
         if self._n < 2:
             return 0
-        return int(overlapping_pairs(self._pos, self._spc, self._n, self._cs.sp_radius,
-                                     self._bkind, self._bp, tol))
+        return int(overlapping_pairs(self._pos, self._species, self._n, self._cs.sp_radius,
+                                     self._bounds_kind, self._bounds_params, tol))
 
     def outside(self, tol: float = 1e-9) -> int:
         """Number of discs reaching out of the bounds by more than ``tol`` of their radius."""
@@ -643,25 +649,25 @@ class Simulation:
         if not math.isfinite(tol):
             raise ValueError(f"outside(tol): need a finite tolerance, got {tol}")
         r = self.radii * (1.0 - tol)
-        return int((~_inside(self._pos[: self._n], r, self._bkind, self._bp)).sum())
+        inside = _inside(self._pos[: self._n], r, self._bounds_kind, self._bounds_params)
+        return int((~inside).sum())
 
     # ------------------------------------------------------------------ controls
     def scale_temperature(self, factor: float) -> None:
         """Multiply every kinetic energy by ``factor`` >= 0 (velocities by sqrt(factor)).
 
-        The energy added (or removed) is booked in :attr:`energy_input`."""
+        The energy added (or removed) is booked in :attr:`energy_input`. Heating that would
+        push a disc past :attr:`speed_limit` is refused with ``ValueError`` (nothing changes);
+        cooling always applies."""
         factor = _real("scale_temperature(factor)", factor)
         if not math.isfinite(factor) or factor < 0:
             raise ValueError(f"scale_temperature(factor): need a finite factor >= 0, got "
                              f"{factor}")
-        n = self._n
-        ke0, v2max = _controls.kinetic_and_fastest(self._vel, self._spc, self._cs.sp_mass, n)
-        s = math.sqrt(factor)
-        if not math.sqrt(v2max) * s <= self.speed_limit:
-            self._check_speeds(self._vel[:n] * s, f"scale_temperature({factor})")  # raises
-        _controls.scale(self._vel, n, s)
-        ke1, _ = _controls.kinetic_and_fastest(self._vel, self._spc, self._cs.sp_mass, n)
-        self._energy_input += ke1 - ke0
+        f, energy, fastest = _controls.heat(self._vel, self._species, self._cs.sp_mass,
+                                            self._n, factor, self.speed_limit, False)
+        if math.isnan(f):
+            raise ValueError(self._too_fast(fastest, f"scale_temperature({factor})"))
+        self._energy_input += energy
 
     def inject(self, species: str | int, n: int, temperature: float | None = None,
                near=None) -> int:
@@ -692,7 +698,6 @@ class Simulation:
             raise ValueError(f"inject(temperature): must be at most {MAX_MAGNITUDE:g}, got "
                              f"{temperature}: beyond, the speeds it makes over- or underflow "
                              "float64; choose other units")
-        todo = np.full(n, s, dtype=INDEX)
         targets = np.full((n, 2), np.nan)
         if near is not None:
             try:
@@ -705,22 +710,17 @@ class Simulation:
             if not np.isfinite(xy).all():
                 raise ValueError(f"inject(near): need a finite point, got {near!r}")
             targets[:] = xy
-        e0 = self.total_energy()
+        self._reserve(n)
         rng_state = self._rng.bit_generator.state
-        placed = self._place(todo, targets)
-        lo, hi = self._n, self._n + placed
-        vel = self._maxwell(self._spc[lo:hi], temperature)
-        try:
-            self._check_speeds(vel, f"inject(temperature={temperature})")
-        except ValueError:
-            self._spc[lo:hi] = -1  # refused: as if never tried
-            self._rng.bit_generator.state = rng_state
-            raise
-        self._vel[lo:hi] = vel
-        self._uint[lo:hi] = 0.0
-        self._new_ids(lo, hi)
-        self._n = hi
-        self._energy_input += self.total_energy() - e0
+        placed, energy, fastest = _controls.inject(
+            self._discs(), self._n, s, targets, temperature if given else math.nan,
+            self.scene.temperature, self.speed_limit, self._cs.tables, self._bounds_kind,
+            self._bounds_params, self._rngs, 0, PLACEMENT_ATTEMPTS)
+        if not fastest <= self.speed_limit:
+            self._rng.bit_generator.state = rng_state  # refused: as if never tried
+            raise ValueError(self._too_fast(fastest, f"inject(temperature={temperature})"))
+        self._n += placed
+        self._energy_input += energy
         return placed
 
     def resize(self, bounds: Box | Circle) -> None:
@@ -733,30 +733,28 @@ class Simulation:
             check_bounds_scale(bounds, self.scene.species, "bounds", "species")
         except SceneError as exc:
             raise ValueError(f"resize(bounds): {exc}") from None
-        if self._cs.params[_P_RMAX] > bounds.max_radius():
+        _event_fit(self._integrator, self.scene, bounds)
+        kind, params = kernel_bounds(bounds)
+        rng_state = self._rng.bit_generator.state
+        done, failed = _controls.resize(self._pos, self._species, self._n, self._cs.sp_radius,
+                                        self._cs.params[_P_RMAX], kind, params,
+                                        bounds.max_radius(), bounds.area, HEX_PACKING,
+                                        self._rngs, 0, PLACEMENT_ATTEMPTS)
+        if done == _controls.RESIZED:
+            self._bounds, self._bounds_kind, self._bounds_params = bounds, kind, params
+            return
+        self._rng.bit_generator.state = rng_state  # refused: as if never tried
+        if done == _controls.TOO_BIG:
             too_big = [s.name for s in self.scene.species if s.radius > bounds.max_radius()]
             raise PlacementError(f"resize: species {too_big} do not fit in {bounds}")
-        _event_fit(self._integrator, self.scene, bounds)
-        bkind, bp = bounds_params(bounds)
-        n = self._n
-        if _controls.all_inside(self._pos, self._spc, self._cs.sp_radius, n, bkind, bp[0],
-                                bp[1], bp[2], bp[3]):  # (e.g. the wall moved out)
-            self._bounds, self._bkind, self._bp = bounds, bkind, bp
-            return
-        try:
-            check_fits(bounds, {s.name: s for s in self.scene.species}, self.counts(),
-                       "resize")
-        except SceneError as exc:
-            raise PlacementError(str(exc)) from None
-        rng_state = self._rng.bit_generator.state
-        failed = relocate_rngs(self._pos, self._spc, n, self._cs.sp_radius, bkind, bp,
-                               self._rngs, PLACEMENT_ATTEMPTS)
-        if failed:
-            self._rng.bit_generator.state = rng_state  # refused: as if never tried
+        if done == _controls.TOO_DENSE:
+            area = float(np.pi * (self.radii ** 2).sum())
             raise PlacementError(
-                f"resize to {bounds}: {failed} of the discs outside the new bounds find no "
-                "free spot inside; resize refused")
-        self._bounds, self._bkind, self._bp = bounds, bkind, bp
+                f"resize: the discs cannot fit: they cover {area:.4g}, more than the densest "
+                f"packing ({HEX_PACKING:.4f}) of the bounds' area {bounds.area:.4g}")
+        raise PlacementError(
+            f"resize to {bounds}: {failed} of the discs outside the new bounds find no free "
+            "spot inside; resize refused")
 
     # ------------------------------------------------------------------ state
     # the keys of a state; "integrator" (default: the simulation's own) and "scene_fingerprint"
@@ -773,8 +771,8 @@ class Simulation:
         return {
             "positions": self._pos[:n].copy(),
             "velocities": self._vel[:n].copy(),
-            "species": self._spc[:n].copy(),
-            "internal_energy": self._uint[:n].copy(),
+            "species": self._species[:n].copy(),
+            "internal_energy": self._internal_energy[:n].copy(),
             "ids": self._ids[:n].copy(),
             "next_id": int(self._idctr[0]),
             "steps": self._steps,
@@ -885,7 +883,7 @@ class Simulation:
         except SceneError as e:
             raise _state_error("bounds", str(e)) from None
         s["bounds"] = bounds
-        s["bkind"], s["bp"] = bounds_params(bounds)
+        s["bounds_kind"], s["bounds_params"] = kernel_bounds(bounds)
         integrator = state.get("integrator", self._integrator)
         if not isinstance(integrator, str) or integrator not in ("step", "event"):
             raise _state_error("integrator", f"must be 'step' or 'event', got "
@@ -909,7 +907,7 @@ class Simulation:
         # relations between keys
         pos, vel = s["positions"], s["velocities"]
         r = cs.sp_radius[s["species"]]
-        out = np.flatnonzero(~_inside(pos, r, s["bkind"], s["bp"]))
+        out = np.flatnonzero(~_inside(pos, r, s["bounds_kind"], s["bounds_params"]))
         if len(out):
             k = out[0]
             raise _state_error("positions", f"has disc {k} (radius {r[k]}) at {pos[k]}, not "
@@ -1000,14 +998,14 @@ class Simulation:
         enough: the vector env holds views of them)."""
         n = s["n"]
         self._bounds = s["bounds"]
-        self._bkind, self._bp = s["bkind"], s["bp"]
+        self._bounds_kind, self._bounds_params = s["bounds_kind"], s["bounds_params"]
         self._n = 0
         self._reserve(n)
         self._pos[:n] = s["positions"]
         self._vel[:n] = s["velocities"]
-        self._spc[:n] = s["species"]
-        self._spc[n:] = -1
-        self._uint[:n] = s["internal_energy"]
+        self._species[:n] = s["species"]
+        self._species[n:] = -1
+        self._internal_energy[:n] = s["internal_energy"]
         self._ids[:n] = s["ids"]
         self._idctr[0] = s["next_id"]
         self._steps = s["steps"]
@@ -1188,16 +1186,17 @@ def _real(what: str, value) -> float:
         return math.inf if value > 0 else -math.inf
 
 
-def _inside(pos: np.ndarray, r: np.ndarray, bkind: int, bp: np.ndarray) -> np.ndarray:
-    if bkind == CIRCLE:
-        d2 = (pos[:, 0] - bp[0]) ** 2 + (pos[:, 1] - bp[1]) ** 2
-        L = bp[2] - r
+def _inside(pos: np.ndarray, r: np.ndarray, kind: int, params: np.ndarray) -> np.ndarray:
+    if kind == CIRCLE:
+        d2 = (pos[:, 0] - params[0]) ** 2 + (pos[:, 1] - params[1]) ** 2
+        L = params[2] - r
         return (L >= 0) & (d2 <= L * L)
-    return ((pos[:, 0] >= bp[0] + r) & (pos[:, 0] <= bp[2] - r) &
-            (pos[:, 1] >= bp[1] + r) & (pos[:, 1] <= bp[3] - r))
+    return ((pos[:, 0] >= params[0] + r) & (pos[:, 0] <= params[2] - r) &
+            (pos[:, 1] >= params[1] + r) & (pos[:, 1] <= params[3] - r))
 
 
-def _check_discs(pos, vel, spc, u, sp_radius, bkind, bp, bounds, what: str = "") -> None:
+def _check_discs(pos, vel, species, u, sp_radius, bounds_kind, bounds_params, bounds,
+                 what: str = "") -> None:
     """Finite positions, velocities and internal energies, no negative internal energy, every
     disc inside ``bounds``; else ``ValueError`` naming the first offending disc."""
     n = len(pos)
@@ -1210,8 +1209,8 @@ def _check_discs(pos, vel, spc, u, sp_radius, bkind, bp, bounds, what: str = "")
     if (u < 0).any():
         raise ValueError(f"{what}internal_energy of disc {np.flatnonzero(u < 0)[0]} is "
                          "negative")
-    r = sp_radius[spc]
-    outside = np.flatnonzero(~_inside(pos, r, bkind, bp))
+    r = sp_radius[species]
+    outside = np.flatnonzero(~_inside(pos, r, bounds_kind, bounds_params))
     if len(outside):
         k = outside[0]
         raise ValueError(f"{what}positions: disc {k} (radius {r[k]}) at {pos[k]} is not "

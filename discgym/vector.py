@@ -5,26 +5,25 @@
 trajectory of a lone :class:`~discgym.env.DiscReactorEnv` reset with the same seed and given
 the same actions (``tests/test_vector.py`` checks it): both share the action, observation and
 reward code of :mod:`discgym.env`, and the kernel of each reactor is the same
-:func:`discgym.kernels.step.run_tracked`.
+:func:`discgym.kernels.step.advance`.
 
-How it works (and why it touches the private state of :class:`~discgym.Simulation`): the state
-of all reactors lives in padded arrays ``(R, C, 2)`` / ``(R, C)`` with a capacity ``C = 2 *
-max_discs + 16`` that can never run out (``max_discs``: the initial contents at their largest
-plus every feed budget), so one compiled call,
+How it works: the state of all reactors lives in padded arrays ``(R, C, 2)`` / ``(R, C)``
+with a capacity ``C = capacity_for_discs(max_discs)`` that can never run out (``max_discs``:
+the initial contents at their largest plus every feed budget), so one compiled call,
 :func:`discgym.kernels.batch.env_step_parallel` (a ``prange`` over reactors), applies every
 reactor's action (heat, wall, injection), advances it and observes it, in place. It runs
-for each reactor the same :func:`~discgym.kernels.batch.reactor_step` as the single env, which
-does bit for bit what ``Simulation.scale_temperature``, ``resize``, ``inject`` and ``step``
-do (``tests/test_env.py`` checks it; the exceptions: heating stops at the speed limit, and a
-refused wall move or injection has drawn from the generator). Each reactor keeps a real
-``Simulation`` whose state arrays (``_pos``, ``_vel``, ``_spc``, ``_uint``, ``_ids``,
-``_idctr``) and counters (``_icnt``, ``_fsum``, ``_ch_count``) are *views* of row r of those
-arrays; after each step its disc count, step count, clocks, energy input and bounds are
-updated exactly as those methods update them. ``env.simulations[r]`` is reactor r's
-``Simulation``: its controls and ``set_state`` may be used between steps (the next step reads
-the disc count, clocks and bounds back); more discs than the capacity plan holds, or state
-arrays replaced, raise ``RuntimeError`` at the next step. Do not keep it across a reset,
-which builds a new one.
+for each reactor the same :func:`~discgym.kernels.batch.reactor_step` as the single env,
+whose controls are the kernels of :mod:`discgym.kernels.controls` that
+``Simulation.scale_temperature``, ``resize`` and ``inject`` call (``tests/test_env.py`` checks
+the two paths agree to the bit; the differences: heating stops at the speed limit where
+``scale_temperature`` refuses, and a refused wall move or injection has drawn from the
+generator). Each reactor keeps a real ``Simulation``, which moves its state arrays and
+counters into row r of those arrays (``Simulation.move_into``) and, after each step, books
+its disc count, step count, clocks, energy input and bounds (``Simulation.book_env_step``).
+``env.simulations[r]`` is reactor r's ``Simulation``: its controls and ``set_state`` may be
+used between steps (the next step reads the disc count, clocks and bounds back); more discs
+than the capacity plan holds, or state arrays replaced, raise ``RuntimeError`` at the next
+step. Do not keep it across a reset, which builds a new one.
 
 Autoreset: ``autoreset_mode`` ("NextStep", the Gymnasium default; "SameStep", with
 ``info["final_obs"]`` and ``info["final_info"]``; or "Disabled", then reset finished reactors
@@ -153,17 +152,17 @@ class DiscReactorVectorEnv(VectorEnv):
         F = len(cfg.feed)
         self._pos = np.zeros((R, C, 2), dtype=FLOAT)
         self._vel = np.zeros((R, C, 2), dtype=FLOAT)
-        self._spc = np.full((R, C), -1, dtype=INDEX)
-        self._uint = np.zeros((R, C), dtype=FLOAT)
+        self._species = np.full((R, C), -1, dtype=INDEX)
+        self._internal_energy = np.zeros((R, C), dtype=FLOAT)
         self._ids = np.zeros((R, C), dtype=COUNT)
         self._idctr = np.zeros((R, 1), dtype=COUNT)
         self._n = np.zeros(R, dtype=np.int64)
         self._ksteps = np.zeros(R, dtype=np.int64)  # kernel steps taken (Simulation._steps)
-        self._bkind = np.zeros(R, dtype=np.int64)
-        self._bp = np.zeros((R, 4), dtype=FLOAT)
+        self._bounds_kind = np.zeros(R, dtype=np.int64)
+        self._bounds_params = np.zeros((R, 4), dtype=FLOAT)
         self._icnt = np.zeros((R, _step.N_ICOUNTERS), dtype=COUNT)
         self._fsum = np.zeros((R, _step.N_FSUMS), dtype=FLOAT)
-        self._chc = np.zeros((R, len(cfg.compiled.labels)), dtype=COUNT)
+        self._ch_count = np.zeros((R, len(cfg.compiled.labels)), dtype=COUNT)
         self._cost = np.ones(R, dtype=FLOAT)  # the cost of each reactor's next step (estimate)
         self._order = np.zeros(R, dtype=np.int64)
         self._starts = np.zeros(numba.config.NUMBA_NUM_THREADS + 1, dtype=np.int64)
@@ -175,8 +174,8 @@ class DiscReactorVectorEnv(VectorEnv):
         self._rngs = typed.List(self._gens)
         self._np_randoms: list = [None] * R
         self.simulations: list = [None] * R
-        self._views = [(self._pos[r], self._vel[r], self._spc[r], self._uint[r], self._ids[r],
-                        self._idctr[r]) for r in range(R)]
+        self._views = [(self._pos[r], self._vel[r], self._species[r], self._internal_energy[r],
+                        self._ids[r], self._idctr[r]) for r in range(R)]
         # per-reactor episode state
         self._steps = np.zeros(R, dtype=np.int64)
         self._size = np.ones(R, dtype=FLOAT)
@@ -188,9 +187,9 @@ class DiscReactorVectorEnv(VectorEnv):
         self._obs = np.zeros((R, len(cfg.obs_names)), dtype=np.float32)
         self._temps = np.zeros(R, dtype=FLOAT)
         self._kin = np.zeros(R, dtype=FLOAT)
-        self._rx = Reactors(self._pos, self._vel, self._spc, self._uint, self._ids, self._idctr,
-                            self._n, self._ksteps, self._bkind, self._bp, self._icnt,
-                            self._fsum, self._chc)
+        self._rx = Reactors(self._pos, self._vel, self._species, self._internal_energy,
+                            self._ids, self._idctr, self._n, self._ksteps, self._bounds_kind,
+                            self._bounds_params, self._icnt, self._fsum, self._ch_count)
         self._ep = Episodes(self._size, self._feed_left, self._steps, self._n_init,
                             self._n_ref, self._temps, self._kin, self._stats, self._obs,
                             self._fout, self._iout)
@@ -234,7 +233,7 @@ class DiscReactorVectorEnv(VectorEnv):
         n = len(sim)
         if n > cfg.max_discs:  # cannot happen: max_discs bounds the drawn contents
             raise RuntimeError(f"reactor {r}: {n} discs exceed the capacity plan")
-        sim.move_into(*self._views[r], self._icnt[r], self._fsum[r], self._chc[r])
+        sim.move_into(*self._views[r], self._icnt[r], self._fsum[r], self._ch_count[r])
         sim.export_scalars(self._rx, r)
         self._cost[r] = n * cfg.steps_per_action  # (no history yet: one substep a step)
         self.simulations[r] = sim
@@ -246,7 +245,7 @@ class DiscReactorVectorEnv(VectorEnv):
         self._product[r] = np.count_nonzero(sim.species == cfg.product)
 
     def _observe_all(self) -> None:
-        observe(self.config, self._vel, self._spc, self._uint, self._n, self._ep)
+        observe(self.config, self._vel, self._species, self._internal_energy, self._n, self._ep)
 
     # ------------------------------------------------------------------ step
     def step(self, actions):
@@ -383,8 +382,8 @@ class DiscReactorVectorEnv(VectorEnv):
         moved = self._size != size0
         n, ks, fo = self._n.tolist(), self._ksteps.tolist(), self._fout.tolist()
         for r in idx:
-            bounds = (partial(cfg.bounds_of, float(self._size[r])), self._bp[r]) if moved[r] \
-                else None
+            bounds = (partial(cfg.bounds_of, float(self._size[r])), self._bounds_params[r]) \
+                if moved[r] else None
             self.simulations[r].book_env_step(n[r], ks[r], k, dt, fo[r][O_ENERGY_HEAT:],
                                               bounds)
 

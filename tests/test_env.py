@@ -429,9 +429,9 @@ def test_discs_added_from_outside_get_room_in_the_arrays():
     env = DiscReactorEnv()
     env.reset(seed=0)
     sim = env.simulation
-    cap = len(sim._spc)
+    cap = len(sim._species)
     assert sim.inject("C", 150) == 150  # C = A + B: each may split in two
-    assert len(sim._spc) == cap  # (no reallocation by inject itself)
+    assert len(sim._species) == cap  # (no reallocation by inject itself)
     for _ in range(5):
         *_, info = env.step(np.zeros(4, np.float32))
     assert sum(info["counts"].values()) == len(sim)

@@ -26,8 +26,10 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 import discgym as dg
+from discgym.compiled import kernel_bounds
 from discgym.kernels import event_driven as ev
 from discgym.kernels import step as stepk
+from discgym.kernels.structs import Bounds, Discs
 
 
 def event(scene, pos, vel, species, u=None, seed=0):
@@ -252,15 +254,16 @@ def test_a_step_past_the_event_bound_is_finished_by_the_time_stepped_integrator(
     cs = sim._cs
     pos, vel, spc = sim.positions, sim.velocities, sim.species
     icnt = np.zeros_like(sim._icnt)
-    out = ev.run_stats(pos, vel, spc, np.zeros(2), np.arange(2), np.array([2]), 2, sc.dt,
-                       sim._bkind, sim._bp, cs.tables, cs.params, cs.flags,
-                       np.random.default_rng(0), icnt, np.zeros_like(sim._fsum),
-                       np.zeros_like(sim._ch_count), stats, ev.CELLS_PER_DISC)
+    discs = Discs(pos, vel, spc, np.zeros(2), np.arange(2), np.array([2]))
+    _, n = ev.run_steps(discs, 2, 1, sc.dt, Bounds(*kernel_bounds(sim.bounds)), cs.tables,
+                        cs.params, cs.flags, np.random.default_rng(0),
+                        ev.Counters(icnt, np.zeros_like(sim._fsum),
+                                    np.zeros_like(sim._ch_count), stats), ev.CELLS_PER_DISC)
     k = ksub(sim)
     assert stats[ev.ST_EVENTS] == k * (ev.EVENTS_PER_DISC * 2 + 1024)
     # (the time-stepped integrator's substeps in the cage reach their own bound too)
     assert icnt[stepk.IC_EVENTS_CAPPED] >= 1 and icnt[stepk.IC_SUBSTEPS] >= 1
-    assert out[5] == 2
+    assert n == 2
     sim.step(1)
     assert sim.counters()["events_capped"] >= 1 and sim.counters()["substeps"] >= 1
     for _ in range(3):  # (the pair slides out of the cage: exact steps again)
@@ -342,7 +345,7 @@ def test_copies_and_pickles_mid_run_continue_identically(name):
     restored.set_state(sim.get_state())
     twins.append(restored)
     n0 = len(sim)
-    caps = [len(sim._spc)] + [len(t._spc) for t in twins]
+    caps = [len(sim._species)] + [len(t._species) for t in twins]
     for s in (1, 12, 3):
         sim.step(s)
         for t in twins:
@@ -351,7 +354,7 @@ def test_copies_and_pickles_mid_run_continue_identically(name):
         same_state(sim, t)
     if name.startswith("reactive") or name == "builtin-decomposition":
         assert sum(sim.reactions().values()) > 0 and len(sim) != n0
-        assert len(set(caps)) > 1 or len(sim._spc) != caps[0]  # capacities differed/grew
+        assert len(set(caps)) > 1 or len(sim._species) != caps[0]  # capacities differed/grew
 
 
 def test_advance_remainder_is_one_step_of_the_rest():

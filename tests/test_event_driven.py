@@ -9,7 +9,9 @@ import numpy as np
 import pytest
 
 import discgym as dg
+from discgym.compiled import kernel_bounds
 from discgym.kernels import event_driven as ev
+from discgym.kernels.structs import Bounds, Discs
 
 A = dg.Species("A", 0.5, 1.0)
 B = dg.Species("B", 0.5, 1.0)
@@ -469,7 +471,7 @@ def test_controls_between_runs_are_picked_up():
 
 
 def test_event_statistics_and_restart_on_growth():
-    """run_stats reports the work done; a decomposition beyond the capacity restarts."""
+    """run_steps reports the work done; a decomposition beyond the capacity restarts."""
     sc = dg.Scene(bounds=dg.Box(30.0, 30.0), species=[HOT, A, B],
                   reactions=[dg.Decomposition("AB", "A", "B", probability=0.9)],
                   counts={"AB": 100}, dt=0.02)
@@ -484,10 +486,11 @@ def test_event_statistics_and_restart_on_growth():
     icnt = np.zeros_like(sim._icnt)
     fsum = np.zeros_like(sim._fsum)
     chc = np.zeros_like(sim._ch_count)
-    pos, vel, spc, uint, ids, n = ev.run_stats(pos, vel, spc, uint, ids, idctr, n, 5.0,
-                                               sim._bkind, sim._bp, cs.tables, cs.params,
-                                               cs.flags, np.random.default_rng(1), icnt,
-                                               fsum, chc, stats, ev.CELLS_PER_DISC)
+    discs, n = ev.run_steps(Discs(pos, vel, spc, uint, ids, idctr), n, 1, 5.0,
+                            Bounds(*kernel_bounds(sim.bounds)), cs.tables, cs.params, cs.flags,
+                            np.random.default_rng(1), ev.Counters(icnt, fsum, chc, stats),
+                            ev.CELLS_PER_DISC)
+    pos, spc, ids = discs.pos, discs.species, discs.ids
     assert stats[ev.ST_RESTARTS] >= 1 and n > 150 and pos.shape[0] >= n
     assert stats[ev.ST_EVENTS] >= stats[ev.ST_CROSSINGS] > 0
     assert (spc[:n] >= 0).all() and len(set(ids[:n].tolist())) == n

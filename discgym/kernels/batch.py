@@ -12,13 +12,14 @@ does the same in a ``prange`` over reactors (numba's threads). Both run the same
 size, and numba refuses tuples of more than 100 items in a parallel region), so a reactor of
 a batch follows bit for bit the trajectory of a lone environment (``R = 1``) with the same
 state, generator and actions. The physics of a step is
-:func:`discgym.kernels.step.run_tracked`, the kernel :meth:`Simulation.step
-<discgym.Simulation.step>` calls, single-threaded for each reactor.
+:func:`discgym.kernels.step.advance`, the kernel :meth:`Simulation.step
+<discgym.Simulation.step>` calls, single-threaded for each reactor; the controls are those of
+:mod:`~discgym.kernels.controls`, which the ``Simulation`` methods call.
 
 One call per environment step: the environment's Python only checks the action's shape,
 books the ``Simulation``'s clocks and builds ``info``.
 
-The capacity C must never be too small: ``run_tracked`` returns new, larger arrays when a
+The capacity C must never be too small: ``advance`` returns new, larger arrays when a
 fission finds ``C < 2 n``, and those could not be written back into the batch; an injection
 could not fit either. :func:`reactor_step` reports such a reactor in its status
 (:data:`GREW`, :data:`FULL`) instead and the caller raises. Give each reactor
@@ -33,11 +34,9 @@ import math
 import numpy as np
 from numba import njit, prange
 
-from .controls import energies, kinetic_and_fastest, scale
-from .placement import place, relocate
-from .step import empty_work, run_tracked
-from .structs import INDEX, P_RMAX
-from .walls import inside
+from .controls import RESIZED, heat, inject, resize
+from .step import advance, empty_work
+from .structs import BOX, P_RMAX, Bounds, Counters, Discs
 
 #: status of a reactor whose state arrays had to grow in a step (capacity too small).
 GREW = 1
@@ -134,35 +133,31 @@ def reactor_step(r, rx, ep, tables, params, flags, consts, rngs, act):
     ``round(a * inject_max)`` discs (at most the budget left) at free random spots, with
     Maxwell-Boltzmann velocities at the current kT (a full reactor places fewer).
     """
-    rng = rngs[r]
     fout = ep.fout
     iout = ep.iout
     for k in range(fout.shape[1]):
         fout[r, k] = 0.0
     for k in range(iout.shape[1]):
         iout[r, k] = 0
+    discs = Discs(rx.pos[r], rx.vel[r], rx.species[r], rx.internal_energy[r], rx.ids[r],
+                  rx.next_id[r])
     a, bad_wall = _read_action(r, act, iout)
-    _heat(r, a[0], rx, ep, tables.sp_mass, consts)
+    _heat(r, a[0], discs, rx.n[r], ep, tables.sp_mass, consts)
     if not bad_wall:
-        _wall(r, a[1], rx, ep, tables.sp_radius, params, consts, rng)
-    if not _inject_feed(r, a, rx, ep, tables, consts, rng):
+        _wall(r, a[1], discs, rx, ep, tables.sp_radius, params, consts, rngs)
+    if not _inject_feed(r, a, discs, rx, ep, tables, consts, rngs):
         return
     # the physics
-    n_steps = consts.steps_per_action
-    p = rx.pos[r]
-    cap = p.shape[0]
-    p2, v2_, s2, u2, d2, m2, _w = run_tracked(p, rx.vel[r], rx.species[r],
-                                              rx.internal_energy[r], rx.n[r], n_steps,
-                                              consts.dt, rx.bounds_kind[r],
-                                              rx.bounds_params[r], tables, params, flags, rng,
-                                              rx.icnt[r], rx.fsum[r], rx.ch_count[r], 1,
-                                              rx.ids[r], rx.next_id[r], rx.ksteps[r],
-                                              consts.reorder_every, empty_work())
-    if p2.shape[0] != cap:
+    cap = discs.pos.shape[0]
+    after, m, _w = advance(discs, rx.n[r], consts.steps_per_action, consts.dt,
+                           Bounds(rx.bounds_kind[r], rx.bounds_params[r]), tables, params,
+                           flags, rngs[r], Counters(rx.icnt[r], rx.fsum[r], rx.ch_count[r]),
+                           1, rx.ksteps[r], consts.reorder_every, empty_work())
+    if after.pos.shape[0] != cap:
         iout[r, O_STATUS] = GREW
         return
-    rx.n[r] = m2
-    rx.ksteps[r] += n_steps
+    rx.n[r] = m
+    rx.ksteps[r] += consts.steps_per_action
     ep.steps[r] += 1
     observe_one(r, rx.vel, rx.species, rx.internal_energy, rx.n, tables.sp_mass,
                 tables.sp_form, ep, consts)
@@ -188,61 +183,71 @@ def _read_action(r, act, iout):
 
 
 @njit(cache=True)
-def _heat(r, a0, rx, ep, sp_mass, consts):
+def _heat(r, a0, discs, n, ep, sp_mass, consts):
     """Heat control: kinetic energy x heat_rate ** a0, kT kept inside [t_min, t_max], and
     no further than the speed limit."""
     T = ep.temperature[r]
     if not (a0 != 0.0 and T > 0.0):
         return
-    m = rx.n[r]
-    v = rx.vel[r]
-    s = rx.species[r]
     f = consts.heat_rate ** a0
     f = min(max(f, min(1.0, consts.t_min / T)), max(1.0, consts.t_max / T))
-    sc = math.sqrt(f)
-    ke0 = 0.0
-    if f != 1.0:  # (the sums and the scaling of Simulation.scale_temperature)
-        ke0, v2max = kinetic_and_fastest(v, s, sp_mass, m)
-        vmax = math.sqrt(v2max)
-        if sc > 1.0 and vmax * sc > consts.speed_limit:  # heat up to the speed limit
-            sc = max(consts.speed_limit / vmax, 1.0)  # (a disc already past it: no heat)
-            f = sc * sc
+    f, energy, _ = heat(discs.vel, discs.species, sp_mass, n, f, consts.speed_limit, True)
     if f != 1.0:
-        scale(v, m, sc)
-        ke1, _ = kinetic_and_fastest(v, s, sp_mass, m)
         ep.fout[r, O_HEAT] = (f - 1.0) * ep.kinetic[r]
-        ep.fout[r, O_ENERGY_HEAT] = ke1 - ke0
+        ep.fout[r, O_ENERGY_HEAT] = energy
 
 
 @njit(cache=True)
-def _wall(r, a1, rx, ep, sp_radius, params, consts, rng):
-    """Wall control: the size toward its target by at most wall_speed (blocked: the size
-    stays and ``iout[r, O_BLOCKED]`` is set)."""
+def _wall(r, a1, discs, rx, ep, sp_radius, params, consts, rngs):
+    """Wall control: the size toward its target by at most wall_speed, the box's width (origin
+    kept) or the circle's radius ``size`` x the scene's (blocked: the size stays and
+    ``iout[r, O_BLOCKED]`` is set)."""
     size = ep.size
     lo_s = consts.size_min
     hi_s = consts.size_max
     target = lo_s + 0.5 * (a1 + 1.0) * (hi_s - lo_s)
     ws = consts.wall_speed
     new = min(max(size[r] + min(max(target - size[r], -ws), ws), lo_s), hi_s)
-    if new != size[r]:
-        if _resize(new, rx.pos[r], rx.species[r], rx.n[r], rx.bounds_kind[r],
-                   rx.bounds_params[r], sp_radius, params, consts, rng):
-            size[r] = new
-        else:
-            ep.iout[r, O_BLOCKED] = 1
+    if new == size[r]:
+        return
+    ref = consts.ref_bounds
+    nb = np.empty(4)
+    nb[0] = ref[0]
+    nb[1] = ref[1]
+    kind = rx.bounds_kind[r]
+    if kind == BOX:
+        w = ref[2] * new
+        h = ref[3]
+        nb[2] = ref[0] + w
+        nb[3] = ref[1] + h
+        fit_radius = 0.5 * min(w, h)
+        area = w * h
+    else:
+        rad = ref[2] * new
+        nb[2] = rad
+        nb[3] = 0.0
+        fit_radius = rad
+        area = math.pi * rad * rad
+    done, _ = resize(discs.pos, discs.species, rx.n[r], sp_radius, params[P_RMAX], kind, nb,
+                     fit_radius, area, consts.packing, rngs, r, consts.attempts)
+    if done == RESIZED:
+        rx.bounds_params[r, :] = nb
+        size[r] = new
+    else:
+        ep.iout[r, O_BLOCKED] = 1
 
 
 @njit(cache=True)
-def _inject_feed(r, a, rx, ep, tables, consts, rng):
+def _inject_feed(r, a, discs, rx, ep, tables, consts, rngs):
     """Injection control: round(a * inject_max) discs of each feed species for a > 0, within
-    the budget left. Returns False when they do not fit the arrays (status FULL)."""
+    the budget left, at the current kT. Returns False when they do not fit the arrays
+    (status FULL)."""
     feed = consts.feed
     F = feed.shape[0]
     iout = ep.iout
     feed_left = ep.feed_left
-    p = rx.pos[r]
     m = rx.n[r]
-    cap = p.shape[0]
+    cap = discs.pos.shape[0]
     for k in range(F):
         x = a[2 + k]
         want = int(np.rint(x * consts.inject_max)) if x > 0.0 else 0
@@ -254,10 +259,10 @@ def _inject_feed(r, a, rx, ep, tables, consts, rng):
             if m + todo > cap:
                 iout[r, O_STATUS] = FULL
                 return False
-            placed, energy = _inject(feed[k], todo, p, rx.vel[r], rx.species[r],
-                                     rx.internal_energy[r], rx.ids[r], rx.next_id[r], m,
-                                     rx.bounds_kind[r], rx.bounds_params[r], tables, consts,
-                                     rng)
+            placed, energy, _ = inject(discs, m, feed[k], np.full((todo, 2), np.nan), np.nan,
+                                       consts.temperature, consts.speed_limit, tables,
+                                       rx.bounds_kind[r], rx.bounds_params[r], rngs, r,
+                                       consts.attempts)
             ep.fout[r, 2 + k] = energy
             m += placed
         feed_left[r, k] -= placed
@@ -265,95 +270,6 @@ def _inject_feed(r, a, rx, ep, tables, consts, rng):
         iout[r, 3 + F + k] = want - placed
     rx.n[r] = m
     return True
-@njit(cache=True)
-def _resize(size, pos, species, n, bounds_kind, bounds_params, sp_radius, params, consts, rng):
-    """Bounds of ``size`` x the scene's for one reactor (box: the width scales, origin kept;
-    circle: the radius), as :meth:`Simulation.resize <discgym.Simulation.resize>` does it:
-    refused (False, nothing changed) when the largest species or the discs' total area
-    cannot fit, or a disc left outside finds no free spot (the generator has then been
-    drawn from). ``bounds_params`` (4,) is overwritten when it succeeds."""
-    ref = consts.ref_bounds
-    nb = np.empty(4)
-    if bounds_kind == 0:
-        w = ref[2] * size
-        h = ref[3]
-        nb[0] = ref[0]
-        nb[1] = ref[1]
-        nb[2] = ref[0] + w
-        nb[3] = ref[1] + h
-        rfit = 0.5 * min(w, h)
-        area = w * h
-    else:
-        rad = ref[2] * size
-        nb[0] = ref[0]
-        nb[1] = ref[1]
-        nb[2] = rad
-        nb[3] = 0.0
-        rfit = rad
-        area = math.pi * rad * rad
-    if params[P_RMAX] > rfit:  # the largest species does not fit
-        return False
-    all_in = True
-    for i in range(n):
-        if not inside(pos[i, 0], pos[i, 1], sp_radius[species[i]], bounds_kind, nb):
-            all_in = False
-            break
-    if not all_in:
-        disc_area = 0.0
-        for i in range(n):
-            q = sp_radius[species[i]]
-            disc_area += math.pi * q * q
-        if disc_area > consts.packing * area:
-            return False
-        if relocate(pos, species, n, sp_radius, bounds_kind, nb, rng, consts.attempts):
-            return False
-    for k in range(4):
-        bounds_params[k] = nb[k]
-    return True
-
-
-@njit(cache=True)
-def _inject(sp, todo, pos, vel, species, internal_energy, ids, next_id, n, bounds_kind,
-            bounds_params, tables, consts, rng):
-    """Place up to ``todo`` discs of species ``sp`` after discs [0, n) (free random spots)
-    with Maxwell-Boltzmann velocities at the current kT (the scene's if empty); returns how
-    many were placed (all refused if one would pass the speed limit) and the energy they
-    add. The same arithmetic as :meth:`Simulation.inject <discgym.Simulation.inject>` (the
-    same energy sums, the same draws): the same bits, but for a refused injection, after
-    which the generator has been drawn from (``inject`` puts its state back; compiled code
-    cannot)."""
-    sp_radius = tables.sp_radius
-    sp_mass = tables.sp_mass
-    sp_form = tables.sp_form
-    ke, ui, fo = energies(vel, species, internal_energy, sp_mass, sp_form, n)
-    e0 = ke + ui + fo
-    T = ke / n if n > 0 else consts.temperature
-    kinds = np.full(todo, sp, dtype=INDEX)
-    targets = np.full((todo, 2), np.nan)
-    placed = place(pos, species, n, kinds, targets, sp_radius, bounds_kind, bounds_params, rng,
-                   consts.attempts)
-    sd = math.sqrt(T / sp_mass[sp])
-    ok = True
-    for i in range(n, n + placed):
-        vx = rng.standard_normal() * sd
-        vy = rng.standard_normal() * sd
-        vel[i, 0] = vx
-        vel[i, 1] = vy
-        if not math.sqrt(vx * vx + vy * vy) <= consts.speed_limit:
-            ok = False
-    if not ok:  # refused, as Simulation.inject refuses it
-        for i in range(n, n + placed):
-            species[i] = -1
-            vel[i, 0] = 0.0
-            vel[i, 1] = 0.0
-        return 0, 0.0
-    k0 = next_id[0]
-    for i in range(n, n + placed):
-        internal_energy[i] = 0.0
-        ids[i] = k0 + (i - n)
-    next_id[0] = k0 + placed
-    ke, ui, fo = energies(vel, species, internal_energy, sp_mass, sp_form, n + placed)
-    return placed, ke + ui + fo - e0
 
 
 @njit(cache=True)

@@ -1,12 +1,24 @@
-"""The compiled parts of the controls of a :class:`~discgym.Simulation` (heating, moving a
-wall, injecting): one pass over the discs each, so a control costs a few microseconds from
-Python instead of a dozen numpy calls (what a reinforcement-learning loop pays every step).
+"""The controls of a reactor (heating, moving a wall, injecting), written once: the
+:class:`~discgym.Simulation` methods validate their arguments and call these kernels, and the
+environment's one-call step (:mod:`~discgym.kernels.batch`) calls the same kernels after it
+has turned an action into their arguments, so both change a reactor's state the same way, to
+the last bit. A refusal is a return value (nothing changed); the caller words the error.
 
 Energy sums run in disc order with Neumaier's compensated summation (accurate to about one
 rounding of the result, whatever N), and are what ``Simulation``'s energy observables report.
 """
 
+import math
+
+import numpy as np
 from numba import njit
+
+from .placement import place, relocate
+from .structs import INDEX
+from .walls import inside
+
+#: outcomes of :func:`resize`
+RESIZED, TOO_BIG, TOO_DENSE, NO_ROOM = range(4)
 
 
 @njit(cache=True)
@@ -57,20 +69,114 @@ def scale(vel, n, s):
 
 
 @njit(cache=True)
-def all_inside(pos, species, sp_radius, n, bounds_kind, b0, b1, b2, b3):
-    """Do all discs [0, n) lie within the bounds (box: (x0, y0, x1, y1) = b0..b3; circle:
-    centre (b0, b1), radius b2)? Touching counts as inside."""
+def heat(vel, species, sp_mass, n, factor, speed_limit, clip):
+    """Multiply the kinetic energy of discs [0, n) by ``factor`` >= 0 (their velocities by
+    its square root).
+
+    If that would push the fastest disc past ``speed_limit``: with ``clip``, heat only up to
+    the limit (not at all if a disc is already past it); without, change nothing. Returns
+    ``(factor applied, energy added, fastest speed asked for)``; the factor is NaN when
+    refused, 1 (and nothing computed) when there is nothing to do.
+    """
+    if factor == 1.0:
+        return 1.0, 0.0, 0.0
+    sc = math.sqrt(factor)
+    ke0, v2max = kinetic_and_fastest(vel, species, sp_mass, n)
+    vmax = math.sqrt(v2max)
+    fastest = vmax * sc
+    if sc > 1.0 and not fastest <= speed_limit:
+        if not clip:
+            return np.nan, 0.0, fastest
+        sc = max(speed_limit / vmax, 1.0)
+        factor = sc * sc
+        if factor == 1.0:
+            return 1.0, 0.0, fastest
+    scale(vel, n, sc)
+    ke1, _ = kinetic_and_fastest(vel, species, sp_mass, n)
+    return factor, ke1 - ke0, fastest
+
+
+@njit(cache=True)
+def resize(pos, species, n, sp_radius, r_max, bounds_kind, bounds_params, fit_radius, area,
+           packing, rngs, r, attempts):
+    """Put discs [0, n) into new bounds (``bounds_kind``, ``bounds_params`` (4,)) whose
+    largest disc radius is ``fit_radius`` and whose area is ``area``: a disc left outside moves
+    to the nearest free spot found inside (:func:`~discgym.kernels.placement.relocate`;
+    velocities kept, so no energy changes).
+
+    Returns ``(outcome, discs without room)``: :data:`RESIZED`, or, with nothing moved,
+    :data:`TOO_BIG` (the largest species, radius ``r_max``, does not fit), :data:`TOO_DENSE`
+    (the discs would cover more than ``packing`` of the area), :data:`NO_ROOM` (discs outside
+    found no free spot; the generator ``rngs[r]`` has been drawn from).
+    """
+    if r_max > fit_radius:
+        return TOO_BIG, 0
+    all_in = True
     for i in range(n):
-        r = sp_radius[species[i]]
-        x = pos[i, 0]
-        y = pos[i, 1]
-        if bounds_kind == 0:
-            if not (b0 + r <= x <= b2 - r and b1 + r <= y <= b3 - r):
-                return False
-        else:
-            L = b2 - r
-            dx = x - b0
-            dy = y - b1
-            if L < 0.0 or dx * dx + dy * dy > L * L:
-                return False
-    return True
+        if not inside(pos[i, 0], pos[i, 1], sp_radius[species[i]], bounds_kind,
+                      bounds_params):
+            all_in = False
+            break
+    if all_in:  # (e.g. the wall moved out)
+        return RESIZED, 0
+    disc_area = 0.0
+    for i in range(n):
+        q = sp_radius[species[i]]
+        disc_area += math.pi * q * q
+    if disc_area > packing * area:
+        return TOO_DENSE, 0
+    failed = relocate(pos, species, n, sp_radius, bounds_kind, bounds_params, rngs[r], attempts)
+    return (NO_ROOM, failed) if failed else (RESIZED, 0)
+
+
+@njit(cache=True)
+def inject(discs, n, sp, targets, temperature, temperature_if_empty, speed_limit, tables,
+           bounds_kind, bounds_params, rngs, r, attempts):
+    """Add up to ``len(targets)`` discs of species ``sp`` after discs [0, n) of ``discs`` (a
+    :class:`~discgym.kernels.structs.Discs` with room for them), each at a free random spot
+    (near its row of ``targets`` (M, 2) if that is not NaN), with Maxwell-Boltzmann
+    velocities at ``temperature`` (NaN: the current kT, ``temperature_if_empty`` for an
+    empty reactor), internal energy 0 and fresh identities.
+
+    Returns ``(placed, energy added, fastest speed drawn)``. Placing stops at the first disc
+    that finds no room. If a drawn speed passes ``speed_limit`` the whole injection is
+    refused: ``(0, 0, fastest)``, nothing added, but the generator ``rngs[r]`` has been drawn
+    from (:meth:`Simulation.inject <discgym.Simulation.inject>` puts its state back).
+    """
+    rng = rngs[r]
+    vel = discs.vel
+    species = discs.species
+    internal_energy = discs.internal_energy
+    sp_mass = tables.sp_mass
+    sp_form = tables.sp_form
+    ke, ui, fo = energies(vel, species, internal_energy, sp_mass, sp_form, n)
+    e0 = ke + ui + fo
+    if not temperature >= 0.0:
+        temperature = ke / n if n > 0 else temperature_if_empty
+    kinds = np.full(targets.shape[0], sp, dtype=INDEX)
+    placed = place(discs.pos, species, n, kinds, targets, tables.sp_radius, bounds_kind,
+                   bounds_params, rng, attempts)
+    sd = math.sqrt(temperature / sp_mass[sp])
+    fastest = 0.0
+    for i in range(n, n + placed):
+        vx = rng.standard_normal() * sd
+        vy = rng.standard_normal() * sd
+        vel[i, 0] = vx
+        vel[i, 1] = vy
+        v = math.sqrt(vx * vx + vy * vy)
+        if not v <= fastest:
+            fastest = v
+    if not fastest <= speed_limit:
+        for i in range(n, n + placed):
+            species[i] = -1
+            vel[i, 0] = 0.0
+            vel[i, 1] = 0.0
+        return 0, 0.0, fastest
+    ids = discs.ids
+    k0 = discs.next_id[0]
+    for i in range(n, n + placed):
+        internal_energy[i] = 0.0
+        ids[i] = k0 + (i - n)
+    discs.next_id[0] = k0 + placed
+    ke, ui, fo = energies(vel, species, internal_energy, sp_mass, sp_form, n + placed)
+    return placed, ke + ui + fo - e0, fastest

@@ -140,10 +140,24 @@ from .step import (
     IC_WALL_HITS,
     MAX_SUBSTEPS,
     _compact,
+    advance,
     empty_work,
 )
-from .step import run_tracked as step_run
-from .structs import COUNT, FLOAT, INDEX, Discs
+from .structs import (
+    COUNT,
+    F_BI,
+    F_COLLISIONS,
+    F_UNI,
+    FLOAT,
+    INDEX,
+    P_MAXDISP,
+    P_RELAX,
+    P_RESTITUTION,
+    P_RMAX,
+    P_RMIN,
+    Discs,
+)
+from .structs import Counters as StepCounters
 from .walls import box_next, circle_next, graze_floor, inside, reflected
 
 INF = math.inf
@@ -154,7 +168,7 @@ EV_CELL = -2
 EV_REACT = -3
 EV_NONE = -4
 
-# Statistics (``Counters.stats``, int64, filled by :func:`run_stats`).
+# Statistics (``Counters.stats``, int64, filled by :func:`run_steps`).
 ST_EVENTS = 0  # events popped (valid or stale)
 ST_STALE = 1  # events found stale (partner changed since the prediction)
 ST_CROSSINGS = 2  # cell crossings
@@ -335,7 +349,7 @@ def _predict(d, T, fl, cells, queue, run, entered):
         best = fl.t_reaction[d] - T  # times relative to T from here on
         code = EV_REACT if best < INF else EV_NONE
         aux = 0
-        if run.bkind == 0:
+        if run.bounds_kind == 0:
             tw, axis = box_next(x, y, vx, vy, r, run.b0, run.b1, run.b2, run.b3)
         else:
             tw, axis = circle_next(x, y, vx, vy, r, run.b0, run.b1, run.b2)
@@ -375,7 +389,7 @@ def _predict(d, T, fl, cells, queue, run, entered):
 def _room(x, y, r, ex1, ex2, T, fl, cells, run):
     """Does a disc of radius r fit at (x, y) at time T: inside the bounds and overlapping no
     live disc but ex1 and ex2 (touching is not overlapping)?"""
-    if not inside(x, y, r, run.bkind, run.bp):
+    if not inside(x, y, r, run.bounds_kind, run.bounds_params):
         return False
     if not run.collide:
         return True
@@ -595,8 +609,8 @@ def _wall_hit(d, fl, queue, run, counters):
     vx0 = W[d, PVX]
     vy0 = W[d, PVY]
     vx, vy, vn = reflected(W[d, PX], W[d, PY], vx0, vy0, int(queue.event[d, NEXT_AUX]),
-                           run.bkind, b0, b1)
-    if run.bkind == 1:  # never tangent to the curved wall (see walls.graze_floor)
+                           run.bounds_kind, b0, b1)
+    if run.bounds_kind == 1:  # never tangent to the curved wall (see walls.graze_floor)
         vx, vy = graze_floor(W[d, PX], W[d, PY], vx, vy, b0, b1)
         nx = W[d, PX] - b0
         ny = W[d, PY] - b1
@@ -745,19 +759,20 @@ def _grow(cap, state, fl, cells, queue):
 
 
 @njit(cache=True)
-def _run_constants(n, n_steps, step_dt, vel, species, tables, params, flags, bkind, bp):
+def _run_constants(n, n_steps, step_dt, vel, species, tables, params, flags, bounds):
     """What a run of ``n_steps`` of ``step_dt`` fixes from the scene and the state at its
     start: the substep the time-stepped integrator would take (no disc moves more than
     max_displacement smallest radii), which is the shortest wait of a refused reaction and
     the unit of the event bound, and the TC model's t_c (inelastic scenes only)."""
     sp_mass = tables.sp_mass
-    e_rest = params[0]
+    bp = bounds.params
+    e_rest = params[P_RESTITUTION]
     v2max = 0.0
     for d in range(n):
         if species[d] >= 0:
             v2max = max(v2max, vel[d, 0] * vel[d, 0] + vel[d, 1] * vel[d, 1])
     ksub = 1
-    q = math.sqrt(v2max) * step_dt / (params[2] * params[3])
+    q = math.sqrt(v2max) * step_dt / (params[P_MAXDISP] * params[P_RMIN])
     if not q <= MAX_SUBSTEPS:
         ksub = MAX_SUBSTEPS
     elif q > 1.0:
@@ -772,18 +787,18 @@ def _run_constants(n, n_steps, step_dt, vel, species, tables, params, flags, bki
                 mv2 += m * (vel[d, 0] * vel[d, 0] + vel[d, 1] * vel[d, 1])
                 msum += m
         if mv2 > 0.0:
-            tc = TC_FRACTION * params[3] / math.sqrt(mv2 / msum)
+            tc = TC_FRACTION * params[P_RMIN] / math.sqrt(mv2 / msum)
     return Run(n_steps * step_dt, n_steps * ksub * (EVENTS_PER_DISC * n + 1024),
-               step_dt / ksub, n_steps * FO_EXACT, tc, e_rest, params[1], params[4],
-               flags[0] != 0, flags[1] != 0, flags[2] != 0, bkind, bp, bp[0], bp[1], bp[2],
-               bp[3])
+               step_dt / ksub, n_steps * FO_EXACT, tc, e_rest, params[P_RELAX], params[P_RMAX],
+               flags[F_COLLISIONS] != 0, flags[F_UNI] != 0, flags[F_BI] != 0, bounds.kind,
+               bounds.params, bp[0], bp[1], bp[2], bp[3])
 
 
 @njit(cache=True)
 def _make_cells(n, cap, run, cells_per_disc):
     """The grid over the bounds (one cell when discs do not collide), no disc in it yet."""
     b0, b1, b2, b3 = run.b0, run.b1, run.b2, run.b3
-    if run.bkind == 0:
+    if run.bounds_kind == 0:
         gx0, gy0, gx1, gy1 = b0, b1, b2, b3
     else:
         gx0, gy0, gx1, gy1 = b0 - b2, b1 - b2, b0 + b2, b1 + b2
@@ -936,7 +951,7 @@ def _write_back(n, t, fl, state):
 
 
 @njit(cache=True)
-def _simulate(state, n, n_steps, step_dt, bkind, bp, tables, params, flags, rng, counters,
+def _simulate(state, n, n_steps, step_dt, bounds, tables, params, flags, rng, counters,
               cells_per_disc):
     """Advance discs [0, n) by ``n_steps`` steps of ``step_dt`` in one run, from time 0 to
     t1 = n_steps step_dt.
@@ -957,7 +972,7 @@ def _simulate(state, n, n_steps, step_dt, bkind, bp, tables, params, flags, rng,
     if n == 0:
         return state, 0, n_steps * step_dt
     run = _run_constants(n, n_steps, step_dt, state.vel, state.species, tables, params, flags,
-                         bkind, bp)
+                         bounds)
     cap = state.pos.shape[0]
     cells = _make_cells(n, cap, run, cells_per_disc)
     counters.stats[ST_CELLS] = cells.ncx * cells.ncy
@@ -972,63 +987,47 @@ def _simulate(state, n, n_steps, step_dt, bkind, bp, tables, params, flags, rng,
 
 
 @njit(cache=True)
-def run_steps(state, n, n_steps, dt, bkind, bp, tables, params, flags, rng, counters,
+def run_steps(state, n, n_steps, dt, bounds, tables, params, flags, rng, counters,
               cells_per_disc):
     """Advance ``n_steps`` steps of ``dt`` in one exact run (every disc brought to the end).
-    A run that reaches its event bound (see :func:`_simulate`) is finished from the time of
-    the bound by the time-stepped integrator (steps of ``dt``, single-threaded; counted in
-    ``events_capped``), whose own bounds hold. Returns ``(pos, vel, species,
-    internal_energy, ids, n)``."""
-    state, n, t = _simulate(state, n, n_steps, dt, bkind, bp, tables, params, flags, rng,
+
+    ``state`` a :class:`~discgym.kernels.structs.Discs` (capacity C >= n; discs [0, n)),
+    ``bounds`` a :class:`~discgym.kernels.structs.Bounds`, ``tables``, ``params``, ``flags``
+    the compiled scene, ``counters`` a :class:`~discgym.kernels.event_structs.Counters`
+    (accumulated in place), ``cells_per_disc`` how many grid cells per disc at most (cells
+    are never narrower than the largest diameter; :data:`CELLS_PER_DISC` by default).
+    Single-threaded. A run that reaches its event bound (see :func:`_simulate`) is finished
+    from the time of the bound by the time-stepped integrator (steps of ``dt``; counted in
+    ``events_capped``), whose own bounds hold.
+
+    Returns ``(state, n)``: new (larger) arrays when decompositions needed more capacity,
+    else the ones passed in. Discs consumed by combinations are removed (the order of the
+    others is kept); fragments are appended, taking the identity ``state.next_id[0]``.
+    """
+    state, n, t = _simulate(state, n, n_steps, dt, bounds, tables, params, flags, rng,
                             counters, cells_per_disc)
-    pos, vel, species, u, ids, idctr = state
-    icnt, fsum, ch_count = counters.icnt, counters.fsum, counters.ch_count
-    n = _compact(n, pos, vel, species, u, ids)
+    n = _compact(n, state.pos, state.vel, state.species, state.internal_energy, state.ids)
     rest = n_steps * dt - t
     if rest > 0.0:
-        icnt[IC_EVENTS_CAPPED] += 1
+        counters.icnt[IC_EVENTS_CAPPED] += 1
+        cnt = StepCounters(counters.icnt, counters.fsum, counters.ch_count)
         whole = min(int(rest / dt), n_steps)
         if whole > 0:
-            pos, vel, species, u, ids, n, _w = step_run(
-                pos, vel, species, u, n, whole, dt, bkind, bp, tables, params, flags, rng,
-                icnt, fsum, ch_count, 1, ids, idctr, 0, 0, empty_work())
+            state, n, _w = advance(state, n, whole, dt, bounds, tables, params, flags, rng, cnt,
+                                   1, 0, 0, empty_work())
         if rest - whole * dt > 0.0:
-            pos, vel, species, u, ids, n, _w = step_run(
-                pos, vel, species, u, n, 1, rest - whole * dt, bkind, bp, tables, params, flags,
-                rng, icnt, fsum, ch_count, 1, ids, idctr, 0, 0, empty_work())
-    return pos, vel, species, u, ids, n
+            state, n, _w = advance(state, n, 1, rest - whole * dt, bounds, tables, params,
+                                   flags, rng, cnt, 1, 0, 0, empty_work())
+    return state, n
 
 
 @njit(cache=True)
-def run_stats(pos, vel, species, internal_energy, ids, idctr, n, duration, bkind, bp, tables,
-              params, flags, rng, icnt, fsum, ch_count, stats, cells_per_disc):
-    """Advance discs [0, n) exactly by ``duration`` of simulated time, as one step,
-    accumulating the integrator's statistics in ``stats`` (N_STATS,) int64 (see ST_*).
-
-    State and counters as for :func:`discgym.kernels.step.run_tracked`: ``pos`` (C, 2),
-    ``vel`` (C, 2), ``species`` (C,) species index (-1: no disc), ``internal_energy`` (C,),
-    ``ids`` (C,) int64 disc identities (a fragment takes ``idctr[0]``, which is incremented),
-    capacity C >= n; ``tables``, ``params``, ``flags`` from
-    :class:`discgym.compiled.CompiledScene`; ``icnt``, ``fsum``, ``ch_count`` accumulated in
-    place. ``cells_per_disc``: how many grid cells per disc at most (cells are never
-    narrower than the largest diameter); :data:`CELLS_PER_DISC` by default. Single-threaded.
-
-    Returns ``(pos, vel, species, internal_energy, ids, n)``: new (larger) arrays when
-    decompositions needed more capacity, else the ones passed in. Discs consumed by
-    combinations are removed (the order of the others is kept); fragments are appended.
-    """
-    return run_steps(Discs(pos, vel, species, internal_energy, ids, idctr), n, 1, duration,
-                     bkind, bp, tables, params, flags, rng, Counters(icnt, fsum, ch_count, stats),
-                     cells_per_disc)
-
-
-@njit(cache=True)
-def run_steps_rngs(pos, vel, species, internal_energy, ids, idctr, n, n_steps, dt, bkind, bp,
-                   tables, params, flags, rngs, icnt, fsum, ch_count):
-    """:func:`run_steps` on the arrays of :func:`run_stats`, with its generator passed as
-    ``rngs[0]`` (a ``numba.typed.List``; see :func:`discgym.kernels.step.advance_rngs`):
-    the entry point of :class:`~discgym.Simulation`."""
+def run_steps_rngs(discs, n, n_steps, dt, bounds, tables, params, flags, rngs, cnt):
+    """:func:`run_steps` with the counters of the time-stepped integrator (a
+    :class:`~discgym.kernels.structs.Counters`; the statistics are dropped) and its generator
+    passed as ``rngs[0]`` (a ``numba.typed.List``; see
+    :func:`discgym.kernels.step.advance_rngs`): the entry point of
+    :class:`~discgym.Simulation`."""
     stats = np.zeros(N_STATS, dtype=COUNT)
-    return run_steps(Discs(pos, vel, species, internal_energy, ids, idctr), n, n_steps, dt,
-                     bkind, bp, tables, params, flags, rngs[0],
-                     Counters(icnt, fsum, ch_count, stats), CELLS_PER_DISC)
+    return run_steps(discs, n, n_steps, dt, bounds, tables, params, flags, rngs[0],
+                     Counters(cnt.icnt, cnt.fsum, cnt.ch_count, stats), CELLS_PER_DISC)

@@ -95,13 +95,14 @@ class Queue(NamedTuple):
 
 
 class Run(NamedTuple):
-    """What a run fixes at its start (scalars; bp the (4,) float64 bounds vector).
+    """What a run fixes at its start (scalars; bounds_params the (4,) float64 bounds vector).
 
     t1: its end time; budget: its event bound; hsub: the substep of the time-stepped
     integrator for its speeds (the shortest wait of a refused reaction); fo_exact:
     first-order events per disc at exact times; tc: the TC model's t_c (0: elastic);
     e_rest, kappa, rmax: restitution, relaxation, the largest radius; collide, has_uni,
-    has_bi: which effects the scene has; bkind, bp, b0 ... b3: the bounds.
+    has_bi: which effects the scene has; bounds_kind, bounds_params, b0 ... b3: the
+    bounds.
     """
 
     t1: float
@@ -115,8 +116,8 @@ class Run(NamedTuple):
     collide: bool
     has_uni: bool
     has_bi: bool
-    bkind: int
-    bp: np.ndarray
+    bounds_kind: int
+    bounds_params: np.ndarray
     b0: float
     b1: float
     b2: float

@@ -62,8 +62,6 @@ from .structs import (
     P_RELAX,
     P_RESTITUTION,
     P_RMIN,
-    Bounds,
-    Counters,
     Discs,
     RunConsts,
     Scratch,
@@ -98,7 +96,7 @@ IC_GRAZE_REPAIRS = 11  # substeps repaired (and not event-capped) because a pair
 # overlapping while separating: left by a missed graze, by an earlier repair or by set_state
 IC_LEFT_OVERLAPPING = 12  # (internal) detections of such pairs: they trigger the repair
 IC_RESPLITS = 13  # times the rest of a step was split anew: a reaction or a release of internal
-# energy left a disc faster than the current substep allows (see run_tracked)
+# energy left a disc faster than the current substep allows (see advance)
 IC_CUTS = 14  # substeps ended at such a reaction inside their event phase (each one re-split)
 N_ICOUNTERS = 15
 # Float accumulators (fsum)
@@ -923,19 +921,6 @@ def _carve(work, ws, nstart):
     cell_start = iw[N_IWORK * ws:N_IWORK * ws + nstart]
     return Scratch(stamp, lastcol, tlast, wall_t, wflag, cell_of, cell_items, sx, sy, sr, ov_n,
                    ov_b, binx, biny, partner, nev, cell_start)
-
-
-@njit(cache=True)
-def run_tracked(pos, vel, species, internal_energy, n, n_steps, dt, bkind, bp, tables, params,
-                flags, rng, icnt,
-                fsum, ch_count, threads, ids, idctr, step0, reorder_every, work):
-    """:func:`advance` with the state, bounds and counters as separate arrays. Returns
-    ``(pos, vel, species, internal_energy, ids, n, work)``."""
-    discs, n, work = advance(Discs(pos, vel, species, internal_energy, ids, idctr), n, n_steps, dt,
-                             Bounds(bkind, bp), tables, params, flags, rng,
-                             Counters(icnt, fsum, ch_count), threads, step0, reorder_every,
-                             work)
-    return (discs.pos, discs.vel, discs.species, discs.internal_energy, discs.ids, n, work)
 
 
 @njit(cache=True)
