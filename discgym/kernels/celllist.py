@@ -60,11 +60,12 @@ def cell_radius(species, n, sp_radius):
 
 
 @njit(cache=True)
-def make_grid(bkind, bp, rcell, n):
-    if bkind == 0:
-        x0, y0, x1, y1 = bp[0], bp[1], bp[2], bp[3]
+def make_grid(bounds_kind, bounds_params, rcell, n):
+    b = bounds_params
+    if bounds_kind == 0:
+        x0, y0, x1, y1 = b[0], b[1], b[2], b[3]
     else:
-        x0, y0, x1, y1 = bp[0] - bp[2], bp[1] - bp[2], bp[0] + bp[2], bp[1] + bp[2]
+        x0, y0, x1, y1 = b[0] - b[2], b[1] - b[2], b[0] + b[2], b[1] + b[2]
     w = x1 - x0
     h = y1 - y0
     cs = max(2.0 * rcell, math.sqrt(w * h / max(2 * n, 1)), math.sqrt(w * h / MAX_CELLS))

@@ -765,7 +765,7 @@ def _run_constants(n, n_steps, step_dt, vel, species, tables, params, flags, bou
     max_displacement smallest radii), which is the shortest wait of a refused reaction and
     the unit of the event bound, and the TC model's t_c (inelastic scenes only)."""
     sp_mass = tables.sp_mass
-    bp = bounds.params
+    bounds_params = bounds.params
     e_rest = params[P_RESTITUTION]
     v2max = 0.0
     for d in range(n):
@@ -791,7 +791,8 @@ def _run_constants(n, n_steps, step_dt, vel, species, tables, params, flags, bou
     return Run(n_steps * step_dt, n_steps * ksub * (EVENTS_PER_DISC * n + 1024),
                step_dt / ksub, n_steps * FO_EXACT, tc, e_rest, params[P_RELAX], params[P_RMAX],
                flags[F_COLLISIONS] != 0, flags[F_UNI] != 0, flags[F_BI] != 0, bounds.kind,
-               bounds.params, bp[0], bp[1], bp[2], bp[3])
+               bounds.params, bounds_params[0], bounds_params[1], bounds_params[2],
+               bounds_params[3])
 
 
 @njit(cache=True)

@@ -42,35 +42,36 @@ def _free(x, y, r, pos, species, sp_radius, grid, head, nxt, rmax):
 
 
 @njit(cache=True)
-def _sample(r, bkind, bp, rng):
-    if bkind == 0:
-        x = bp[0] + r + (bp[2] - bp[0] - 2.0 * r) * rng.random()
-        y = bp[1] + r + (bp[3] - bp[1] - 2.0 * r) * rng.random()
+def _sample(r, bounds_kind, bounds_params, rng):
+    if bounds_kind == 0:
+        x = bounds_params[0] + r + (bounds_params[2] - bounds_params[0] - 2.0 * r) * rng.random()
+        y = bounds_params[1] + r + (bounds_params[3] - bounds_params[1] - 2.0 * r) * rng.random()
         return x, y
-    L = bp[2] - r
+    L = bounds_params[2] - r
     rho = L * math.sqrt(rng.random())
     a = 2.0 * math.pi * rng.random()
-    return bp[0] + rho * math.cos(a), bp[1] + rho * math.sin(a)
+    return bounds_params[0] + rho * math.cos(a), bounds_params[1] + rho * math.sin(a)
 
 
 @njit(cache=True)
-def _clamp_inside(x, y, r, bkind, bp):
-    if bkind == 0:
-        return min(max(x, bp[0] + r), bp[2] - r), min(max(y, bp[1] + r), bp[3] - r)
-    dx = x - bp[0]
-    dy = y - bp[1]
-    L = bp[2] - r
+def _clamp_inside(x, y, r, bounds_kind, bounds_params):
+    if bounds_kind == 0:
+        b = bounds_params
+        return min(max(x, b[0] + r), b[2] - r), min(max(y, b[1] + r), b[3] - r)
+    dx = x - bounds_params[0]
+    dy = y - bounds_params[1]
+    L = bounds_params[2] - r
     d = math.sqrt(dx * dx + dy * dy)
     if d > L:
         if d > 0.0:
-            return bp[0] + dx * (L / d), bp[1] + dy * (L / d)
-        return bp[0], bp[1]
+            return bounds_params[0] + dx * (L / d), bounds_params[1] + dy * (L / d)
+        return bounds_params[0], bounds_params[1]
     return x, y
 
 
 @njit(cache=True)
-def _place_one(tx, ty, r, pos, species, sp_radius, bkind, bp, grid, head, nxt, rmax, rng,
-               attempts):
+def _place_one(tx, ty, r, pos, species, sp_radius, bounds_kind, bounds_params, grid, head, nxt,
+               rmax, rng, attempts):
     """A free spot for a disc of radius r: at the target (tx, ty) clamped inside if free,
     then at random points ever farther around it, then anywhere in the bounds (NaN target:
     anywhere), ``attempts`` tries in all. Returns ``(found, x, y)``."""
@@ -79,21 +80,21 @@ def _place_one(tx, ty, r, pos, species, sp_radius, bkind, bp, grid, head, nxt, r
     for a in range(attempts):
         if not math.isnan(tx) and a < attempts // 2:
             if a == 0:
-                x, y = _clamp_inside(tx, ty, r, bkind, bp)
+                x, y = _clamp_inside(tx, ty, r, bounds_kind, bounds_params)
             else:
                 spread = r * (1.0 + 0.25 * a)
                 ang = 2.0 * math.pi * rng.random()
                 x, y = _clamp_inside(tx + spread * math.cos(ang), ty + spread * math.sin(ang),
-                                     r, bkind, bp)
+                                     r, bounds_kind, bounds_params)
         else:
-            x, y = _sample(r, bkind, bp, rng)
+            x, y = _sample(r, bounds_kind, bounds_params, rng)
         if _free(x, y, r, pos, species, sp_radius, grid, head, nxt, rmax):
             return True, x, y
     return False, x, y
 
 
 @njit(cache=True)
-def place(pos, species, n, todo, targets, sp_radius, bkind, bp, rng, attempts):
+def place(pos, species, n, todo, targets, sp_radius, bounds_kind, bounds_params, rng, attempts):
     """Place discs of species ``todo`` (M,) after the n placed ones; returns how many fit.
 
     ``targets`` (M, 2): where each disc should go if that spot is free (NaN: anywhere); see
@@ -103,7 +104,7 @@ def place(pos, species, n, todo, targets, sp_radius, bkind, bp, rng, attempts):
     """
     m = todo.shape[0]
     rmax = sp_radius.max()
-    grid = make_grid(bkind, bp, rmax, n + m)
+    grid = make_grid(bounds_kind, bounds_params, rmax, n + m)
     ncells = int(grid[4]) * int(grid[5])
     head = np.full(ncells, -1, dtype=INDEX)
     nxt = np.full(n + m, -1, dtype=INDEX)
@@ -116,7 +117,7 @@ def place(pos, species, n, todo, targets, sp_radius, bkind, bp, rng, attempts):
         k = n + q
         species[k] = s
         ok, x, y = _place_one(targets[q, 0], targets[q, 1], sp_radius[s], pos, species, sp_radius,
-                              bkind, bp, grid, head, nxt, rmax, rng, attempts)
+                              bounds_kind, bounds_params, grid, head, nxt, rmax, rng, attempts)
         if not ok:
             species[k] = -1
             return q
@@ -129,13 +130,13 @@ def place(pos, species, n, todo, targets, sp_radius, bkind, bp, rng, attempts):
 
 
 @njit(cache=True)
-def relocate(pos, species, n, sp_radius, bkind, bp, rng, attempts):
+def relocate(pos, species, n, sp_radius, bounds_kind, bounds_params, rng, attempts):
     """Move each disc of [0, n) that lies outside the bounds (after they shrank) to the
     nearest free spot found inside (:func:`_place_one`, its position as the target), in disc
     order; the discs inside stay put. Returns the number of discs that found no room: if
     any, ``pos`` is left unchanged (the caller refuses the resize)."""
     rmax = sp_radius.max()
-    grid = make_grid(bkind, bp, rmax, n)
+    grid = make_grid(bounds_kind, bounds_params, rmax, n)
     ncells = int(grid[4]) * int(grid[5])
     head = np.full(ncells, -1, dtype=INDEX)
     nxt = np.full(max(n, 1), -1, dtype=INDEX)
@@ -144,7 +145,7 @@ def relocate(pos, species, n, sp_radius, bkind, bp, rng, attempts):
     m = 0
     for k in range(n):
         r = sp_radius[species[k]]
-        if inside(work[k, 0], work[k, 1], r, bkind, bp):
+        if inside(work[k, 0], work[k, 1], r, bounds_kind, bounds_params):
             c = _cell(work[k, 0], work[k, 1], grid)
             nxt[k] = head[c]
             head[c] = k
@@ -155,7 +156,7 @@ def relocate(pos, species, n, sp_radius, bkind, bp, rng, attempts):
         k = out[q]
         ok, x, y = _place_one(work[k, 0], work[k, 1], sp_radius[species[k]], work, species,
                               sp_radius,
-                              bkind, bp, grid, head, nxt, rmax, rng, attempts)
+                              bounds_kind, bounds_params, grid, head, nxt, rmax, rng, attempts)
         if not ok:
             return m - q
         work[k, 0] = x
@@ -168,10 +169,10 @@ def relocate(pos, species, n, sp_radius, bkind, bp, rng, attempts):
 
 
 @njit(cache=True)
-def overlapping_pairs(pos, species, n, sp_radius, bkind, bp, tol):
+def overlapping_pairs(pos, species, n, sp_radius, bounds_kind, bounds_params, tol):
     """Count pairs among [0, n) overlapping by more than ``tol`` (relative to R_i + R_j)."""
     rmax = sp_radius.max()
-    grid = make_grid(bkind, bp, rmax, n)
+    grid = make_grid(bounds_kind, bounds_params, rmax, n)
     ncells = int(grid[4]) * int(grid[5])
     head = np.full(ncells, -1, dtype=INDEX)
     nxt = np.full(max(n, 1), -1, dtype=INDEX)
@@ -203,13 +204,15 @@ def overlapping_pairs(pos, species, n, sp_radius, bkind, bp, tol):
 
 
 @njit(cache=True)
-def place_rngs(pos, species, n, todo, targets, sp_radius, bkind, bp, rngs, attempts):
+def place_rngs(pos, species, n, todo, targets, sp_radius, bounds_kind, bounds_params, rngs,
+               attempts):
     """:func:`place` with its generator passed as ``rngs[0]`` (a ``numba.typed.List``; see
     :func:`discgym.kernels.step.advance_rngs`)."""
-    return place(pos, species, n, todo, targets, sp_radius, bkind, bp, rngs[0], attempts)
+    return place(pos, species, n, todo, targets, sp_radius, bounds_kind, bounds_params, rngs[0],
+                 attempts)
 
 
 @njit(cache=True)
-def relocate_rngs(pos, species, n, sp_radius, bkind, bp, rngs, attempts):
+def relocate_rngs(pos, species, n, sp_radius, bounds_kind, bounds_params, rngs, attempts):
     """:func:`relocate` with its generator passed as ``rngs[0]`` (a ``numba.typed.List``)."""
-    return relocate(pos, species, n, sp_radius, bkind, bp, rngs[0], attempts)
+    return relocate(pos, species, n, sp_radius, bounds_kind, bounds_params, rngs[0], attempts)

@@ -124,12 +124,12 @@ def apply_transformation(i, s, sp_form, species, internal_energy):
 
 
 @njit(cache=True)
-def room(x, y, r, t, ex1, ex2, collide, bkind, bp, pos, vel, species, sp_radius, grid, cell_start,
-         cell_items, nbin, n, reach):
+def room(x, y, r, t, ex1, ex2, collide, bounds_kind, bounds_params, pos, vel, species, sp_radius,
+         grid, cell_start, cell_items, nbin, n, reach):
     """Is there room for a disc of radius r at (x, y) at time t (<= 0: the contact time of a
     reactive collision, 0 for a first-order reaction at the end of the substep), inside the
     bounds and clear of every other disc (except ex1, ex2) where it is at that time?"""
-    if not inside(x, y, r, bkind, bp):
+    if not inside(x, y, r, bounds_kind, bounds_params):
         return False
     if not collide:
         return True
@@ -165,8 +165,8 @@ def combine_outcome(k, A, B, P, ui, uj, t):
 
 
 @njit(cache=True)
-def combine(i, j, c, t, xi, yi, xj, yj, tables, pos, vel, species, internal_energy, bkind, bp, grid,
-            cell_start, cell_items, nbin, n, reach):
+def combine(i, j, c, t, xi, yi, xj, yj, tables, pos, vel, species, internal_energy, bounds_kind,
+            bounds_params, grid, cell_start, cell_items, nbin, n, reach):
     """A + B -> C at contact time t; i becomes C, j dies (species = -1). Returns FIRED, or
     NO_ENERGY (an endothermic product the energy cannot pay for) or NO_ROOM."""
     sp_radius = tables.sp_radius
@@ -177,7 +177,8 @@ def combine(i, j, c, t, xi, yi, xj, yj, tables, pos, vel, species, internal_ener
     if not ok:
         return NO_ENERGY
     # room where C appears: at the contact, not where it would be at the end of the substep
-    if not room(q.x + t * q.vx, q.y + t * q.vy, sp_radius[p], t, i, j, True, bkind, bp, pos,
+    if not room(q.x + t * q.vx, q.y + t * q.vy, sp_radius[p], t, i, j, True, bounds_kind,
+                bounds_params, pos,
                 vel, species, sp_radius, grid, cell_start, cell_items, nbin, n, reach):
         return NO_ROOM
     apply_combination(i, j, p, q, pos, vel, species, internal_energy)
@@ -246,7 +247,7 @@ def exchange_outcome(k, A, B, C, D, ui, uj, t):
 
 @njit(cache=True)
 def exchange(i, j, c, t, xi, yi, xj, yj, nx, ny, tables, pos, vel, species, internal_energy,
-             bkind, bp, grid, cell_start, cell_items, nbin, n, reach):
+             bounds_kind, bounds_params, grid, cell_start, cell_items, nbin, n, reach):
     """A + B -> C + D at contact time t (n from i to j); i and j become the products.
     Returns FIRED, NO_ENERGY or NO_ROOM (as :func:`combine`)."""
     sp_radius = tables.sp_radius
@@ -258,10 +259,12 @@ def exchange(i, j, c, t, xi, yi, xj, yj, nx, ny, tables, pos, vel, species, inte
     if not ok:
         return NO_ENERGY
     # room where the products appear, at the contact
-    if not room(qi.x + t * qi.vx, qi.y + t * qi.vy, sp_radius[pi], t, i, j, True, bkind, bp,
+    if not room(qi.x + t * qi.vx, qi.y + t * qi.vy, sp_radius[pi], t, i, j, True, bounds_kind,
+                bounds_params,
                 pos, vel, species, sp_radius, grid, cell_start, cell_items, nbin, n, reach):
         return NO_ROOM
-    if not room(qj.x + t * qj.vx, qj.y + t * qj.vy, sp_radius[pj], t, i, j, True, bkind, bp,
+    if not room(qj.x + t * qj.vx, qj.y + t * qj.vy, sp_radius[pj], t, i, j, True, bounds_kind,
+                bounds_params,
                 pos, vel, species, sp_radius, grid, cell_start, cell_items, nbin, n, reach):
         return NO_ROOM
     apply_exchange(i, j, pi, pj, qi, qj, pos, vel, species, internal_energy)
@@ -384,15 +387,15 @@ def transform_energy(u, fa, fp):
 
 
 @njit(cache=True)
-def transform(i, c, collide, tables, pos, vel, species, internal_energy, bkind, bp, grid,
-              cell_start, cell_items, nbin, n, reach):
+def transform(i, c, collide, tables, pos, vel, species, internal_energy, bounds_kind,
+              bounds_params, grid, cell_start, cell_items, nbin, n, reach):
     """A -> B on disc i by channel c if B fits where A is (B no larger than A always does).
     Returns True if fired."""
     sp_radius = tables.sp_radius
     p = tables.ch_prod[c, 0]
     if sp_radius[p] > sp_radius[species[i]] and not room(
-            pos[i, 0], pos[i, 1], sp_radius[p], 0.0, i, i, collide, bkind, bp, pos, vel, species,
-            sp_radius, grid, cell_start, cell_items, nbin, n, reach):
+            pos[i, 0], pos[i, 1], sp_radius[p], 0.0, i, i, collide, bounds_kind, bounds_params,
+            pos, vel, species, sp_radius, grid, cell_start, cell_items, nbin, n, reach):
         return False
     apply_transformation(i, p, tables.sp_form, species, internal_energy)
     return True
@@ -435,8 +438,8 @@ def fission_outcome(X, Y, Vx, Vy, E, m1, m2, d, nx, ny):
 
 
 @njit(cache=True)
-def fission(i, c, n, collide, tables, pos, vel, species, internal_energy, bkind, bp, grid,
-            cell_start, cell_items, nbin, reach, rng):
+def fission(i, c, n, collide, tables, pos, vel, species, internal_energy, bounds_kind,
+            bounds_params, grid, cell_start, cell_items, nbin, reach, rng):
     """A -> B + C (decomposition or reverse combination): i becomes B, disc n becomes C.
 
     The caller guarantees capacity for disc n. Returns True if fired.
@@ -455,10 +458,10 @@ def fission(i, c, n, collide, tables, pos, vel, species, internal_energy, bkind,
     Y = pos[i, 1]
     for _attempt in range(2):
         qb, qc = fission_outcome(X, Y, Vx, Vy, E, m1, m2, d, nx, ny)
-        if room(qb.x, qb.y, sp_radius[b], 0.0, i, i, collide, bkind, bp, pos, vel, species,
-                sp_radius, grid, cell_start, cell_items, nbin, n, reach) and \
-                room(qc.x, qc.y, sp_radius[cc], 0.0, i, i, collide, bkind, bp, pos, vel, species,
-                     sp_radius, grid, cell_start, cell_items, nbin, n, reach):
+        if room(qb.x, qb.y, sp_radius[b], 0.0, i, i, collide, bounds_kind, bounds_params, pos,
+                vel, species, sp_radius, grid, cell_start, cell_items, nbin, n, reach) and \
+                room(qc.x, qc.y, sp_radius[cc], 0.0, i, i, collide, bounds_kind, bounds_params,
+                     pos, vel, species, sp_radius, grid, cell_start, cell_items, nbin, n, reach):
             apply_fission(i, n, b, cc, qb, qc, pos, vel, species, internal_energy)
             return True
         nx = -nx

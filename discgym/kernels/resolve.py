@@ -43,31 +43,31 @@ _OVER = 1.5  # ... by this multiple of their overlap (over-relaxation: 3x fewer 
 
 
 @njit(cache=True)
-def _move_inside(i, pos, r, bkind, bp):
+def _move_inside(i, pos, r, bounds_kind, bounds_params):
     """Move disc i (radius r) to the nearest point inside the bounds, so that ``inside``
     holds afterwards (in the circle a margin of 1e-12 of R_m - r, as the rescaled position
     can land a rounding error outside); returns False if it was inside already."""
-    if inside(pos[i, 0], pos[i, 1], r, bkind, bp):
+    if inside(pos[i, 0], pos[i, 1], r, bounds_kind, bounds_params):
         return False
-    push_inside(i, pos, r, bkind, bp)
-    if bkind != 0 and not inside(pos[i, 0], pos[i, 1], r, bkind, bp):
-        L = bp[2] - r
-        dx = pos[i, 0] - bp[0]
-        dy = pos[i, 1] - bp[1]
+    push_inside(i, pos, r, bounds_kind, bounds_params)
+    if bounds_kind != 0 and not inside(pos[i, 0], pos[i, 1], r, bounds_kind, bounds_params):
+        L = bounds_params[2] - r
+        dx = pos[i, 0] - bounds_params[0]
+        dy = pos[i, 1] - bounds_params[1]
         k = L * (1.0 - 1e-12) / math.sqrt(dx * dx + dy * dy)
-        pos[i, 0] = bp[0] + dx * k
-        pos[i, 1] = bp[1] + dy * k
+        pos[i, 0] = bounds_params[0] + dx * k
+        pos[i, 1] = bounds_params[1] + dy * k
     return True
 
 
 @njit(cache=True)
-def _wall_fix(i, pos, vel, r, m, bkind, bp):
+def _wall_fix(i, pos, vel, r, m, bounds_kind, bounds_params):
     """Move disc i inside and reflect its outward velocity; returns the wall momentum."""
     x0 = pos[i, 0]
     y0 = pos[i, 1]
-    _move_inside(i, pos, r, bkind, bp)
+    _move_inside(i, pos, r, bounds_kind, bounds_params)
     dp = 0.0
-    if bkind == 0:
+    if bounds_kind == 0:
         if pos[i, 0] > x0 and vel[i, 0] < 0.0 or pos[i, 0] < x0 and vel[i, 0] > 0.0:
             dp += 2.0 * m * abs(vel[i, 0])
             vel[i, 0] = -vel[i, 0]
@@ -75,8 +75,8 @@ def _wall_fix(i, pos, vel, r, m, bkind, bp):
             dp += 2.0 * m * abs(vel[i, 1])
             vel[i, 1] = -vel[i, 1]
     else:
-        nx = pos[i, 0] - bp[0]
-        ny = pos[i, 1] - bp[1]
+        nx = pos[i, 0] - bounds_params[0]
+        ny = pos[i, 1] - bounds_params[1]
         d = math.sqrt(nx * nx + ny * ny)
         if d > 0.0:
             nx /= d
@@ -90,7 +90,7 @@ def _wall_fix(i, pos, vel, r, m, bkind, bp):
 
 
 @njit(cache=True)
-def _repair_pair(i, j, pos, vel, species, sp_radius, sp_mass, e, bkind, bp):
+def _repair_pair(i, j, pos, vel, species, sp_radius, sp_mass, e, bounds_kind, bounds_params):
     """Push discs i and j apart if they overlap (see the module docstring); returns
     ``(repaired, kinetic energy lost)``.
 
@@ -121,8 +121,8 @@ def _repair_pair(i, j, pos, vel, species, sp_radius, sp_mass, e, bkind, bp):
     pos[i, 1] -= gap * mj / M * ny
     pos[j, 0] += gap * mi / M * nx
     pos[j, 1] += gap * mi / M * ny
-    held_i = _move_inside(i, pos, sp_radius[si], bkind, bp)
-    held_j = _move_inside(j, pos, sp_radius[sj], bkind, bp)
+    held_i = _move_inside(i, pos, sp_radius[si], bounds_kind, bounds_params)
+    held_j = _move_inside(j, pos, sp_radius[sj], bounds_kind, bounds_params)
     if held_i != held_j:  # the one held by the wall stays, the other moves the rest
         k = j if held_i else i
         ex = pos[j, 0] - pos[i, 0]
@@ -139,7 +139,7 @@ def _repair_pair(i, j, pos, vel, species, sp_radius, sp_mass, e, bkind, bp):
             sgn = 1.0 if k == j else -1.0
             pos[k, 0] += sgn * rest * ex
             pos[k, 1] += sgn * rest * ey
-            _move_inside(k, pos, sp_radius[species[k]], bkind, bp)
+            _move_inside(k, pos, sp_radius[species[k]], bounds_kind, bounds_params)
     lost = 0.0
     vr = (vel[i, 0] - vel[j, 0]) * nx + (vel[i, 1] - vel[j, 1]) * ny
     if vr > 0.0:
@@ -154,8 +154,8 @@ def _repair_pair(i, j, pos, vel, species, sp_radius, sp_mass, e, bkind, bp):
 
 
 @njit(cache=True)
-def resolve(n, pos, vel, species, sp_radius, sp_mass, e, collide, bkind, bp, grid, cell_start,
-            cell_items, cell_of):
+def resolve(n, pos, vel, species, sp_radius, sp_mass, e, collide, bounds_kind, bounds_params,
+            grid, cell_start, cell_items, cell_of):
     """Repair discs [0, n) (see the module docstring). Leaves the cell list built at the final
     positions. Returns ``(repairs, wall_momentum, dissipated)``."""
     ncx = int(grid[4])
@@ -170,8 +170,10 @@ def resolve(n, pos, vel, species, sp_radius, sp_mass, e, collide, bkind, bp, gri
         fixed = 0
         for i in range(n):
             s = species[i]
-            if s >= 0 and not inside(pos[i, 0], pos[i, 1], sp_radius[s], bkind, bp):
-                wall_dp += _wall_fix(i, pos, vel, sp_radius[s], sp_mass[s], bkind, bp)
+            if s >= 0 and not inside(pos[i, 0], pos[i, 1], sp_radius[s], bounds_kind,
+                                     bounds_params):
+                wall_dp += _wall_fix(i, pos, vel, sp_radius[s], sp_mass[s], bounds_kind,
+                                     bounds_params)
                 fixed += 1
         if collide:
             build(n, pos, species, sp_radius, grid, cell_start, cell_items, cell_of)
@@ -198,14 +200,14 @@ def resolve(n, pos, vel, species, sp_radius, sp_mass, e, collide, bkind, bp, gri
                             j = cell_items[a]
                             if j > i:
                                 ok, dl = _repair_pair(i, j, pos, vel, species, sp_radius, sp_mass,
-                                                      e, bkind, bp)
+                                                      e, bounds_kind, bounds_params)
                                 fixed += ok
                                 lost += dl
                 for a in range(cell_start[nbc], cell_start[nbc + 1]):
                     j = cell_items[a]
                     if j > i:
-                        ok, dl = _repair_pair(i, j, pos, vel, species, sp_radius, sp_mass, e, bkind,
-                                              bp)
+                        ok, dl = _repair_pair(i, j, pos, vel, species, sp_radius, sp_mass, e,
+                                              bounds_kind, bounds_params)
                         fixed += ok
                         lost += dl
         repairs += fixed

@@ -121,8 +121,8 @@ REORDER_CELLS = 1 << 19  # the reordering grid: cells of 2 r_max, at most about 
 
 # ----------------------------------------------------------------------------- phase 1: drift
 @njit(cache=True)
-def _drift_range(lo, hi, h, pos, vel, species, sp_radius, bkind, bp, tlast, wall_t, wflag, grid,
-                 cell_of, collide):
+def _drift_range(lo, hi, h, pos, vel, species, sp_radius, bounds_kind, bounds_params, tlast,
+                 wall_t, wflag, grid, cell_of, collide):
     """Move discs [lo, hi) by h; note their wall contacts; bin them (if collide).
 
     Bounds are unpacked to scalars once: helpers taking arrays cost a reference count per
@@ -133,7 +133,7 @@ def _drift_range(lo, hi, h, pos, vel, species, sp_radius, bkind, bp, tlast, wall
     ncy = int(grid[5])
     rcell = grid[6]
     nbc = ncx * ncy  # the big cell (celllist)
-    b0, b1, b2, b3 = bp[0], bp[1], bp[2], bp[3]
+    b0, b1, b2, b3 = bounds_params[0], bounds_params[1], bounds_params[2], bounds_params[3]
     for i in range(lo, hi):
         vx = vel[i, 0]
         vy = vel[i, 1]
@@ -143,14 +143,14 @@ def _drift_range(lo, hi, h, pos, vel, species, sp_radius, bkind, bp, tlast, wall
         pos[i, 1] = y
         tlast[i] = -h
         r = sp_radius[species[i]]
-        if bkind == 0:
+        if bounds_kind == 0:
             t, axis, inward = box_contact(x, y, vx, vy, r, b0, b1, b2, b3)
         else:
             t, axis, inward = circle_contact(x, y, vx, vy, r, b0, b1, b2)
         wall_t[i] = max(t, -h)
         wflag[i] = 0
         if inward:
-            push_inside(i, pos, r, bkind, bp)
+            push_inside(i, pos, r, bounds_kind, bounds_params)
             wflag[i] = 1
             x = pos[i, 0]
             y = pos[i, 1]
@@ -162,11 +162,11 @@ def _drift_range(lo, hi, h, pos, vel, species, sp_radius, bkind, bp, tlast, wall
 
 
 @njit(cache=True, parallel=True)
-def _drift_parallel(nch, n, h, pos, vel, species, sp_radius, bkind, bp, tlast, wall_t, wflag, grid,
-                    cell_of, collide):
+def _drift_parallel(nch, n, h, pos, vel, species, sp_radius, bounds_kind, bounds_params, tlast,
+                    wall_t, wflag, grid, cell_of, collide):
     for c in prange(nch):
-        _drift_range(c * n // nch, (c + 1) * n // nch, h, pos, vel, species, sp_radius, bkind, bp,
-                     tlast, wall_t, wflag, grid, cell_of, collide)
+        _drift_range(c * n // nch, (c + 1) * n // nch, h, pos, vel, species, sp_radius,
+                     bounds_kind, bounds_params, tlast, wall_t, wflag, grid, cell_of, collide)
 
 
 # ----------------------------------------------------------------------- phase 2: broad phase
@@ -365,8 +365,8 @@ def _big_candidates(a, sx, sy, sr, rcell, grid, cell_start):
 
 
 @njit(cache=True)
-def _schedule(d, sp_radius, pos, vel, species, tlast, stamp, n, collide, bkind, bp, grid,
-              cell_start, cell_items, nbin, reach, H, size, icnt):
+def _schedule(d, sp_radius, pos, vel, species, tlast, stamp, n, collide, bounds_kind,
+              bounds_params, grid, cell_start, cell_items, nbin, reach, H, size, icnt):
     """Queue the next contacts of disc d (a wall, and every overlapping disc).
 
     Reserves room first (one wall event plus every disc in the cells searched), so the loops
@@ -377,9 +377,9 @@ def _schedule(d, sp_radius, pos, vel, species, tlast, stamp, n, collide, bkind, 
     vx = vel[d, 0]
     vy = vel[d, 1]
     td = tlast[d]
-    t, axis, inward = contact(x, y, vx, vy, r, bkind, bp)
+    t, axis, inward = contact(x, y, vx, vy, r, bounds_kind, bounds_params)
     if inward and t == math.inf:
-        push_inside(d, pos, r, bkind, bp)
+        push_inside(d, pos, r, bounds_kind, bounds_params)
         icnt[IC_PUSHED_INSIDE] += 1
         x = pos[d, 0]
         y = pos[d, 1]
@@ -423,7 +423,7 @@ def _schedule(d, sp_radius, pos, vel, species, tlast, stamp, n, collide, bkind, 
 
 @njit(cache=True)
 def _glide(i, tw, T, xc, yc, tau, psi, vn, r, mi, pos, vel, species, sp_radius, tlast, collide,
-           bp, grid, cell_start, cell_items, nbin, n, reach, icnt, fsum):
+           bounds_params, grid, cell_start, cell_items, nbin, n, reach, icnt, fsum):
     """Disc i, just reflected at (xc, yc) at time tw, grazes the circle wall so closely that
     more than GLIDE_CHORDS chords ``(tau, psi, vn)`` fit in the time T it glides: move it
     through them in closed form (:func:`~discgym.kernels.walls.circle_glide`) to time
@@ -433,7 +433,7 @@ def _glide(i, tw, T, xc, yc, tau, psi, vn, r, mi, pos, vel, species, sp_radius, 
     extrapolation to the end of the substep, ``tlast[i]`` its last reflection). Returns False
     (nothing done) for a disc wedged between the wall and a disc it already touches.
     """
-    b0, b1, b2 = bp[0], bp[1], bp[2]
+    b0, b1, b2 = bounds_params[0], bounds_params[1], bounds_params[2]
     vx = vel[i, 0]
     vy = vel[i, 1]
     gx, gy, ux, uy, rest, imp = circle_glide(xc, yc, vx, vy, r, b0, b1, b2, tau, psi, vn, T)
@@ -513,7 +513,7 @@ def _events(n, H, size, tables, discs, sc, bounds, grid, cnt, rc, sub_id, h, vfa
     pos, vel, species, internal_energy = discs.pos, discs.vel, discs.species, discs.internal_energy
     tlast, stamp, lastcol, partner, nev = sc.tlast, sc.stamp, sc.lastcol, sc.partner, sc.nev
     binx, biny, cell_start, cell_items = sc.binx, sc.biny, sc.cell_start, sc.cell_items
-    bkind, bp = bounds.kind, bounds.params
+    bounds_kind, bounds_params = bounds.kind, bounds.params
     icnt, fsum, ch_count = cnt.icnt, cnt.fsum, cnt.ch_count
     collide, has_bi, rcell, maxdisp = rc.collide, rc.has_bi, rc.rcell, rc.maxdisp
     e, kappa = rc.restitution, rc.relax
@@ -541,22 +541,23 @@ def _events(n, H, size, tables, discs, sc, bounds, grid, cnt, rc, sub_id, h, vfa
             nev[j] += 1
         if j < 0:
             r = sp_radius[species[i]]
-            tw, axis, inward = contact(pos[i, 0], pos[i, 1], vel[i, 0], vel[i, 1], r, bkind, bp)
+            tw, axis, inward = contact(pos[i, 0], pos[i, 1], vel[i, 0], vel[i, 1], r, bounds_kind,
+                                       bounds_params)
             if tw == math.inf:
                 continue
             tw = max(tw, tlast[i])
             mi = sp_mass[species[i]]
-            fsum[FS_WALL_MOMENTUM] += reflect(i, tw, axis, pos, vel, mi, bkind, bp)
+            fsum[FS_WALL_MOMENTUM] += reflect(i, tw, axis, pos, vel, mi, bounds_kind, bounds_params)
             icnt[IC_WALL_HITS] += 1
             partner[i] = -1
             tlast[i] = tw
-            if settle_after_reflection(i, axis, pos, r, bkind, bp):
+            if settle_after_reflection(i, axis, pos, r, bounds_kind, bounds_params):
                 icnt[IC_PUSHED_INSIDE] += 1
-            elif bkind == 1:
+            elif bounds_kind == 1:
                 xc = pos[i, 0] + tw * vel[i, 0]
                 yc = pos[i, 1] + tw * vel[i, 1]
-                tau, psi, vn = circle_chord(xc, yc, vel[i, 0], vel[i, 1], r, bp[0], bp[1],
-                                            bp[2])
+                tau, psi, vn = circle_chord(xc, yc, vel[i, 0], vel[i, 1], r, bounds_params[0],
+                                            bounds_params[1], bounds_params[2])
                 T = -tw  # glide to the end of the substep, ...
                 reach = rcell + delta + h * vfast
                 if collide and size > 0 and tau * GLIDE_CHORDS < T:
@@ -568,17 +569,18 @@ def _events(n, H, size, tables, discs, sc, bounds, grid, cnt, rc, sub_id, h, vfa
                         T = min(T, H[0, 0] - tw)
                 if tau * GLIDE_CHORDS < T:
                     if not _glide(i, tw, T, xc, yc, tau, psi, vn, r, mi, pos, vel, species,
-                                  sp_radius, tlast, collide, bp, grid, cell_start, cell_items,
-                                  nbin, n, reach, icnt, fsum):
+                                  sp_radius, tlast, collide, bounds_params, grid, cell_start,
+                                  cell_items, nbin, n, reach, icnt, fsum):
                         nev[i] = DISC_EVENTS  # wedged: no finite sequence of events frees it
                     else:
                         t_glide = max(t_glide, tlast[i])
             stamp[i] += 1
             if collide:
                 delta = max(delta, math.hypot(pos[i, 0] - binx[i], pos[i, 1] - biny[i]))
-            H, size = _schedule(i, sp_radius, pos, vel, species, tlast, stamp, n, collide, bkind,
-                                bp, grid, cell_start, cell_items, nbin, rcell + delta, H, size,
-                                icnt)
+            H, size = _schedule(i, sp_radius, pos, vel, species, tlast, stamp, n, collide,
+                                bounds_kind,
+                                bounds_params, grid, cell_start, cell_items, nbin, rcell + delta,
+                                H, size, icnt)
             continue
         vxi = vel[i, 0]
         vyi = vel[i, 1]
@@ -602,12 +604,14 @@ def _events(n, H, size, tables, discs, sc, bounds, grid, cnt, rc, sub_id, h, vfa
                 if 0.5 * mi * mj / (mi + mj) * vr * vr >= ch_energy[c]:
                     if ch_kind[c] == COMBINATION:
                         outcome = combine(i, j, c, t, xi, yi, xj, yj, tables, pos, vel, species,
-                                          internal_energy, bkind, bp, grid, cell_start,
+                                          internal_energy, bounds_kind, bounds_params, grid,
+                                          cell_start,
                                               cell_items, nbin,
                                           n, rcell + delta + h * vfast)
                     else:
                         outcome = exchange(i, j, c, t, xi, yi, xj, yj, nx, ny, tables, pos,
-                                           vel, species, internal_energy, bkind, bp, grid,
+                                           vel, species, internal_energy, bounds_kind,
+                                           bounds_params, grid,
                                                cell_start,
                                            cell_items, nbin, n, rcell + delta + h * vfast)
                     fired = outcome == FIRED
@@ -664,12 +668,14 @@ def _events(n, H, size, tables, discs, sc, bounds, grid, cnt, rc, sub_id, h, vfa
                 # the substep's contact checks come too late for it: end the substep here
                 t_cut = t
                 break
-        H, size = _schedule(i, sp_radius, pos, vel, species, tlast, stamp, n, collide, bkind, bp,
+        H, size = _schedule(i, sp_radius, pos, vel, species, tlast, stamp, n, collide,
+                            bounds_kind, bounds_params,
                             grid, cell_start, cell_items, nbin, rcell + delta, H, size, icnt)
         if species[j] >= 0:
-            H, size = _schedule(j, sp_radius, pos, vel, species, tlast, stamp, n, collide, bkind,
-                                bp, grid, cell_start, cell_items, nbin, rcell + delta, H, size,
-                                icnt)
+            H, size = _schedule(j, sp_radius, pos, vel, species, tlast, stamp, n, collide,
+                                bounds_kind,
+                                bounds_params, grid, cell_start, cell_items, nbin, rcell + delta,
+                                H, size, icnt)
     return H, n_dead, delta, dropped, vfast, vrel, t_cut
 
 
@@ -702,7 +708,7 @@ def _first_order(n, h, tables, discs, fission_possible, bounds, grid, sc, delta,
     """
     pos, vel, species, internal_energy = discs.pos, discs.vel, discs.species, discs.internal_energy
     ids, idctr = discs.ids, discs.next_id
-    bkind, bp = bounds.kind, bounds.params
+    bounds_kind, bounds_params = bounds.kind, bounds.params
     cell_start, cell_items, cell_of = sc.cell_start, sc.cell_items, sc.cell_of
     collide, rcell = rc.collide, rc.rcell
     icnt, ch_count = cnt.icnt, cnt.ch_count
@@ -732,8 +738,8 @@ def _first_order(n, h, tables, discs, fission_possible, bounds, grid, sc, delta,
         i = react[q]
         c = chan[q]
         if ch_kind[c] == TRANSFORMATION:
-            fired = transform(i, c, collide, tables, pos, vel, species, internal_energy, bkind,
-                              bp, grid,
+            fired = transform(i, c, collide, tables, pos, vel, species, internal_energy,
+                              bounds_kind, bounds_params, grid,
                               cell_start, cell_items, nbin, n, rcell + delta)
         else:
             if collide and n - nbin > REBUILD_UNBINNED:
@@ -742,8 +748,8 @@ def _first_order(n, h, tables, discs, fission_possible, bounds, grid, sc, delta,
                 delta = 0.0
             x_old = pos[i, 0]
             y_old = pos[i, 1]
-            fired = fission(i, c, n, collide, tables, pos, vel, species, internal_energy, bkind,
-                            bp, grid,
+            fired = fission(i, c, n, collide, tables, pos, vel, species, internal_energy,
+                            bounds_kind, bounds_params, grid,
                             cell_start, cell_items, nbin, rcell + delta, rng)
             if fired:
                 ids[n] = idctr[0]
@@ -959,7 +965,7 @@ def advance(discs, n, n_steps, dt, bounds, tables, params, flags, rng, cnt, thre
     """
     pos, vel, species, internal_energy = discs.pos, discs.vel, discs.species, discs.internal_energy
     ids, idctr = discs.ids, discs.next_id
-    bkind, bp = bounds.kind, bounds.params
+    bounds_kind, bounds_params = bounds.kind, bounds.params
     icnt = cnt.icnt
     sp_radius = tables.sp_radius
     e = params[P_RESTITUTION]
@@ -972,11 +978,12 @@ def advance(discs, n, n_steps, dt, bounds, tables, params, flags, rng, cnt, thre
     # cells sized by the small discs; the few much larger ones in the big cell (celllist)
     rcell = cell_radius(species, n, sp_radius)
     rc = RunConsts(e, params[P_RELAX], maxdisp, rcell, collide, flags[F_BI] != 0)
-    grid = make_grid(bkind, bp, rcell, max(n, 1))
+    grid = make_grid(bounds_kind, bounds_params, rcell, max(n, 1))
     ncx = int(grid[4])
     ncy = int(grid[5])
     nstart = ncx * ncy + 2 if collide else 3
-    rgrid = make_grid(bkind, bp, sp_radius.max(), REORDER_CELLS)  # (independent of n)
+    rgrid = make_grid(bounds_kind, bounds_params, sp_radius.max(),
+                      REORDER_CELLS)  # (independent of n)
     ws = pos.shape[0]  # per-disc workspace, reallocated when the state grows
     work = _fit_work(work, ws, nstart)
     sc = _carve(work, ws, nstart)
@@ -996,8 +1003,8 @@ def advance(discs, n, n_steps, dt, bounds, tables, params, flags, rng, cnt, thre
         sub = 0
         while sub < k:
             icnt[IC_SUBSTEPS] += 1
-            _drift_and_bin(threads, n, h, pos, vel, species, sp_radius, bkind, bp, grid, sc,
-                           collide)
+            _drift_and_bin(threads, n, h, pos, vel, species, sp_radius, bounds_kind,
+                           bounds_params, grid, sc, collide)
             left0 = icnt[IC_LEFT_OVERLAPPING]
             H, size = _queue_initial(n, collide, sp_radius, pos, vel, species, sc, grid, H, icnt)
             # a substep is cut short (at a reaction, see _events) only while the step has
@@ -1015,7 +1022,8 @@ def advance(discs, n, n_steps, dt, bounds, tables, params, flags, rng, cnt, thre
                 hu = h + t_cut
             left = icnt[IC_LEFT_OVERLAPPING] != left0
             if dropped or left:
-                _repair(dropped, n, pos, vel, species, tables, e, collide, bkind, bp, grid, sc, cnt)
+                _repair(dropped, n, pos, vel, species, tables, e, collide, bounds_kind,
+                        bounds_params, grid, sc, cnt)
                 delta = 0.0  # resolve() leaves the grid built at the final positions
             # (a reactive collision may have made a species with first-order channels)
             if has_uni and (uni_live or icnt[IC_REACTIVE] != reactive0):
@@ -1084,17 +1092,18 @@ def _first_split(vel, n, dt, maxdisp, icnt):
 
 
 @njit(cache=True)
-def _drift_and_bin(threads, n, h, pos, vel, species, sp_radius, bkind, bp, grid, sc, collide):
+def _drift_and_bin(threads, n, h, pos, vel, species, sp_radius, bounds_kind, bounds_params, grid,
+                   sc, collide):
     """Phases 1 and 2 of a substep: the drift (and wall contacts), then, if ``collide``, the
     discs sorted into their cells and the overlapping pairs found (in parallel over
     ``threads`` chunks from PARALLEL_MIN discs); resets the per-disc event counts."""
     par = threads > 1 and n >= PARALLEL_MIN
     if par:
-        _drift_parallel(threads, n, h, pos, vel, species, sp_radius, bkind, bp, sc.tlast,
-                        sc.wall_t, sc.wflag, grid, sc.cell_of, collide)
+        _drift_parallel(threads, n, h, pos, vel, species, sp_radius, bounds_kind, bounds_params,
+                        sc.tlast, sc.wall_t, sc.wflag, grid, sc.cell_of, collide)
     else:
-        _drift_range(0, n, h, pos, vel, species, sp_radius, bkind, bp, sc.tlast, sc.wall_t,
-                     sc.wflag, grid, sc.cell_of, collide)
+        _drift_range(0, n, h, pos, vel, species, sp_radius, bounds_kind, bounds_params, sc.tlast,
+                     sc.wall_t, sc.wflag, grid, sc.cell_of, collide)
     nev = sc.nev
     for q in range(n):
         nev[q] = 0
@@ -1118,7 +1127,8 @@ def _drift_and_bin(threads, n, h, pos, vel, species, sp_radius, bkind, bp, grid,
 
 
 @njit(cache=True)
-def _repair(dropped, n, pos, vel, species, tables, e, collide, bkind, bp, grid, sc, cnt):
+def _repair(dropped, n, pos, vel, species, tables, e, collide, bounds_kind, bounds_params, grid,
+            sc, cnt):
     """The fallback after a substep that ran out of events (``dropped``) or left a pair
     overlapping: :func:`~discgym.kernels.resolve.resolve`, and its counts."""
     icnt, fsum = cnt.icnt, cnt.fsum
@@ -1127,7 +1137,8 @@ def _repair(dropped, n, pos, vel, species, tables, e, collide, bkind, bp, grid, 
     else:
         icnt[IC_GRAZE_REPAIRS] += 1
     fixes, wdp, lost = resolve(n, pos, vel, species, tables.sp_radius, tables.sp_mass, e, collide,
-                               bkind, bp, grid, sc.cell_start, sc.cell_items, sc.cell_of)
+                               bounds_kind, bounds_params, grid, sc.cell_start, sc.cell_items,
+                               sc.cell_of)
     icnt[IC_RESOLVED] += fixes
     fsum[FS_WALL_MOMENTUM] += wdp
     fsum[FS_DISSIPATED] += lost

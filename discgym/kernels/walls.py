@@ -85,22 +85,24 @@ def circle_contact(x, y, vx, vy, r, b0, b1, b2):
 
 
 @njit(cache=True)
-def contact(x, y, vx, vy, r, bkind, bp):
-    """Wall contact of a disc in either bounds kind (``bp`` as in :mod:`discgym.compiled`)."""
-    if bkind == 0:
-        return box_contact(x, y, vx, vy, r, bp[0], bp[1], bp[2], bp[3])
-    return circle_contact(x, y, vx, vy, r, bp[0], bp[1], bp[2])
+def contact(x, y, vx, vy, r, bounds_kind, bounds_params):
+    """Wall contact of a disc in either bounds kind (``bounds_kind``, ``bounds_params`` as in
+    :class:`~discgym.kernels.structs.Bounds`)."""
+    if bounds_kind == 0:
+        return box_contact(x, y, vx, vy, r, bounds_params[0], bounds_params[1], bounds_params[2],
+                           bounds_params[3])
+    return circle_contact(x, y, vx, vy, r, bounds_params[0], bounds_params[1], bounds_params[2])
 
 
 @njit(cache=True)
-def reflected(xc, yc, vx, vy, axis, bkind, b0, b1):
+def reflected(xc, yc, vx, vy, axis, bounds_kind, b0, b1):
     """Specular reflection (pure) of a disc touching the wall at (xc, yc) with velocity v.
 
     Box: the ``axis`` component is negated. Circle of centre (b0, b1): v -> v - 2 (v.n) n
     with the outward normal n = (x_c - M)/|x_c - M|. Returns ``(vx, vy, |v.n|)``; the wall
     receives momentum 2 m |v.n|.
     """
-    if bkind == 0:
+    if bounds_kind == 0:
         if axis == 0:
             return -vx, vy, abs(vx)
         return vx, -vy, abs(vy)
@@ -277,11 +279,12 @@ def graze_floor(x, y, vx, vy, b0, b1):
 
 
 @njit(cache=True)
-def reflect(i, t, axis, pos, vel, m, bkind, bp):
+def reflect(i, t, axis, pos, vel, m, bounds_kind, bounds_params):
     """Reflect disc i at its contact time t; returns the momentum delivered to the wall."""
     xc = pos[i, 0] + t * vel[i, 0]
     yc = pos[i, 1] + t * vel[i, 1]
-    vx, vy, vn = reflected(xc, yc, vel[i, 0], vel[i, 1], axis, bkind, bp[0], bp[1])
+    vx, vy, vn = reflected(xc, yc, vel[i, 0], vel[i, 1], axis, bounds_kind, bounds_params[0],
+                           bounds_params[1])
     dp = 2.0 * m * vn
     vel[i, 0] = vx
     vel[i, 1] = vy
@@ -291,30 +294,30 @@ def reflect(i, t, axis, pos, vel, m, bkind, bp):
 
 
 @njit(cache=True)
-def push_inside(i, pos, r, bkind, bp):
+def push_inside(i, pos, r, bounds_kind, bounds_params):
     """Move disc i to the nearest point where it lies within the bounds (no velocity change).
 
     Only used for a disc overlapping a wall while moving inward, which a time step cannot
     rewind (it can be left by round-off or by an inelastic cluster pressed against a wall).
     """
-    if bkind == 0:
-        pos[i, 0] = min(max(pos[i, 0], bp[0] + r), bp[2] - r)
-        pos[i, 1] = min(max(pos[i, 1], bp[1] + r), bp[3] - r)
+    if bounds_kind == 0:
+        pos[i, 0] = min(max(pos[i, 0], bounds_params[0] + r), bounds_params[2] - r)
+        pos[i, 1] = min(max(pos[i, 1], bounds_params[1] + r), bounds_params[3] - r)
     else:
-        dx = pos[i, 0] - bp[0]
-        dy = pos[i, 1] - bp[1]
-        L = bp[2] - r
+        dx = pos[i, 0] - bounds_params[0]
+        dy = pos[i, 1] - bounds_params[1]
+        L = bounds_params[2] - r
         d = math.sqrt(dx * dx + dy * dy)
         if d > L and d > 0.0:
-            pos[i, 0] = bp[0] + dx * (L / d)
-            pos[i, 1] = bp[1] + dy * (L / d)
+            pos[i, 0] = bounds_params[0] + dx * (L / d)
+            pos[i, 1] = bounds_params[1] + dy * (L / d)
 
 
 FIT_TOL = 1e-9  # a free gap below this fraction of the radius counts as an exact fit
 
 
 @njit(cache=True)
-def settle_after_reflection(i, axis, pos, r, bkind, bp):
+def settle_after_reflection(i, axis, pos, r, bounds_kind, bounds_params):
     """After a reflection, hold a disc that fits its bounds exactly where it must be; returns
     True if it was moved.
 
@@ -326,10 +329,10 @@ def settle_after_reflection(i, axis, pos, r, bkind, bp):
     that is beyond a wall: a corner (the other axis' wall) or a grazing disc that meets the
     curved circle wall again within the step; that contact is its next event.
     """
-    if bkind == 0:
+    if bounds_kind == 0:
         k = 0 if axis == 0 else 1
-        lo = bp[k] + r
-        hi = bp[k + 2] - r
+        lo = bounds_params[k] + r
+        hi = bounds_params[k + 2] - r
         if hi - lo > FIT_TOL * r:
             return False
         mid = 0.5 * (lo + hi)
@@ -337,21 +340,22 @@ def settle_after_reflection(i, axis, pos, r, bkind, bp):
             return False
         pos[i, k] = mid
         return True
-    if bp[2] - r > FIT_TOL * r:
+    if bounds_params[2] - r > FIT_TOL * r:
         return False
-    if pos[i, 0] == bp[0] and pos[i, 1] == bp[1]:
+    if pos[i, 0] == bounds_params[0] and pos[i, 1] == bounds_params[1]:
         return False
-    pos[i, 0] = bp[0]
-    pos[i, 1] = bp[1]
+    pos[i, 0] = bounds_params[0]
+    pos[i, 1] = bounds_params[1]
     return True
 
 
 @njit(cache=True)
-def inside(x, y, r, bkind, bp):
+def inside(x, y, r, bounds_kind, bounds_params):
     """Does a disc of radius r at (x, y) lie within the bounds?"""
-    if bkind == 0:
-        return bp[0] + r <= x <= bp[2] - r and bp[1] + r <= y <= bp[3] - r
-    dx = x - bp[0]
-    dy = y - bp[1]
-    L = bp[2] - r
+    if bounds_kind == 0:
+        b = bounds_params
+        return b[0] + r <= x <= b[2] - r and b[1] + r <= y <= b[3] - r
+    dx = x - bounds_params[0]
+    dy = y - bounds_params[1]
+    L = bounds_params[2] - r
     return L >= 0.0 and dx * dx + dy * dy <= L * L
