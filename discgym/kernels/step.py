@@ -467,6 +467,58 @@ def _glide(i, tw, T, xc, yc, tau, psi, vn, r, mi, pos, vel, species, sp_radius, 
     return True
 
 
+@njit(cache=True, inline="always")
+def _wall_event(i, discs, tables, bounds, sc, cnt, rc, grid, H, size, nbin, n, reach, vfast,
+                t_glide):
+    """Disc i meets the wall (if it still does at its queued time): reflect it, settle it
+    inside, and on a circle let a grazing disc glide through its chords in closed form, to the
+    end of the substep or to the next queued event when discs near it could interfere
+    (``reach``: the search radius for them; ``vfast``: the fastest speed in the substep).
+    Returns ``(hit, t_glide)``: whether it met the wall, and the latest time a glide took a
+    disc to."""
+    pos, vel, species = discs.pos, discs.vel, discs.species
+    sp_radius, sp_mass = tables.sp_radius, tables.sp_mass
+    bounds_kind, bounds_params = bounds.kind, bounds.params
+    tlast, partner, nev = sc.tlast, sc.partner, sc.nev
+    cell_start, cell_items = sc.cell_start, sc.cell_items
+    icnt, fsum = cnt.icnt, cnt.fsum
+    collide = rc.collide
+    r = sp_radius[species[i]]
+    tw, axis, inward = contact(pos[i, 0], pos[i, 1], vel[i, 0], vel[i, 1], r, bounds_kind,
+                               bounds_params)
+    if tw == math.inf:
+        return False, t_glide
+    tw = max(tw, tlast[i])
+    mi = sp_mass[species[i]]
+    fsum[FS_WALL_MOMENTUM] += reflect(i, tw, axis, pos, vel, mi, bounds_kind, bounds_params)
+    icnt[IC_WALL_HITS] += 1
+    partner[i] = -1
+    tlast[i] = tw
+    if settle_after_reflection(i, axis, pos, r, bounds_kind, bounds_params):
+        icnt[IC_PUSHED_INSIDE] += 1
+    elif bounds_kind == 1:
+        xc = pos[i, 0] + tw * vel[i, 0]
+        yc = pos[i, 1] + tw * vel[i, 1]
+        tau, psi, vn = circle_chord(xc, yc, vel[i, 0], vel[i, 1], r, bounds_params[0],
+                                    bounds_params[1], bounds_params[2])
+        T = -tw  # glide to the end of the substep, ...
+        if collide and size > 0 and tau * GLIDE_CHORDS < T:
+            # ... but the glide is closed form only while the discs near it keep
+            # their trajectories: with one near, stop at the next queued event
+            sweep = (math.hypot(vel[i, 0], vel[i, 1]) + vfast) * T
+            if overlaps_any(xc, yc, r + sweep, tw, i, i, pos, vel, species, sp_radius,
+                            grid, cell_start, cell_items, nbin, n, reach + sweep):
+                T = min(T, H[0, 0] - tw)
+        if tau * GLIDE_CHORDS < T:
+            if not _glide(i, tw, T, xc, yc, tau, psi, vn, r, mi, pos, vel, species,
+                          sp_radius, tlast, collide, bounds_params, grid, cell_start,
+                          cell_items, nbin, n, reach, icnt, fsum):
+                nev[i] = DISC_EVENTS  # wedged: no finite sequence of events frees it
+            else:
+                t_glide = max(t_glide, tlast[i])
+    return True, t_glide
+
+
 @njit(cache=True)
 def _events(n, H, size, tables, discs, sc, bounds, grid, cnt, rc, sub_id, h, vfast, cut_after):
     """Process the queue earliest first (``discs``: :class:`~.structs.Discs`, ``sc``:
@@ -540,47 +592,16 @@ def _events(n, H, size, tables, discs, sc, bounds, grid, cnt, rc, sub_id, h, vfa
         if j >= 0:
             nev[j] += 1
         if j < 0:
-            r = sp_radius[species[i]]
-            tw, axis, inward = contact(pos[i, 0], pos[i, 1], vel[i, 0], vel[i, 1], r, bounds_kind,
-                                       bounds_params)
-            if tw == math.inf:
+            hit, t_glide = _wall_event(i, discs, tables, bounds, sc, cnt, rc, grid, H, size,
+                                       nbin, n, rcell + delta + h * vfast, vfast, t_glide)
+            if not hit:
                 continue
-            tw = max(tw, tlast[i])
-            mi = sp_mass[species[i]]
-            fsum[FS_WALL_MOMENTUM] += reflect(i, tw, axis, pos, vel, mi, bounds_kind, bounds_params)
-            icnt[IC_WALL_HITS] += 1
-            partner[i] = -1
-            tlast[i] = tw
-            if settle_after_reflection(i, axis, pos, r, bounds_kind, bounds_params):
-                icnt[IC_PUSHED_INSIDE] += 1
-            elif bounds_kind == 1:
-                xc = pos[i, 0] + tw * vel[i, 0]
-                yc = pos[i, 1] + tw * vel[i, 1]
-                tau, psi, vn = circle_chord(xc, yc, vel[i, 0], vel[i, 1], r, bounds_params[0],
-                                            bounds_params[1], bounds_params[2])
-                T = -tw  # glide to the end of the substep, ...
-                reach = rcell + delta + h * vfast
-                if collide and size > 0 and tau * GLIDE_CHORDS < T:
-                    # ... but the glide is closed form only while the discs near it keep
-                    # their trajectories: with one near, stop at the next queued event
-                    sweep = (math.hypot(vel[i, 0], vel[i, 1]) + vfast) * T
-                    if overlaps_any(xc, yc, r + sweep, tw, i, i, pos, vel, species, sp_radius,
-                                    grid, cell_start, cell_items, nbin, n, reach + sweep):
-                        T = min(T, H[0, 0] - tw)
-                if tau * GLIDE_CHORDS < T:
-                    if not _glide(i, tw, T, xc, yc, tau, psi, vn, r, mi, pos, vel, species,
-                                  sp_radius, tlast, collide, bounds_params, grid, cell_start,
-                                  cell_items, nbin, n, reach, icnt, fsum):
-                        nev[i] = DISC_EVENTS  # wedged: no finite sequence of events frees it
-                    else:
-                        t_glide = max(t_glide, tlast[i])
             stamp[i] += 1
             if collide:
                 delta = max(delta, math.hypot(pos[i, 0] - binx[i], pos[i, 1] - biny[i]))
             H, size = _schedule(i, sp_radius, pos, vel, species, tlast, stamp, n, collide,
-                                bounds_kind,
-                                bounds_params, grid, cell_start, cell_items, nbin, rcell + delta,
-                                H, size, icnt)
+                                bounds_kind, bounds_params, grid, cell_start, cell_items, nbin,
+                                rcell + delta, H, size, icnt)
             continue
         vxi = vel[i, 0]
         vyi = vel[i, 1]
