@@ -663,7 +663,8 @@ def observe(cfg: ReactorConfig, vel, species, internal_energy, n, ep: Episodes) 
     ``ep.obs`` (R, D) float32 for R reactors (see :func:`discgym.kernels.batch.observe_one`);
     a step observes inside :func:`discgym.kernels.batch.env_step`, this is for resets."""
     cs = cfg.compiled
-    observe_batch(vel, species, internal_energy, n, cs.sp_mass, cs.sp_form, ep, cfg.consts)
+    observe_batch(vel, species, internal_energy, n, cs.sp_mass, cs.sp_form, tuple(ep),
+                  tuple(cfg.consts))
 
 
 def check_status(cfg: ReactorConfig, iout: np.ndarray, active: np.ndarray) -> None:
@@ -993,8 +994,9 @@ class DiscReactorEnv(gym.Env):
         self._rx = Reactors(pos[None], vel[None], species[None], internal_energy[None],
                             ids[None], next_id[None], self._n, self._ksteps, self._bounds_kind,
                             self._bounds_params, icnt[None], fsum[None], ch_count[None])
-        self._args = (self._rx, self._ep, cfg.tables, cs.params, cs.flags, cfg.consts,
-                      sim.kernel_rngs, _ONE, self._act)
+        # (the structs as plain tuples of their fields: see kernels.batch.env_step)
+        self._args = (tuple(self._rx), tuple(self._ep), tuple(cfg.tables), cs.params, cs.flags,
+                      tuple(cfg.consts), sim.kernel_rngs, _ONE, self._act)
 
     def _observe(self) -> np.ndarray:
         sim = self.simulation

@@ -30,8 +30,6 @@ from .kernels.structs import (
     INDEX,
     P_MAXDISP,
     P_RMIN,
-    Bounds,
-    Counters,
     Discs,
     speed_limit,
 )
@@ -378,17 +376,19 @@ class Simulation:
 
     def _run(self, n_steps: int, dt: float) -> None:
         cs = self._cs
-        bounds = Bounds(self._bounds_kind, self._bounds_params)
-        counters = Counters(self._icnt, self._fsum, self._ch_count)
+        # (the structs as plain tuples: see kernels.step.advance_rngs)
+        discs = (self._pos, self._vel, self._species, self._internal_energy, self._ids,
+                 self._idctr)
+        bounds = (self._bounds_kind, self._bounds_params)
+        counters = (self._icnt, self._fsum, self._ch_count)
+        tables = tuple(cs.tables)
         if self._integrator == "event":  # one exact run of n_steps * dt
-            discs, n = _event.run_steps_rngs(self._discs(), self._n, n_steps, dt, bounds,
-                                             cs.tables, cs.params, cs.flags, self._rngs,
-                                             counters)
+            discs, n = _event.run_steps_rngs(discs, self._n, n_steps, dt, bounds, tables,
+                                             cs.params, cs.flags, self._rngs, counters)
         else:
             discs, n, self._work = _step.advance_rngs(
-                self._discs(), self._n, n_steps, dt, bounds, cs.tables, cs.params, cs.flags,
-                self._rngs, counters, self._threads, self._steps, _step.REORDER_EVERY,
-                self._work)
+                discs, self._n, n_steps, dt, bounds, tables, cs.params, cs.flags, self._rngs,
+                counters, self._threads, self._steps, _step.REORDER_EVERY, self._work)
         self._pos, self._vel, self._species, self._internal_energy, self._ids = discs[:5]
         self._n = n
         self._steps += n_steps

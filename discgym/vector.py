@@ -193,6 +193,9 @@ class DiscReactorVectorEnv(VectorEnv):
         self._ep = Episodes(self._size, self._feed_left, self._steps, self._n_init,
                             self._n_ref, self._temps, self._kin, self._stats, self._obs,
                             self._fout, self._iout)
+        # (the structs as plain tuples of their fields: see kernels.batch.env_step)
+        self._fields = (tuple(self._rx), tuple(self._ep), tuple(cfg.tables),
+                        tuple(cfg.consts))
         self._started = False
 
     # ------------------------------------------------------------------ reset
@@ -351,8 +354,8 @@ class DiscReactorVectorEnv(VectorEnv):
         idx = np.flatnonzero(active).tolist()
         self._sync(idx)
         size0 = self._size.copy()
-        args = (self._rx, self._ep, cfg.tables, cs.params, cs.flags, cfg.consts, self._rngs,
-                active, act)
+        rx, ep, tables, consts = self._fields
+        args = (rx, ep, tables, cs.params, cs.flags, consts, self._rngs, active, act)
         sub0 = self._icnt[:, _step.IC_SUBSTEPS].copy()
         ev0 = self._icnt[:, _EVENTS].sum(axis=1)
         if len(idx) <= 1 or self.threads == 1:  # (a lone reactor runs on the calling thread)

@@ -36,7 +36,17 @@ from numba import njit, prange
 
 from .controls import RESIZED, heat, inject, resize
 from .step import advance, empty_work
-from .structs import BOX, P_RMAX, Bounds, Counters, Discs
+from .structs import (
+    BOX,
+    P_RMAX,
+    Bounds,
+    Counters,
+    Discs,
+    Episodes,
+    ReactorConsts,
+    Reactors,
+    Tables,
+)
 
 #: status of a reactor whose state arrays had to grow in a step (capacity too small).
 GREW = 1
@@ -51,23 +61,40 @@ O_STATUS, O_BLOCKED, O_INVALID = range(3)  # then injected (F), then refused (F)
 @njit(cache=True)
 def env_step(rx, ep, tables, params, flags, consts, rngs, active, act):
     """One environment step of every active reactor, one after the other (see
-    :func:`reactor_step` for the arguments; ``active`` (R,) bool)."""
+    :func:`reactor_step` for the arguments; ``active`` (R,) bool). The structs ``rx``, ``ep``,
+    ``tables`` and ``consts`` come as plain tuples of their fields: numba types those in C,
+    a NamedTuple field by field in Python (about 0.5 us per field per call, some 30 us for
+    these four)."""
+    rx, ep, tables, consts = _structs(rx, ep, tables, consts)
     for r in range(rx.pos.shape[0]):
         if active[r]:
             reactor_step(r, rx, ep, tables, params, flags, consts, rngs, act)
 
 
-@njit(cache=True, parallel=True)
+@njit(cache=True)
 def env_step_parallel(rx, ep, tables, params, flags, consts, rngs, active, act, order, starts):
     """:func:`env_step` in parallel: a ``prange`` over T work lists, list t being the
     reactors ``order[starts[t]:starts[t + 1]]`` (see :func:`balance`; T = the number of
     threads gives each thread one list). Each reactor touches only its own rows, so there
-    are no races, and the result is the same bits whatever the lists."""
+    are no races, and the result is the same bits whatever the lists. The structs come as
+    plain tuples, as for :func:`env_step`."""
+    rx, ep, tables, consts = _structs(rx, ep, tables, consts)
+    _in_parallel(rx, ep, tables, params, flags, consts, rngs, active, act, order, starts)
+
+
+@njit(cache=True, parallel=True)
+def _in_parallel(rx, ep, tables, params, flags, consts, rngs, active, act, order, starts):
+    # (apart from env_step_parallel: numba's parfor lowering fails on the unpacked structs)
     for t in prange(starts.shape[0] - 1):
         for q in range(starts[t], starts[t + 1]):
             r = order[q]
             if active[r]:
                 reactor_step(r, rx, ep, tables, params, flags, consts, rngs, act)
+
+
+@njit(cache=True)
+def _structs(rx, ep, tables, consts):
+    return Reactors(*rx), Episodes(*ep), Tables(*tables), ReactorConsts(*consts)
 
 
 @njit(cache=True)
@@ -295,7 +322,10 @@ def species_stats(vel, species, internal_energy, n, sp_mass, sp_form, out):
 
 @njit(cache=True)
 def observe_batch(vel, species, internal_energy, n, sp_mass, sp_form, ep, consts):
-    """:func:`observe_one` for every reactor r of the batch."""
+    """:func:`observe_one` for every reactor r of the batch (``ep`` and ``consts`` as plain
+    tuples of their fields, as for :func:`env_step`)."""
+    ep = Episodes(*ep)
+    consts = ReactorConsts(*consts)
     for r in range(vel.shape[0]):
         observe_one(r, vel, species, internal_energy, n, sp_mass, sp_form, ep, consts)
 

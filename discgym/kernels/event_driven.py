@@ -155,7 +155,10 @@ from .structs import (
     P_RESTITUTION,
     P_RMAX,
     P_RMIN,
+    Bounds,
     Discs,
+    Tables,
+    fields,
 )
 from .structs import Counters as StepCounters
 from .walls import box_next, circle_next, graze_floor, inside, reflected
@@ -1024,11 +1027,13 @@ def run_steps(state, n, n_steps, dt, bounds, tables, params, flags, rng, counter
 
 @njit(cache=True)
 def run_steps_rngs(discs, n, n_steps, dt, bounds, tables, params, flags, rngs, cnt):
-    """:func:`run_steps` with the counters of the time-stepped integrator (a
-    :class:`~discgym.kernels.structs.Counters`; the statistics are dropped) and its generator
-    passed as ``rngs[0]`` (a ``numba.typed.List``; see
-    :func:`discgym.kernels.step.advance_rngs`): the entry point of
-    :class:`~discgym.Simulation`."""
+    """:func:`run_steps` called from Python (the structs as plain tuples of their fields, the
+    generator as ``rngs[0]``: see :func:`discgym.kernels.step.advance_rngs`), with the
+    counters of the time-stepped integrator (``cnt``: the fields of a
+    :class:`~discgym.kernels.structs.Counters`; the statistics are dropped): the entry point
+    of :class:`~discgym.Simulation`."""
+    icnt, fsum, ch_count = cnt
     stats = np.zeros(N_STATS, dtype=COUNT)
-    return run_steps(discs, n, n_steps, dt, bounds, tables, params, flags, rngs[0],
-                     Counters(cnt.icnt, cnt.fsum, cnt.ch_count, stats), CELLS_PER_DISC)
+    d, n = run_steps(Discs(*discs), n, n_steps, dt, Bounds(*bounds), Tables(*tables), params,
+                     flags, rngs[0], Counters(icnt, fsum, ch_count, stats), CELLS_PER_DISC)
+    return fields(d), n

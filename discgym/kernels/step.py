@@ -62,10 +62,14 @@ from .structs import (
     P_RELAX,
     P_RESTITUTION,
     P_RMIN,
+    Bounds,
+    Counters,
     Discs,
     RunConsts,
     Scratch,
+    Tables,
     capacity_for_discs,
+    fields,
 )
 from .walls import (
     GLIDE_CHORDS,
@@ -953,13 +957,18 @@ def _carve(work, ws, nstart):
 @njit(cache=True)
 def advance_rngs(discs, n, n_steps, dt, bounds, tables, params, flags, rngs, cnt, threads,
                  step0, reorder_every, work):
-    """:func:`advance` with its generator passed as ``rngs[0]``, a ``numba.typed.List``:
-    the entry point for calls from Python. Unboxing an ``np.random.Generator`` argument is
-    slow (numba rebuilds its ctypes interface every time), a typed list holding the same
-    generator (same state) an order of magnitude faster; a Simulation makes many short
-    calls."""
-    return advance(discs, n, n_steps, dt, bounds, tables, params, flags, rngs[0], cnt, threads,
-                   step0, reorder_every, work)
+    """:func:`advance` called from Python: the structs ``discs``, ``bounds``, ``tables``, ``cnt``
+    passed as plain tuples of their fields, the generator as ``rngs[0]``, a
+    ``numba.typed.List``. Both are for the cost of the call: numba types a plain tuple of
+    arrays in C but a NamedTuple field by field in Python (about 0.5 us per field), and it
+    rebuilds the ctypes interface of an ``np.random.Generator`` argument every time (a typed
+    list holding the same generator, same state, is an order of magnitude cheaper); a
+    Simulation makes many short calls. Returns :func:`advance`'s ``(discs, n, work)`` with
+    ``discs`` a plain tuple too (boxing a NamedTuple unpickles its class at every return)."""
+    d, n, work = advance(Discs(*discs), n, n_steps, dt, Bounds(*bounds), Tables(*tables),
+                         params, flags, rngs[0], Counters(*cnt), threads, step0,
+                         reorder_every, work)
+    return fields(d), n, work
 
 
 @njit(cache=True)

@@ -8,6 +8,13 @@ passes them as one argument and reads a field by name, so a kernel takes a few s
 instead of dozens of positional arrays, and no caller can pass them in the wrong order. Hot
 kernels unpack the fields they use into locals once, at the top.
 
+Across the boundary with Python the structs travel as plain tuples of their fields: the
+entry points (``step.advance_rngs``, ``event_driven.run_steps_rngs``, ``batch.env_step``,
+...) rebuild them with ``Struct(*fields)`` and return plain tuples (:func:`fields`). Numba
+types a plain tuple of arrays in C, a NamedTuple field by field in Python, about 0.5 us per
+field per call, and unpickles a NamedTuple's class whenever it boxes one: the environment's
+step passes four structs of 56 fields (docs/performance.md).
+
 Shapes: S species, K reaction channels, U unimolecular channel entries, R reactors of a
 batch, C disc capacity per reactor, F feed species, D observation slots.
 """
@@ -176,6 +183,14 @@ def speed_limit(max_substeps: int, max_displacement: float, r_min: float, dt: fl
     """The fastest a disc may move: a step of ``dt`` is split into at most ``max_substeps``
     substeps in which no disc moves more than ``max_displacement`` smallest radii ``r_min``."""
     return max_substeps * max_displacement * r_min / dt
+
+
+@register_jitable
+def fields(discs):
+    """The fields of a :class:`Discs` as a plain tuple: what an entry point called from Python
+    returns (numba unpickles a NamedTuple's class each time it boxes one)."""
+    return (discs.pos, discs.vel, discs.species, discs.internal_energy, discs.ids,
+            discs.next_id)
 
 
 @register_jitable
