@@ -255,7 +255,8 @@ class Simulation:
 
     def _check_speeds(self, vel: np.ndarray, what: str) -> None:
         if len(vel):
-            v = float(np.sqrt((vel * vel).sum(axis=1)).max())
+            with np.errstate(over="ignore"):  # (a speed beyond float64 is inf: refused)
+                v = float(np.sqrt((vel * vel).sum(axis=1)).max())
             if not v <= self.speed_limit:
                 raise ValueError(self._too_fast(v, what))
 
