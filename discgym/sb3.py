@@ -56,6 +56,8 @@ class DiscReactorSB3VecEnv(VecEnv):
         self.render_mode = self.venv.render_mode
         n = self.venv.num_envs  # (validated: a Python int)
         super().__init__(n, self.venv.single_observation_space, self.venv.single_action_space)
+        # the batch's metadata (render_fps: VecVideoRecorder reads it from here)
+        self.metadata = dict(self.venv.metadata)
         self._actions = None
         self.reset_infos = [{} for _ in range(n)]
 

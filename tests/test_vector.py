@@ -195,6 +195,30 @@ def test_sb3_vec_env_terminal_observation_and_truncation():
     assert (obs[:, twin.observation_names.index("time_left")] == 1.0).all()
 
 
+def test_sb3_vec_env_keeps_the_render_metadata():
+    """VecVideoRecorder takes its frame rate from the adapter's metadata: the env's 10 fps,
+    not SB3's default 30."""
+    pytest.importorskip("stable_baselines3")
+    from discgym.sb3 import DiscReactorSB3VecEnv
+
+    venv = DiscReactorSB3VecEnv(num_envs=2, render_mode="rgb_array", **KW)
+    assert venv.metadata["render_fps"] == DiscReactorVectorEnv.metadata["render_fps"] == 10
+    assert venv.metadata["render_modes"] == ["rgb_array"]
+
+
+def test_sb3_video_recorder_records_at_the_env_frame_rate(tmp_path):
+    pytest.importorskip("stable_baselines3")
+    pytest.importorskip("moviepy")  # (VecVideoRecorder needs it)
+    from stable_baselines3.common.vec_env import VecVideoRecorder
+
+    from discgym.sb3 import DiscReactorSB3VecEnv
+
+    venv = DiscReactorSB3VecEnv(num_envs=2, render_mode="rgb_array", **KW)
+    rec = VecVideoRecorder(venv, str(tmp_path), record_video_trigger=lambda step: False)
+    assert rec.frames_per_sec == 10
+    rec.close()
+
+
 def test_sb3_ppo_trains_on_the_batched_env():
     pytest.importorskip("stable_baselines3")
     from stable_baselines3 import PPO
