@@ -33,7 +33,7 @@ from __future__ import annotations
 import math
 import numbers
 import os
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import cached_property, partial
 
 import gymnasium as gym
@@ -100,12 +100,22 @@ DEFAULTS = dict(
     temperature_jitter=0.4,
     heat_cost=0.0,
     feed_cost=0.0,
+    energy_bins=0,
+    spatial_grid=0,
+    observe_reactions=False,
+    activation_jitter=0.0,
+    reverse_jitter=0.0,
+    formation_jitter=0.0,
 )
 
 #: Observations are clipped to these bounds (see the README, "Observation Space").
 OBS_ENERGY_MAX = 20.0  # per-species kT, mean internal energy, |total energy per disc|
 OBS_DISCS_MAX = 4.0  # discs now / discs at reset
 OBS_YIELD_MAX = 4.0  # product / limiting reactant at reset
+OBS_RATE_MAX = 4.0  # reactions of one channel in one step / limiting reactant at reset
+#: The most bins of the kinetic-energy histogram and cells per side of the spatial one.
+MAX_ENERGY_BINS = 32
+MAX_GRID = 16
 
 #: The kernels count steps (and discs) in int64.
 INT_MAX = 2**63 - 1
@@ -160,6 +170,13 @@ class ReactorConfig:
     heat_cost: float
     feed_cost: float
     max_discs: int  # the most discs a reactor can ever hold
+    energy_bins: int  # B, bins of the kinetic-energy histogram (0: none)
+    energy_edges: np.ndarray  # (B - 1,) inner edges
+    grid: int  # G, cells per side of the spatial histogram (0: none)
+    observe_reactions: bool
+    activation_jitter: float  # activation energies x U[1 - x, 1 + x] per episode
+    reverse_jitter: float  # reverse probabilities x 10 ** U[-x, x] per episode (at most 1)
+    formation_jitter: float  # formation energies + U[-x, x] per episode
     obs_names: tuple
     obs_low: np.ndarray
     obs_high: np.ndarray
@@ -213,7 +230,14 @@ class ReactorConfig:
             attempts=int(PLACEMENT_ATTEMPTS), reorder_every=int(REORDER_EVERY),
             product=int(self.product), episode_steps=int(self.episode_steps),
             feed=np.array(self.feed, dtype=INDEX), feed_budget=self.feed_budget,
-            obs_low=self.obs_low, obs_high=self.obs_high)
+            obs_low=self.obs_low, obs_high=self.obs_high, energy_edges=self.energy_edges,
+            energy_bins=int(self.energy_bins), grid=int(self.grid),
+            obs_reactions=int(self.observe_reactions))
+
+    @property
+    def uncertain(self) -> bool:
+        """Whether each episode draws its own kinetics."""
+        return bool(self.activation_jitter or self.reverse_jitter or self.formation_jitter)
 
     @cached_property
     def tables(self) -> tuple:
@@ -221,12 +245,14 @@ class ReactorConfig:
         return self.compiled.tables
 
     @classmethod
-    def from_kwargs(cls, **kw) -> ReactorConfig:
+    def from_kwargs(cls, defaults: dict | None = None, **kw) -> ReactorConfig:
         """Validate the keyword arguments of :data:`DEFAULTS` (the ranges are in the
         docstring of :class:`DiscReactorEnv`, section Arguments): a bad one raises
-        ``TypeError`` (wrong type) or ``ValueError`` (out of range) naming it."""
-        check_keywords("ReactorConfig.from_kwargs", kw, DEFAULTS)
-        o = dict(DEFAULTS)
+        ``TypeError`` (wrong type) or ``ValueError`` (out of range) naming it. ``defaults``:
+        a task's defaults (every key of :data:`DEFAULTS`), :data:`DEFAULTS` if None."""
+        defaults = DEFAULTS if defaults is None else defaults
+        check_keywords("ReactorConfig.from_kwargs", kw, defaults)
+        o = dict(defaults)
         o.update(kw)
         scene = _scene(o["scene"])
         names = scene.species_names
@@ -310,14 +336,28 @@ class ReactorConfig:
         feed_cost = _real(o["feed_cost"], "feed_cost", 0.0,
                           _COST_SCALE / (len(feed) * max(inject_max, 1)), why=why)
 
+        energy_bins = _whole(o["energy_bins"], "energy_bins", 0, MAX_ENERGY_BINS)
+        if energy_bins == 1:
+            raise ValueError("energy_bins: need 0 (no histogram) or at least 2 bins, got 1")
+        grid = _whole(o["spatial_grid"], "spatial_grid", 0, MAX_GRID)
+        observe_reactions = _flag(o["observe_reactions"], "observe_reactions")
+        aj = _real(o["activation_jitter"], "activation_jitter", 0.0, 1.0, hi_open=True)
+        rj = _real(o["reverse_jitter"], "reverse_jitter", 0.0, 3.0,
+                   why="a factor of 10 ** 3 either way")
+        fj = _real(o["formation_jitter"], "formation_jitter", 0.0, 1e3)
+        edges = energy_edges(scene, energy_bins)
         obs_names, lo, hi = _observation_slots(names, feed, size_min, size_max)
+        _extra_slots(obs_names, lo, hi, names, energy_bins, edges, grid,
+                     cs.labels if observe_reactions else ())
         return cls(
             scene=scene, template=template, episode_steps=episode_steps,
             steps_per_action=spa, heat_rate=heat_rate, t_min=t_min, t_max=t_max,
             size_min=size_min, size_max=size_max, wall_speed=wall_speed, feed=feed,
             inject_max=inject_max, feed_budget=feed_budget, product=product,
             count_jitter=cj, temperature_jitter=tj, heat_cost=heat_cost, feed_cost=feed_cost,
-            max_discs=max_discs, obs_names=tuple(obs_names),
+            max_discs=max_discs, energy_bins=energy_bins, energy_edges=edges, grid=grid,
+            observe_reactions=observe_reactions, activation_jitter=aj, reverse_jitter=rj,
+            formation_jitter=fj, obs_names=tuple(obs_names),
             obs_low=np.array(lo, dtype=np.float32), obs_high=np.array(hi, dtype=np.float32),
             compiled=cs)
 
@@ -348,13 +388,48 @@ class ReactorConfig:
         seeded from ``np_random`` too; pass ``generator`` to have that one reseeded and used
         (the vector env keeps one generator object per reactor)."""
         counts, temperature, seed = self.draw_contents(np_random)
+        scene = self.draw_kinetics(np_random) if self.uncertain else self.scene
         if generator is None:
             generator = np.random.Generator(np.random.PCG64(seed))
         else:
             generator.bit_generator.state = np.random.PCG64(seed).state
-        sim = Simulation(self.scene, counts=counts, temperature=temperature, seed=generator)
+        sim = Simulation(scene, counts=counts, temperature=temperature, seed=generator)
         sim.threads = 1
         return sim
+
+    def draw_kinetics(self, np_random: np.random.Generator) -> Scene:
+        """The scene with this episode's kinetics, drawn from ``np_random`` after the contents
+        (:meth:`draw_contents`), in this order: every combination's and exchange's activation
+        energy x U[1 - activation_jitter, 1 + activation_jitter], every combination's reverse
+        probability x 10 ** U[-reverse_jitter, reverse_jitter] (at most 1), every species'
+        formation energy + U[-formation_jitter, formation_jitter] (a jitter of 0 draws
+        nothing)."""
+        scene = self.scene
+        aj, rj, fj = self.activation_jitter, self.reverse_jitter, self.formation_jitter
+        reactions = []
+        for r in scene.reactions:
+            if isinstance(r, (Combination, Exchange)):
+                ch = {}
+                if aj:
+                    ch["activation_energy"] = r.activation_energy * float(
+                        np_random.uniform(1.0 - aj, 1.0 + aj))
+                if rj and isinstance(r, Combination) and r.reverse_probability > 0.0:
+                    ch["reverse_probability"] = min(1.0, r.reverse_probability * 10.0 ** float(
+                        np_random.uniform(-rj, rj)))
+                r = replace(r, **ch) if ch else r
+            reactions.append(r)
+        species = list(scene.species)
+        if fj:
+            species = [replace(sp, formation_energy=sp.formation_energy + float(
+                np_random.uniform(-fj, fj))) for sp in species]
+        return scene.replace(species=species, reactions=reactions)
+
+    def kinetics(self, scene: Scene) -> tuple:
+        """``(sp_form (S,), ch_rate (K,), ch_energy (K,))`` of a reactor of ``scene`` (this
+        config's scene or one :meth:`draw_kinetics` gave), the rows of
+        :class:`~discgym.kernels.structs.Episodes` the compiled step reads."""
+        cs = compile_scene(scene)
+        return cs.sp_form, cs.ch_rate, cs.ch_energy
 
     def n_ref(self, counts: np.ndarray) -> float:
         """The normaliser of the reward: the initial count of the limiting feed species."""
@@ -473,6 +548,57 @@ def _observation_slots(names, feed: tuple, size_min: float, size_max: float) -> 
     for f in feed:
         slot(f"feed_left_{names[f]}", 0.0, 1.0)
     return obs_names, lo, hi
+
+
+def energy_edges(scene: Scene, bins: int) -> np.ndarray:
+    """The inner edges (B - 1,) of the kinetic-energy histogram of B bins, relative to the
+    scene's activation energies: the distinct positive activation energies E_1 < E_2 < ...
+    of its combinations and exchanges are edges (the tail above a barrier is what decides a
+    reaction's rate), preceded by E_1 / 2, E_1 / 4, ... for the remaining edges (B - 1 fewer
+    than the barriers: the lowest B - 1 of them). A scene without barriers uses its kT x 4
+    as E_1."""
+    if bins == 0:
+        return np.zeros(0, dtype=FLOAT)
+    barriers = sorted({float(r.activation_energy) for r in scene.reactions
+                       if isinstance(r, (Combination, Exchange)) and r.activation_energy > 0})
+    if not barriers:
+        barriers = [4.0 * scene.temperature]
+    m = bins - 1
+    if m <= len(barriers):
+        edges = barriers[:m]
+    else:
+        below = m - len(barriers)
+        edges = [barriers[0] / 2.0 ** j for j in range(below, 0, -1)] + barriers
+    return np.array(edges, dtype=FLOAT)
+
+
+def _extra_slots(obs_names, lo, hi, names, bins, edges, grid, labels) -> None:
+    """Append the optional blocks' slots (see :func:`discgym.kernels.batch.observe_one`)."""
+    def slot(name, low, high):
+        obs_names.append(name)
+        lo.append(low)
+        hi.append(high)
+
+    for nm in names:
+        for b in range(bins):
+            a = "0" if b == 0 else f"{edges[b - 1]:g}"
+            z = "inf" if b == bins - 1 else f"{edges[b]:g}"
+            slot(f"energy_{nm}[{a},{z})", 0.0, 1.0)
+    for nm in names:
+        for j in range(grid):
+            for i in range(grid):
+                slot(f"cell_{nm}_{i}_{j}", 0.0, 1.0)
+    for j in range(grid):
+        for i in range(grid):
+            slot(f"cell_kT_{i}_{j}", 0.0, OBS_ENERGY_MAX)
+    for lab in labels:
+        slot(f"reactions[{lab}]", 0.0, OBS_RATE_MAX)
+
+
+def _flag(v, name: str) -> bool:
+    if isinstance(v, (bool, np.bool_)):
+        return bool(v)
+    raise TypeError(f"{name}: expected True or False, got {v!r} ({type(v).__name__})")
 
 
 def _most_discs(mass: float, lightest: float) -> int:
@@ -658,13 +784,11 @@ def _check_memory(need: int, name: str, what: str) -> None:
 # the per-step logic, shared with the vector env
 
 
-def observe(cfg: ReactorConfig, vel, species, internal_energy, n, ep: Episodes) -> None:
+def observe(cfg: ReactorConfig, rx: Reactors, ep: Episodes) -> None:
     """Fill ``ep.stats`` (R, 3S+1), ``ep.temperature`` and ``ep.kinetic`` (R,) and
     ``ep.obs`` (R, D) float32 for R reactors (see :func:`discgym.kernels.batch.observe_one`);
     a step observes inside :func:`discgym.kernels.batch.env_step`, this is for resets."""
-    cs = cfg.compiled
-    observe_batch(vel, species, internal_energy, n, cs.sp_mass, cs.sp_form, tuple(ep),
-                  tuple(cfg.consts))
+    observe_batch(tuple(rx), tuple(ep), cfg.compiled.sp_mass, tuple(cfg.consts))
 
 
 def check_status(cfg: ReactorConfig, iout: np.ndarray, active: np.ndarray) -> None:
@@ -808,12 +932,14 @@ class DiscReactorEnv(gym.Env):
     """
 
     metadata = {"render_modes": ["human", "rgb_array"], "render_fps": 10}
+    #: the keyword arguments and their defaults (a task of :mod:`discgym.tasks` sets its own)
+    defaults = DEFAULTS
 
     def __init__(self, render_mode: str | None = None, render_size: int = 400, **kwargs):
-        check_keywords("DiscReactorEnv.__init__", kwargs, DEFAULTS)
+        check_keywords(f"{type(self).__name__}.__init__", kwargs, self.defaults)
         check_render_mode(render_mode, self.metadata["render_modes"])
         self.render_size = _whole(render_size, "render_size", 1, MAX_RENDER_SIZE)
-        self.config = cfg = ReactorConfig.from_kwargs(**kwargs)
+        self.config = cfg = ReactorConfig.from_kwargs(self.defaults, **kwargs)
         self.render_mode = render_mode
         if render_mode == "human":
             _need_matplotlib()
@@ -840,9 +966,15 @@ class DiscReactorEnv(gym.Env):
         self._fout = np.zeros((1, 2 + F), dtype=FLOAT)
         self._iout = np.zeros((1, 3 + 2 * F), dtype=np.int64)
         self._obs = np.zeros((1, len(cfg.obs_names)), dtype=np.float32)
+        K = len(cfg.compiled.labels)
+        self._sp_form = np.zeros((1, S), dtype=FLOAT)
+        self._ch_rate = np.zeros((1, K), dtype=FLOAT)
+        self._ch_energy = np.zeros((1, K), dtype=FLOAT)
+        self._ch_last = np.zeros((1, K), dtype=np.int64)
         self._ep = Episodes(self._size, self._feed_left, self._steps, self._n_init, self._n_ref,
                             self._temp, self._kin, self._stats, self._obs, self._fout,
-                            self._iout)
+                            self._iout, self._sp_form, self._ch_rate, self._ch_energy,
+                            self._ch_last)
         self._feed_names = [cfg.species_names[f] for f in cfg.feed]
         self._ashape = (2 + F,)
         self._n_feed = F
@@ -860,6 +992,8 @@ class DiscReactorEnv(gym.Env):
         self._steps[0] = 0
         self._size[0] = cfg.size_of(sim.bounds)
         self._feed_left[0] = cfg.feed_budget
+        self._sp_form[0], self._ch_rate[0], self._ch_energy[0] = cfg.kinetics(sim.scene)
+        self._ch_last[0] = 0
         self._bind(sim)
         self._n_init[0] = len(sim)
         counts = np.bincount(sim.species, minlength=cfg.n_species)
@@ -999,12 +1133,9 @@ class DiscReactorEnv(gym.Env):
                       tuple(cfg.consts), sim.kernel_rngs, _ONE, self._act)
 
     def _observe(self) -> np.ndarray:
-        sim = self.simulation
-        self._n[0] = len(sim)
-        pos, vel, species, internal_energy, _ids, _next = sim.kernel_arrays()
         # the simulation's own arrays (padded; the kernel reads discs [0, n)): no copies
-        observe(self.config, vel[None], species[None], internal_energy[None], self._n,
-                self._ep)
+        self.simulation.export_scalars(self._rx, 0)
+        observe(self.config, self._rx, self._ep)
         self._temperature = float(self._temp[0])
         return self._obs[0].copy()
 

@@ -110,11 +110,13 @@ class DiscReactorVectorEnv(VectorEnv):
 
     metadata = {"render_modes": ["rgb_array"], "render_fps": 10,
                 "autoreset_mode": AutoresetMode.NEXT_STEP}
+    #: the keyword arguments of a reactor and their defaults (a task sets its own)
+    defaults = DEFAULTS
 
     def __init__(self, num_envs: int = 1, *, max_episode_steps: int | None = None,
                  autoreset_mode=AutoresetMode.NEXT_STEP, threads: int | None = None,
                  render_mode: str | None = None, render_size: int = 200, **kwargs):
-        check_keywords("DiscReactorVectorEnv.__init__", kwargs, DEFAULTS)
+        check_keywords(f"{type(self).__name__}.__init__", kwargs, self.defaults)
         R = _whole(num_envs, "num_envs", 1)
         if max_episode_steps is not None:
             max_episode_steps = _whole(max_episode_steps, "max_episode_steps", 1)
@@ -125,14 +127,14 @@ class DiscReactorVectorEnv(VectorEnv):
         if max_episode_steps is not None and "episode_steps" not in kwargs:
             kwargs["episode_steps"] = max_episode_steps
             try:
-                self.config = cfg = ReactorConfig.from_kwargs(**kwargs)
+                self.config = cfg = ReactorConfig.from_kwargs(self.defaults, **kwargs)
             except ValueError as e:
                 if not str(e).startswith("episode_steps"):
                     raise
                 raise ValueError(f"{e} (episode_steps is max_episode_steps here, "
                                  f"{max_episode_steps}, as it is not given)") from None
         else:
-            self.config = cfg = ReactorConfig.from_kwargs(**kwargs)
+            self.config = cfg = ReactorConfig.from_kwargs(self.defaults, **kwargs)
         _check_memory(R * (cfg.capacity * SLOT_BYTES_BATCH + 4096), "num_envs",
                       f"{R} reactors of capacity {cfg.capacity} discs")
         self.limit = cfg.episode_steps if max_episode_steps is None else \
@@ -190,9 +192,15 @@ class DiscReactorVectorEnv(VectorEnv):
         self._rx = Reactors(self._pos, self._vel, self._species, self._internal_energy,
                             self._ids, self._idctr, self._n, self._ksteps, self._bounds_kind,
                             self._bounds_params, self._icnt, self._fsum, self._ch_count)
+        K = len(cfg.compiled.labels)
+        self._sp_form = np.zeros((R, S), dtype=FLOAT)
+        self._ch_rate = np.zeros((R, K), dtype=FLOAT)
+        self._ch_energy = np.zeros((R, K), dtype=FLOAT)
+        self._ch_last = np.zeros((R, K), dtype=np.int64)
         self._ep = Episodes(self._size, self._feed_left, self._steps, self._n_init,
                             self._n_ref, self._temps, self._kin, self._stats, self._obs,
-                            self._fout, self._iout)
+                            self._fout, self._iout, self._sp_form, self._ch_rate,
+                            self._ch_energy, self._ch_last)
         # (the structs as plain tuples of their fields: see kernels.batch.env_step)
         self._fields = (tuple(self._rx), tuple(self._ep), tuple(cfg.tables),
                         tuple(cfg.consts))
@@ -243,12 +251,14 @@ class DiscReactorVectorEnv(VectorEnv):
         self._steps[r] = 0
         self._size[r] = cfg.size_of(sim.bounds)
         self._feed_left[r] = cfg.feed_budget
+        self._sp_form[r], self._ch_rate[r], self._ch_energy[r] = cfg.kinetics(sim.scene)
+        self._ch_last[r] = 0
         self._n_init[r] = n
         self._n_ref[r] = cfg.n_ref(np.bincount(sim.species, minlength=cfg.n_species))
         self._product[r] = np.count_nonzero(sim.species == cfg.product)
 
     def _observe_all(self) -> None:
-        observe(self.config, self._vel, self._species, self._internal_energy, self._n, self._ep)
+        observe(self.config, self._rx, self._ep)
 
     # ------------------------------------------------------------------ step
     def step(self, actions):

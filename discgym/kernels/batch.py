@@ -168,6 +168,11 @@ def reactor_step(r, rx, ep, tables, params, flags, consts, rngs, act):
         iout[r, k] = 0
     discs = Discs(rx.pos[r], rx.vel[r], rx.species[r], rx.internal_energy[r], rx.ids[r],
                   rx.next_id[r])
+    # this reactor's kinetics: the scene's, or those drawn for its episode (the same values
+    # give the same bits: the shared tables are these rows' copies)
+    tables = Tables(tables.sp_radius, tables.sp_mass, ep.sp_form[r], tables.ch_kind,
+                    tables.ch_reac, tables.ch_prod, ep.ch_rate[r], ep.ch_energy[r],
+                    tables.uni_start, tables.uni_chan, tables.bi_table)
     a, bad_wall = _read_action(r, act, iout)
     _heat(r, a[0], discs, rx.n[r], ep, tables.sp_mass, consts)
     if not bad_wall:
@@ -176,18 +181,23 @@ def reactor_step(r, rx, ep, tables, params, flags, consts, rngs, act):
         return
     # the physics
     cap = discs.pos.shape[0]
+    ch_count = rx.ch_count[r]
+    ch_last = ep.ch_last[r]
+    for k in range(ch_count.shape[0]):
+        ch_last[k] = ch_count[k]
     after, m, _w = advance(discs, rx.n[r], consts.steps_per_action, consts.dt,
                            Bounds(rx.bounds_kind[r], rx.bounds_params[r]), tables, params,
-                           flags, rngs[r], Counters(rx.icnt[r], rx.fsum[r], rx.ch_count[r]),
+                           flags, rngs[r], Counters(rx.icnt[r], rx.fsum[r], ch_count),
                            1, rx.ksteps[r], consts.reorder_every, empty_work())
     if after.pos.shape[0] != cap:
         iout[r, O_STATUS] = GREW
         return
+    for k in range(ch_count.shape[0]):
+        ch_last[k] = ch_count[k] - ch_last[k]
     rx.n[r] = m
     rx.ksteps[r] += consts.steps_per_action
     ep.steps[r] += 1
-    observe_one(r, rx.vel, rx.species, rx.internal_energy, rx.n, tables.sp_mass,
-                tables.sp_form, ep, consts)
+    observe_one(r, rx, ep, tables.sp_mass, consts)
 
 
 @njit(cache=True)
@@ -321,29 +331,40 @@ def species_stats(vel, species, internal_energy, n, sp_mass, sp_form, out):
 
 
 @njit(cache=True)
-def observe_batch(vel, species, internal_energy, n, sp_mass, sp_form, ep, consts):
-    """:func:`observe_one` for every reactor r of the batch (``ep`` and ``consts`` as plain
-    tuples of their fields, as for :func:`env_step`)."""
+def observe_batch(rx, ep, sp_mass, consts):
+    """:func:`observe_one` for every reactor r of the batch (``rx``, ``ep`` and ``consts`` as
+    plain tuples of their fields, as for :func:`env_step`)."""
+    rx = Reactors(*rx)
     ep = Episodes(*ep)
     consts = ReactorConsts(*consts)
-    for r in range(vel.shape[0]):
-        observe_one(r, vel, species, internal_energy, n, sp_mass, sp_form, ep, consts)
+    for r in range(rx.vel.shape[0]):
+        observe_one(r, rx, ep, sp_mass, consts)
 
 
 @njit(cache=True)
-def observe_one(r, vel, species, internal_energy, n, sp_mass, sp_form, ep, consts):
+def observe_one(r, rx, ep, sp_mass, consts):
     """Per-species sums (into ``ep.stats[r]`` (3S+1,), see :func:`species_stats`), the
     kinetic energy (into ``ep.kinetic[r]``) and temperature kT (kinetic energy per disc, 0 if
     empty; into ``ep.temperature[r]``), and the observation row ``ep.obs[r]`` (D,) float32 of
-    reactor r, clipped to [obs_low, obs_high] (D,) of ``consts``.
+    reactor r, clipped to [obs_low, obs_high] (D,) of ``consts``. A function of the state
+    alone: observing twice gives the same row.
 
-    The slots (see the README): S species fractions, S kinetic temperatures (mean kinetic
-    energy per disc of a species, 0 if absent), S mean internal energies, the total energy
-    per disc, discs / ``n_init``, product count / ``n_ref``, ``size``, the fraction of
-    ``episode_steps`` left, then ``feed_left / feed_budget`` per feed species (0 if the
-    budget is 0). ``vel`` (R, C, 2), ``species``, ``internal_energy`` (R, C), ``n`` (R,): the
-    reactors' discs (as in :class:`~discgym.kernels.structs.Reactors`).
+    The slots (see the README and docs/tasks.md): S species fractions, S kinetic temperatures
+    (mean kinetic energy per disc of a species, 0 if absent), S mean internal energies, the
+    total energy per disc, discs / ``n_init``, product count / ``n_ref``, ``size``, the
+    fraction of ``episode_steps`` left, then ``feed_left / feed_budget`` per feed species (0
+    if the budget is 0); then the optional blocks, in this order: the kinetic-energy
+    histogram (``consts.energy_bins`` B > 0: per species, the share of its discs in each of B
+    bins of 1/2 m v^2 with inner edges ``consts.energy_edges``), the spatial histogram
+    (``consts.grid`` G > 0: per species the share of its discs in each of G x G cells of the
+    bounds' bounding box, row by row from the lower left; then kT of each cell, 0 if empty)
+    and the reactions of the last step per channel / ``n_ref`` (``consts.obs_reactions``).
+    ``rx`` the batch's :class:`~discgym.kernels.structs.Reactors`, ``ep`` its
+    :class:`~discgym.kernels.structs.Episodes` (formation energies: ``ep.sp_form[r]``).
     """
+    vel = rx.vel[r]
+    species = rx.species[r]
+    n = rx.n[r]
     low = consts.obs_low
     high = consts.obs_high
     feed_budget = consts.feed_budget
@@ -351,7 +372,7 @@ def observe_one(r, vel, species, internal_energy, n, sp_mass, sp_form, ep, const
     S = sp_mass.shape[0]
     F = feed_budget.shape[0]
     st = ep.stats[r]
-    species_stats(vel[r], species[r], internal_energy[r], n[r], sp_mass, sp_form, st)
+    species_stats(vel, species, rx.internal_energy[r], n, sp_mass, ep.sp_form[r], st)
     tot = 0.0
     kin = 0.0
     energy = st[3 * S]
@@ -378,6 +399,83 @@ def observe_one(r, vel, species, internal_energy, n, sp_mass, sp_form, ep, const
     for f in range(F):
         v = ep.feed_left[r, f] / feed_budget[f] if feed_budget[f] > 0 else 0.0
         o[k + 5 + f] = _clip(v, low[k + 5 + f], high[k + 5 + f])
+    k += 5 + F
+    B = consts.energy_bins
+    if B > 0:
+        _energy_histogram(o, k, vel, species, n, sp_mass, st, consts.energy_edges, B, low,
+                          high)
+        k += S * B
+    G = consts.grid
+    if G > 0:
+        _spatial_histogram(o, k, rx.pos[r], vel, species, n, sp_mass, st, rx.bounds_kind[r],
+                           rx.bounds_params[r], G, low, high)
+        k += (S + 1) * G * G
+    if consts.obs_reactions:
+        last = ep.ch_last[r]
+        for c in range(last.shape[0]):
+            o[k + c] = _clip(last[c] / ep.n_ref[r], low[k + c], high[k + c])
+
+
+@njit(cache=True)
+def _energy_histogram(o, k, vel, species, n, sp_mass, st, edges, B, low, high):
+    """Slots [k, k + S B) of ``o``: per species s, the share of its discs whose kinetic energy
+    falls in each bin (bin b: edges[b - 1] <= E < edges[b], the first from 0, the last open)."""
+    S = sp_mass.shape[0]
+    for j in range(k, k + S * B):
+        o[j] = 0.0
+    for i in range(n):
+        s = species[i]
+        e = 0.5 * sp_mass[s] * (vel[i, 0] * vel[i, 0] + vel[i, 1] * vel[i, 1])
+        b = 0
+        while b < B - 1 and e >= edges[b]:
+            b += 1
+        o[k + s * B + b] += 1.0
+    for s in range(S):
+        c = max(st[s], 1.0)
+        for b in range(B):
+            j = k + s * B + b
+            o[j] = _clip(o[j] / c, low[j], high[j])
+
+
+@njit(cache=True)
+def _spatial_histogram(o, k, pos, vel, species, n, sp_mass, st, bounds_kind, bounds_params, G,
+                       low, high):
+    """Slots [k, k + (S + 1) G^2) of ``o``: per species the share of its discs in each cell of
+    a G x G grid over the bounds' bounding box (cell (i, j): column i from the left, row j
+    from the bottom, at k + s G^2 + j G + i), then the mean kinetic energy per disc of each
+    cell (kT; 0 if empty)."""
+    S = sp_mass.shape[0]
+    GG = G * G
+    if bounds_kind == BOX:
+        x0 = bounds_params[0]
+        y0 = bounds_params[1]
+        w = bounds_params[2] - x0
+        h = bounds_params[3] - y0
+    else:
+        x0 = bounds_params[0] - bounds_params[2]
+        y0 = bounds_params[1] - bounds_params[2]
+        w = 2.0 * bounds_params[2]
+        h = w
+    for j in range(k, k + (S + 1) * GG):
+        o[j] = 0.0
+    cnt = np.zeros(GG)
+    ke = np.zeros(GG)
+    for i in range(n):
+        s = species[i]
+        ci = min(max(int((pos[i, 0] - x0) / w * G), 0), G - 1)
+        cj = min(max(int((pos[i, 1] - y0) / h * G), 0), G - 1)
+        c = cj * G + ci
+        o[k + s * GG + c] += 1.0
+        cnt[c] += 1.0
+        ke[c] += 0.5 * sp_mass[s] * (vel[i, 0] * vel[i, 0] + vel[i, 1] * vel[i, 1])
+    for s in range(S):
+        m = max(st[s], 1.0)
+        for c in range(GG):
+            j = k + s * GG + c
+            o[j] = _clip(o[j] / m, low[j], high[j])
+    for c in range(GG):
+        j = k + S * GG + c
+        o[j] = _clip(ke[c] / cnt[c] if cnt[c] > 0.0 else 0.0, low[j], high[j])
 
 
 @njit(cache=True)

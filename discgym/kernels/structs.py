@@ -149,6 +149,11 @@ class Episodes(NamedTuple):
     obs: np.ndarray  #: (R, D) float32 observations
     fout: np.ndarray  #: (R, 2 + F) FLOAT float outputs of a step (O_HEAT, ...)
     iout: np.ndarray  #: (R, 3 + 2 F) int64 integer outputs of a step (O_STATUS, ...)
+    sp_form: np.ndarray  #: (R, S) FLOAT each reactor's formation energies (drawn per episode
+    #: where the kinetics are uncertain; else the scene's)
+    ch_rate: np.ndarray  #: (R, K) FLOAT each reactor's first-order rates (as Tables.ch_rate)
+    ch_energy: np.ndarray  #: (R, K) FLOAT each reactor's activation energies and barriers
+    ch_last: np.ndarray  #: (R, K) int64 reactions fired per channel in the last step
 
 
 class ReactorConsts(NamedTuple):
@@ -176,6 +181,10 @@ class ReactorConsts(NamedTuple):
     feed_budget: np.ndarray  #: (F,) int64 discs each feed species may inject per episode
     obs_low: np.ndarray  #: (D,) float32 observation bounds
     obs_high: np.ndarray  #: (D,) float32
+    energy_edges: np.ndarray  #: (B - 1,) FLOAT inner edges of the kinetic-energy histogram
+    energy_bins: int  #: B, bins of the per-species kinetic-energy histogram (0: none)
+    grid: int  #: G, cells per side of the spatial histogram (0: none)
+    obs_reactions: int  #: 1: the observation counts the reactions of the last step
 
 
 @register_jitable
