@@ -20,7 +20,10 @@ from .scene import (
 )
 from .simulation import PlacementError, Simulation
 
+from . import tasks  # noqa: E402  (the task suite: env classes and their registrations)
+
 register_envs()  # DiscReactor-v0 (discgym.env imports gymnasium, never torch or SB3)
+tasks.register_tasks()  # the rest of the suite (discgym/tasks.py)
 
 __version__ = "0.1.0"
 

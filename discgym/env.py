@@ -399,20 +399,21 @@ class ReactorConfig:
 
     def draw_kinetics(self, np_random: np.random.Generator) -> Scene:
         """The scene with this episode's kinetics, drawn from ``np_random`` after the contents
-        (:meth:`draw_contents`), in this order: every combination's and exchange's activation
-        energy x U[1 - activation_jitter, 1 + activation_jitter], every combination's reverse
-        probability x 10 ** U[-reverse_jitter, reverse_jitter] (at most 1), every species'
-        formation energy + U[-formation_jitter, formation_jitter] (a jitter of 0 draws
-        nothing)."""
+        (:meth:`draw_contents`), in this order: one factor U[1 - activation_jitter,
+        1 + activation_jitter] multiplying every combination's and exchange's activation
+        energy (the temperature window of the chemistry moves with it), then every
+        combination's reverse probability x 10 ** U[-reverse_jitter, reverse_jitter] (at most
+        1), then every species' formation energy + U[-formation_jitter, formation_jitter]
+        (a jitter of 0 draws nothing)."""
         scene = self.scene
         aj, rj, fj = self.activation_jitter, self.reverse_jitter, self.formation_jitter
+        scale = float(np_random.uniform(1.0 - aj, 1.0 + aj)) if aj else 1.0
         reactions = []
         for r in scene.reactions:
             if isinstance(r, (Combination, Exchange)):
                 ch = {}
                 if aj:
-                    ch["activation_energy"] = r.activation_energy * float(
-                        np_random.uniform(1.0 - aj, 1.0 + aj))
+                    ch["activation_energy"] = r.activation_energy * scale
                 if rj and isinstance(r, Combination) and r.reverse_probability > 0.0:
                     ch["reverse_probability"] = min(1.0, r.reverse_probability * 10.0 ** float(
                         np_random.uniform(-rj, rj)))
@@ -923,6 +924,11 @@ class DiscReactorEnv(gym.Env):
     - ``count_jitter``, ``temperature_jitter``: finite, 0 <= x < 1.
     - ``heat_cost``, ``feed_cost``: finite, >= 0, and small enough that no step's cost can
       overflow (about 7e285 and 1.25e299 for the default scene).
+    - ``energy_bins``: whole, 0 (none) or 2..32; ``spatial_grid``: whole, 0..16;
+      ``observe_reactions``: a bool (the observation blocks of ``docs/tasks.md``).
+    - ``activation_jitter``: finite, 0 <= x < 1; ``reverse_jitter``: finite, 0 <= y <= 3;
+      ``formation_jitter``: finite, 0 <= z <= 1000 (kinetics drawn per episode, see
+      :meth:`ReactorConfig.draw_kinetics`).
     - ``render_mode``: None, "rgb_array" or "human"; ``render_size``: whole pixels,
       1 <= ``render_size`` <= 4096.
 

@@ -125,37 +125,76 @@ def control_runs(integrators=("step", "event"), seeds=SEEDS):
     return out
 
 
-def _episode(env, policy, seed: int) -> str:
+def _episode(env, policy, seed: int) -> tuple[str, str]:
+    """The fingerprints of an episode's trajectory (observations, rewards, flags) and of its
+    infos, apart: a change of the info format leaves the trajectory's untouched."""
     h = _Hasher()
+    hi = _Hasher()
     obs, info = env.reset(seed=seed)
     h.add(obs)
-    h.add(info)
+    hi.add(info)
     for _ in range(ENV_STEPS):
         obs, reward, term, trunc, info = env.step(policy(obs))
-        h.add((obs, reward, term, trunc, info))
-    return h.hexdigest()
+        h.add((obs, reward, term, trunc))
+        hi.add(info)
+    return h.hexdigest(), hi.hexdigest()
+
+
+def _controller_policy(env):
+    """The task's hand-written controller, reset at each reset (a stateful one is built per
+    env; for the vector env, one per reactor)."""
+    from discgym.controllers import controller_for
+
+    n = getattr(env, "num_envs", None)
+    if n is None:
+        ctl = controller_for(env)
+        return ctl
+    ctls = [controller_for(env) for _ in range(n)]
+    return lambda obs: np.stack([c(o) for c, o in zip(ctls, obs)])
 
 
 def env_runs(seeds=SEEDS):
     """{name: fingerprint} of env episodes: the single env and the vector env, with random
-    actions from a seeded generator and with the heuristic baseline."""
+    actions from a seeded generator and with the heuristic baseline (DiscReactor-v0), and
+    every other task of the suite with random actions and its hand-written controller."""
     import gymnasium as gym
 
     from discgym import baselines as denv
+    from discgym.tasks import TASKS
 
     out = {}
+
+    def put(key, fp):
+        out[f"env/{key}"], out[f"envinfo/{key}"] = fp
+
     for seed in seeds:
         env = gym.make("DiscReactor-v0")
-        out[f"env/single/random/seed{seed}"] = _episode(
-            env, denv.random_policy(4, seed=100 + seed), seed)
-        out[f"env/single/heuristic/seed{seed}"] = _episode(env, denv.heuristic_policy, seed)
+        put(f"single/random/seed{seed}", _episode(env, denv.random_policy(4, seed=100 + seed),
+                                                  seed))
+        put(f"single/heuristic/seed{seed}", _episode(env, denv.heuristic_policy, seed))
         env.close()
     venv = gym.make_vec("DiscReactor-v0", num_envs=4, vectorization_mode="vector_entry_point")
     for seed in seeds:
-        out[f"env/vector4/random/seed{seed}"] = _episode(
-            venv, denv.random_policy(4, seed=200 + seed), seed)
-        out[f"env/vector4/heuristic/seed{seed}"] = _episode(venv, denv.heuristic_policy, seed)
+        put(f"vector4/random/seed{seed}", _episode(
+            venv, denv.random_policy(4, seed=200 + seed), seed))
+        put(f"vector4/heuristic/seed{seed}", _episode(venv, denv.heuristic_policy, seed))
     venv.close()
+    for env_id in sorted(TASKS):
+        if env_id == "DiscReactor-v0":
+            continue
+        for seed in seeds[:2]:
+            env = gym.make(env_id)
+            A = env.action_space.shape[0]
+            put(f"{env_id}/single/random/seed{seed}", _episode(
+                env, denv.random_policy(A, seed=300 + seed), seed))
+            put(f"{env_id}/single/controller/seed{seed}", _episode(
+                env, _controller_policy(env), seed))
+            env.close()
+        venv = gym.make_vec(env_id, num_envs=3, vectorization_mode="vector_entry_point")
+        A = venv.single_action_space.shape[0]
+        put(f"{env_id}/vector3/random/seed{seeds[0]}", _episode(
+            venv, denv.random_policy(A, seed=400), seeds[0]))
+        venv.close()
     return out
 
 

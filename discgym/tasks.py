@@ -1,0 +1,212 @@
+"""The task suite: reactor-control problems beyond ``DiscReactor-v0``.
+
+Each task is a :class:`~discgym.env.DiscReactorEnv` (and a
+:class:`~discgym.vector.DiscReactorVectorEnv`) with its own defaults: a scene, the arguments
+that make its control problem, and its observation blocks. A task class's docstring is its
+specification; ``docs/tasks.md`` has the same with the measured baselines. Every task is
+registered on ``import discgym``, for ``gymnasium.make`` (also as ``"discgym:<id>"``) and
+``gymnasium.make_vec`` (the native vector env: one compiled call for all reactors, bit for bit
+the single env).
+
+>>> import gymnasium as gym
+>>> import discgym
+>>> sorted(discgym.tasks.TASKS)  # doctest: +NORMALIZE_WHITESPACE
+['DiscEconomic-v0', 'DiscKinetics-v0', 'DiscReactor-v0', 'DiscSeries-v0']
+>>> gym.make("DiscKinetics-v0").observation_space.shape
+(34,)
+"""
+
+from __future__ import annotations
+
+import gymnasium as gym
+
+from .env import DEFAULTS, ENV_ID, DiscReactorEnv
+from .vector import DiscReactorVectorEnv
+
+__all__ = [
+    "TASKS",
+    "DiscKineticsEnv",
+    "DiscKineticsVectorEnv",
+    "DiscSeriesEnv",
+    "DiscSeriesVectorEnv",
+    "DiscEconomicEnv",
+    "DiscEconomicVectorEnv",
+    "register_tasks",
+]
+
+
+class DiscKineticsEnv(DiscReactorEnv):
+    """``DiscKinetics-v0``: the reactor of ``DiscReactor-v0`` with kinetics that change from
+    episode to episode and are not revealed.
+
+    ## Description
+    The scene, controls and reward of ``DiscReactor-v0`` (A + B -> C, the product, competing
+    with the side reaction C + A -> W + B), but each reset draws the activation energies, the
+    reverse probability of A + B -> C and the formation energies from documented ranges:
+    both activation energies x one factor U[0.5, 1.5] (A + B -> C in [2, 6], C + A -> W + B
+    in [4, 12]), the reverse probability x 10 ** U[-0.5, 0.5] (0.063 to 0.63 per unit time),
+    every formation energy + U[-0.3, 0.3]. The temperature window in which C is made faster
+    than the side reaction destroys it moves with them, so no fixed setpoint is right for
+    every episode: the policy must find the window from what it observes, as a chemist does
+    from the reactions it sees fire.
+
+    ## Action Space
+    As ``DiscReactor-v0``: ``Box(-1, 1, (4,), float32)``: heat, wall, inject A, inject B.
+
+    ## Observation Space
+    ``Box(low, high, (34,), float32)``: the 19 slots of ``DiscReactor-v0``, then per species
+    the share of its discs in 3 kinetic-energy bins with edges at the *nominal* activation
+    energies ([0, 4), [4, 8), [8, inf): 12 slots, ``energy_<species>[a,b)``), then the
+    reactions fired in the last step per channel, divided by the limiting reactant at reset
+    (A + B -> C, C + A -> W + B, the reverse C -> A + B: 3 slots, ``reactions[<label>]``,
+    in [0, 4]). Names in ``env.unwrapped.observation_names``.
+
+    ## Rewards
+    As ``DiscReactor-v0``: the gain in C per unit of limiting reactant; the return of an
+    episode is the product yield.
+
+    ## Starting State
+    As ``DiscReactor-v0`` (counts x U[0.9, 1.1], kT 0.6 x U[0.6, 1.4]), and the kinetics
+    drawn after them from the env's ``np_random`` (``ReactorConfig.draw_kinetics``).
+
+    ## Episode End
+    Never terminated; truncated after 100 steps (50 units of time).
+
+    ## Arguments
+    Those of ``DiscReactor-v0`` (the README's table), with the defaults
+    ``activation_jitter=0.5``, ``reverse_jitter=0.5``, ``formation_jitter=0.3``,
+    ``energy_bins=3``, ``observe_reactions=True``. ``activation_jitter`` in [0, 1) (a
+    relative spread), ``reverse_jitter`` in [0, 3] (decades), ``formation_jitter`` >= 0 (an
+    energy); ``energy_bins`` 0 or 2..32, ``spatial_grid`` 0..16, ``observe_reactions`` a bool.
+
+    ## Version History
+    - v0: first version.
+    """
+
+    defaults = dict(DEFAULTS, activation_jitter=0.5, reverse_jitter=0.5, formation_jitter=0.3,
+                    energy_bins=3, observe_reactions=True)
+
+
+class DiscSeriesEnv(DiscReactorEnv):
+    """``DiscSeries-v0``: consecutive reactions, where the temperature must follow the
+    chemistry through two stages.
+
+    ## Description
+    The built-in scene ``series`` (``discgym/scenes/series.toml``): ~120 A and ~120 B in a
+    30 x 30 box, cold (kT ~0.6). The product P is made in two steps through an intermediate I:
+
+    - A + B -> I (activation energy 3), then I + B -> P (activation energy 6);
+    - I decays into X (chance 0.02 per unit time), so an intermediate left waiting is lost;
+    - the side reaction I + A -> W (activation energy 7.5) destroys I while A is left and the
+      reactor runs hot.
+
+    The first stage wants a moderate temperature and A used up, the second a hotter reactor and
+    enough B: a fixed setpoint is either too slow for the second stage (I decays) or too hot for
+    the first (I + A -> W). The agent heats or cools, moves a wall and feeds B (a budget of
+    120 discs, as many as at the start: converting every A to P takes two B).
+
+    ## Action Space
+    ``Box(-1, 1, (3,), float32)``: heat, wall, inject B (as in ``DiscReactor-v0``).
+
+    ## Observation Space
+    ``Box(low, high, (30,), float32)``: the slots of ``DiscReactor-v0`` for the six species
+    (fractions, kT and internal energy per species, energy per disc, discs, yield of P, size,
+    time left, B's feed left: 24), then the reactions fired in the last step per channel /
+    the limiting reactant at reset (6 channels: A + B -> I and its reverse, I + B -> P and
+    its reverse, I + A -> W, the decay I -> X). Names in ``env.unwrapped.observation_names``.
+
+    ## Rewards
+    The gain in P per unit of B at reset (the feed species): the return is P's yield (at
+    most about 0.5 from the initial contents, which hold one B per A; up to about 1 with the
+    fed B).
+
+    ## Starting State
+    Counts x U[0.9, 1.1], kT 0.6 x U[0.6, 1.4], positions uniform without overlap.
+
+    ## Episode End
+    Never terminated; truncated after 100 steps (50 units of time).
+
+    ## Arguments
+    Those of ``DiscReactor-v0`` with the defaults ``scene="series"``, ``product="P"``,
+    ``feed=["B"]``, ``feed_budget=120``, ``observe_reactions=True``.
+
+    ## Version History
+    - v0: first version.
+    """
+
+    defaults = dict(DEFAULTS, scene="series", product="P", feed=("B",), feed_budget=120,
+                    observe_reactions=True)
+
+
+class DiscEconomicEnv(DiscReactorEnv):
+    """``DiscEconomic-v0``: the reactor of ``DiscReactor-v0`` run for profit: the product's
+    value minus the heating energy and the reagents bought.
+
+    ## Description
+    The scene, controls and chemistry of ``DiscReactor-v0``; the reward charges every unit of
+    energy the heat control puts in or takes out (``heat_cost`` = 0.08 per unit of energy)
+    and every injected disc (``feed_cost`` = 0.4), both per unit of limiting reactant at
+    reset, against 1 per disc of product C. Heating the cold reactor to the reaction window
+    costs about a fifth of what its product is worth, and a fed disc pays only if it is
+    turned into product: the trade-off between a fast, hot reactor and an economical one is
+    the task.
+
+    ## Action Space
+    As ``DiscReactor-v0``: ``Box(-1, 1, (4,), float32)``.
+
+    ## Observation Space
+    As ``DiscReactor-v0`` (19 slots), plus the per-species kinetic-energy histogram with
+    edges at the activation energies ([0, 2), [2, 4), [4, 8), [8, inf): 16 slots).
+
+    ## Rewards
+    ``(C_now - C_before) / n_ref - 0.08 |heat energy| / n_ref - 0.4 x injected / n_ref``: the
+    return is the profit per unit of limiting reactant.
+
+    ## Starting State
+    As ``DiscReactor-v0``.
+
+    ## Episode End
+    Never terminated; truncated after 100 steps (50 units of time).
+
+    ## Arguments
+    Those of ``DiscReactor-v0`` with the defaults ``heat_cost=0.08``, ``feed_cost=0.4``,
+    ``energy_bins=4``.
+
+    ## Version History
+    - v0: first version.
+    """
+
+    defaults = dict(DEFAULTS, heat_cost=0.08, feed_cost=0.3, energy_bins=4)
+
+
+def _vector(env_cls: type, name: str) -> type:
+    """The native vector env of a task: :class:`DiscReactorVectorEnv` with the task's
+    defaults (its docstring is the task's)."""
+    return type(name, (DiscReactorVectorEnv,), {
+        "defaults": env_cls.defaults, "__module__": __name__,
+        "__doc__": f"The native vector env of {env_cls.__name__} (see its docstring and "
+                   f"DiscReactorVectorEnv's arguments)."})
+
+
+DiscKineticsVectorEnv = _vector(DiscKineticsEnv, "DiscKineticsVectorEnv")
+DiscSeriesVectorEnv = _vector(DiscSeriesEnv, "DiscSeriesVectorEnv")
+DiscEconomicVectorEnv = _vector(DiscEconomicEnv, "DiscEconomicVectorEnv")
+
+#: ``{id: (env class, vector env class)}`` of every task, ``DiscReactor-v0`` included.
+TASKS = {
+    ENV_ID: (DiscReactorEnv, DiscReactorVectorEnv),
+    "DiscKinetics-v0": (DiscKineticsEnv, DiscKineticsVectorEnv),
+    "DiscSeries-v0": (DiscSeriesEnv, DiscSeriesVectorEnv),
+    "DiscEconomic-v0": (DiscEconomicEnv, DiscEconomicVectorEnv),
+}
+
+
+def register_tasks() -> None:
+    """Register every task but ``DiscReactor-v0`` (:func:`discgym.env.register_envs` does
+    that one); idempotent. Called by ``import discgym``."""
+    for env_id, (env_cls, vec_cls) in TASKS.items():
+        if env_id == ENV_ID or env_id in gym.registry:
+            continue
+        gym.register(id=env_id, entry_point=f"{__name__}:{env_cls.__name__}",
+                     vector_entry_point=f"{__name__}:{vec_cls.__name__}",
+                     max_episode_steps=env_cls.defaults["episode_steps"])
