@@ -177,8 +177,9 @@ def reactor_step(r, rx, ep, tables, params, flags, consts, rngs, act):
     # the physics
     cap = discs.pos.shape[0]
     after, m, _w = advance(discs, rx.n[r], consts.steps_per_action, consts.dt,
-                           Bounds(rx.bounds_kind[r], rx.bounds_params[r]), tables, params,
-                           flags, rngs[r], Counters(rx.icnt[r], rx.fsum[r], rx.ch_count[r]),
+                           Bounds(rx.bounds_kind[r], rx.bounds_params[r], rx.bounds_walls[r]),
+                           tables, params, flags, rngs[r],
+                           Counters(rx.icnt[r], rx.fsum[r], rx.ch_count[r], rx.outflow[r]),
                            1, rx.ksteps[r], consts.reorder_every, empty_work())
     if after.pos.shape[0] != cap:
         iout[r, O_STATUS] = GREW
