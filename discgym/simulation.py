@@ -620,8 +620,14 @@ class Simulation:
     @property
     def wall_heat(self) -> float:
         """Energy the thermal walls put into the discs since the start (negative: they took
-        more out than they put in)."""
-        return float(self._fsum[_step.FS_WALL_HEAT])
+        more out than they put in): the sum of :meth:`wall_heat_by_side`."""
+        return _wall_heat(self._fsum)
+
+    def wall_heat_by_side(self) -> dict:
+        """``{side: energy put in by that side}`` since the start, for every side of the
+        bounds (0 for a specular one)."""
+        sides = sides_of(self.scene.bounds)
+        return {sd: float(self._fsum[_step.FS_WALL_HEAT + k]) for k, sd in enumerate(sides)}
 
     @property
     def outflow_energy(self) -> float:
@@ -1050,7 +1056,7 @@ class Simulation:
                                f"energy of {kin + uin + form}, beyond the float range")
         if not math.isfinite(s["energy_start"] + s["energy_input"]
                              - float(s["fsum"][_step.FS_DISSIPATED])
-                             + float(s["fsum"][_step.FS_WALL_HEAT])
+                             + _wall_heat(s["fsum"])
                              - float(s["fsum"][_step.FS_OUTFLOW])):
             raise _state_error("energy_start", "+ state['energy_input'] - state['fsum'] "
                                "(dissipated) is beyond the float range: no energy balance")
@@ -1289,6 +1295,12 @@ def _checked_rng(value) -> np.random.BitGenerator:
     if not ok:
         raise _state_error("rng", f"is not a state numpy restores as given: {_short(value)}")
     return bg
+
+
+def _wall_heat(fsum) -> float:
+    """The heat of the four sides' sums, added in side order."""
+    k = _step.FS_WALL_HEAT
+    return float(fsum[k]) + float(fsum[k + 1]) + float(fsum[k + 2]) + float(fsum[k + 3])
 
 
 def _real(what: str, value) -> float:

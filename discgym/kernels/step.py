@@ -111,9 +111,10 @@ N_ICOUNTERS = 15
 # Float accumulators (fsum)
 FS_WALL_MOMENTUM = 0  # momentum delivered to the walls (for the pressure)
 FS_DISSIPATED = 1  # kinetic energy lost to restitution e < 1
-FS_WALL_HEAT = 2  # energy the thermal walls put into the discs (negative: taken out)
-FS_OUTFLOW = 3  # energy (kinetic + internal + formation) carried out through outlets
-N_FSUMS = 4
+FS_WALL_HEAT = 2  # energy the thermal walls put into the discs (negative: taken out), per
+# side: FS_WALL_HEAT + side (LEFT ... TOP of kernels.structs; a circle's wall: side 0)
+FS_OUTFLOW = 6  # energy (kinetic + internal + formation) carried out through outlets
+N_FSUMS = 7
 # What a wall event did (_wall_event)
 W_NONE, W_REFLECTED, W_THERMAL, W_LEFT = range(4)
 
@@ -490,7 +491,7 @@ def _wall_event(i, discs, tables, bounds, sc, cnt, rc, grid, H, size, nbin, n, r
     Where the scene has them (``rc.outlets``, ``rc.thermal``): a contact point on an outlet
     removes the disc (species -1, its energy booked in FS_OUTFLOW, counted in
     ``cnt.outflow``); a thermal side draws its velocity from ``rng`` (walls.thermal_velocity,
-    the energy exchanged booked in FS_WALL_HEAT); neither glides (a glide is a sequence of
+    the energy exchanged booked in FS_WALL_HEAT + side); neither glides (a glide is a sequence of
     specular reflections). Returns ``(what, t_glide)``: W_NONE (it does not meet the wall),
     W_REFLECTED, W_THERMAL or W_LEFT, and the latest time a glide took a disc to."""
     pos, vel, species = discs.pos, discs.vel, discs.species
@@ -529,7 +530,7 @@ def _wall_event(i, discs, tables, bounds, sc, cnt, rc, grid, H, size, nbin, n, r
             vx, vy, vn_in, vn_out = thermal_velocity(xc, yc, vx0, vy0, side, kT, mi,
                                                      bounds_kind, bounds_params, rng)
             fsum[FS_WALL_MOMENTUM] += mi * (vn_in + vn_out)
-            fsum[FS_WALL_HEAT] += 0.5 * mi * ((vx * vx + vy * vy) - (vx0 * vx0 + vy0 * vy0))
+            fsum[FS_WALL_HEAT + side] += 0.5 * mi * ((vx * vx + vy * vy) - (vx0 * vx0 + vy0 * vy0))
             vel[i, 0] = vx
             vel[i, 1] = vy
             pos[i, 0] = xc - tw * vx
