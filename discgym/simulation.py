@@ -676,7 +676,8 @@ class Simulation:
                 raise ValueError("set_wall_temperature(temperature): missing (a side needs "
                                  "a temperature)")
             todo = {side: temperature}
-        self._walls[:] = self._checked_walls(todo, "set_wall_temperature", partial=True)
+        new = self._checked_walls(todo, "set_wall_temperature", partial=True)
+        _controls.set_wall_temperatures(self._walls, new, self.max_wall_temperature())
 
     def _checked_walls(self, todo, what: str, partial: bool) -> np.ndarray:
         """The wall array with the temperatures ``todo`` {side: kT} (all of the thermal
