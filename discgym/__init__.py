@@ -13,9 +13,11 @@ from .scene import (
     Combination,
     Decomposition,
     Exchange,
+    Outlet,
     Scene,
     SceneError,
     Species,
+    ThermalWall,
     Transformation,
 )
 from .simulation import PlacementError, Simulation
@@ -33,11 +35,13 @@ __all__ = [
     "Combination",
     "Decomposition",
     "Exchange",
+    "Outlet",
     "PlacementError",
     "Scene",
     "SceneError",
     "Simulation",
     "Species",
+    "ThermalWall",
     "Transformation",
     "scenes",
 ]

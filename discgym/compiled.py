@@ -20,8 +20,11 @@ from .kernels.structs import (  # noqa: F401 (the constants are re-exported)
     F_BI,
     F_COLLISIONS,
     F_FISSION,
+    F_OUTLETS,
+    F_THERMAL,
     F_UNI,
     FLOAT,
+    N_SIDES,
     INDEX,
     P_MAXDISP,
     P_RELAX,
@@ -30,7 +33,16 @@ from .kernels.structs import (  # noqa: F401 (the constants are re-exported)
     P_RMIN,
     Tables,
 )
-from .scene import Box, Circle, Combination, Decomposition, Exchange, Scene, Transformation
+from .scene import (
+    Box,
+    Circle,
+    Combination,
+    Decomposition,
+    Exchange,
+    Scene,
+    Transformation,
+    sides_of,
+)
 
 # Reaction channel kinds (ch_kind). A Combination yields two channels: forward and REVERSE.
 TRANSFORMATION, DECOMPOSITION, COMBINATION, EXCHANGE, REVERSE = 0, 1, 2, 3, 4
@@ -50,6 +62,24 @@ def kernel_bounds(bounds) -> tuple[int, np.ndarray]:
         return CIRCLE, np.array([bounds.center[0], bounds.center[1], bounds.radius, 0.0],
                                 dtype=FLOAT)
     raise TypeError(f"unknown bounds {bounds!r}")
+
+
+def kernel_walls(scene: Scene) -> np.ndarray:
+    """The wall temperatures of :class:`~discgym.kernels.structs.Bounds` (``walls``, (4,)):
+    each thermal wall's kT at its side's index (the order of ``scene.sides_of``), NaN for a
+    specular side."""
+    walls = np.full(N_SIDES, np.nan, dtype=FLOAT)
+    sides = sides_of(scene.bounds)
+    for w in scene.thermal_walls:
+        walls[sides.index(w.side)] = w.temperature
+    return walls
+
+
+def kernel_outlets(scene: Scene) -> np.ndarray:
+    """The outlets as rows (side index, start, end) (M, 3) FLOAT."""
+    sides = sides_of(scene.bounds)
+    return np.array([[sides.index(o.side), o.start, o.end] for o in scene.outlets],
+                    dtype=FLOAT).reshape(len(scene.outlets), 3)
 
 
 def rate_from_probability(p: float) -> float:
@@ -78,13 +108,14 @@ class CompiledScene:
     params: np.ndarray  # float vector, see P_*
     flags: np.ndarray  # int vector, see F_*
     labels: tuple  # (C,) str, one per channel
+    outlets: np.ndarray  # (M, 3) float: side index, start, end (kernel_outlets)
 
     @cached_property
     def tables(self) -> Tables:
         """The tables as the struct handed to the kernels."""
         return Tables(self.sp_radius, self.sp_mass, self.sp_form, self.ch_kind, self.ch_reac,
                       self.ch_prod, self.ch_rate, self.ch_energy, self.uni_start,
-                      self.uni_chan, self.bi_table)
+                      self.uni_chan, self.bi_table, self.outlets)
 
 
 _CACHE: OrderedDict = OrderedDict()  # id(scene) -> CompiledScene (which holds the scene)
@@ -171,9 +202,10 @@ def _compile(scene: Scene) -> CompiledScene:
     fission = any(ch_kind[c] in (DECOMPOSITION, REVERSE) for c in uni_chan)
     flags = np.array(
         [int(scene.collisions), int(len(uni_chan) > 0),
-         int(scene.collisions and bool((bi_table >= 0).any())), int(fission)],
+         int(scene.collisions and bool((bi_table >= 0).any())), int(fission),
+         int(len(scene.thermal_walls) > 0), int(len(scene.outlets) > 0)],
         dtype=INDEX,
     )
     return CompiledScene(scene, sp_radius, sp_mass, sp_form, ch_kind, ch_reac, ch_prod,
                          ch_rate, ch_energy, uni_start, uni_chan, bi_table, params, flags,
-                         tuple(labels))
+                         tuple(labels), kernel_outlets(scene))

@@ -1129,11 +1129,12 @@ class DiscReactorEnv(gym.Env):
         self._n_seen = len(sim)
         cs = cfg.compiled
         pos, vel, species, internal_energy, ids, next_id = arrays = sim.kernel_arrays()
-        icnt, fsum, ch_count = sim.kernel_counters()
+        icnt, fsum, ch_count, outflow = sim.kernel_counters()
         self._bound = arrays[:5]
         self._rx = Reactors(pos[None], vel[None], species[None], internal_energy[None],
                             ids[None], next_id[None], self._n, self._ksteps, self._bounds_kind,
-                            self._bounds_params, icnt[None], fsum[None], ch_count[None])
+                            self._bounds_params, icnt[None], fsum[None], ch_count[None],
+                            outflow[None], sim.kernel_walls()[None])
         # (the structs as plain tuples of their fields: see kernels.batch.env_step)
         self._args = (tuple(self._rx), tuple(self._ep), tuple(cfg.tables), cs.params, cs.flags,
                       tuple(cfg.consts), sim.kernel_rngs, _ONE, self._act)

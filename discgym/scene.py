@@ -33,6 +33,8 @@ __all__ = [
     "Combination",
     "Exchange",
     "Scene",
+    "ThermalWall",
+    "Outlet",
     "HEX_PACKING",
 ]
 
@@ -401,6 +403,67 @@ REACTION_TYPES = {c.kind: c for c in (Transformation, Decomposition, Combination
 
 
 # --------------------------------------------------------------------------------------------
+# Walls: thermal walls and outlets
+
+#: The sides of each bounds kind, in the order of the kernels' wall arrays (docs/physics.md):
+#: a box has four, a circle one ("wall").
+BOX_SIDES = ("left", "right", "bottom", "top")
+CIRCLE_SIDES = ("wall",)
+SIDES = BOX_SIDES + CIRCLE_SIDES
+
+#: A thermal wall at kT may draw a disc's speed up to this many thermal speeds sqrt(kT/m)
+#: with non-negligible probability (a Rayleigh x Gaussian tail beyond it: ~1e-300): the
+#: temperatures whose draws could pass the speed limit are refused.
+THERMAL_SPEED_MARGIN = 40.0
+
+
+def sides_of(bounds) -> tuple[str, ...]:
+    """The side names of a Box or Circle (:data:`BOX_SIDES`, :data:`CIRCLE_SIDES`)."""
+    return CIRCLE_SIDES if isinstance(bounds, Circle) else BOX_SIDES
+
+
+def _side(name: str, value) -> str:
+    if not isinstance(value, str) or value not in SIDES:
+        raise SceneError(name, f"expected one of {list(SIDES)}, got {value!r}")
+    return value
+
+
+@dataclass(frozen=True)
+class ThermalWall:
+    """A side of the bounds held at temperature kT: a disc that hits it leaves with a velocity
+    drawn from the flux-weighted Maxwell-Boltzmann distribution at that temperature (diffuse
+    reflection, docs/physics.md). ``side``: "left", "right", "bottom", "top" of a Box, "wall"
+    of a Circle. The temperature is the initial one; ``Simulation.set_wall_temperature``
+    changes it."""
+
+    side: str
+    temperature: float
+
+    def __post_init__(self):
+        _set(self, side=_side("side", self.side),
+             temperature=_finite("temperature", self.temperature, positive=True, energy=True))
+
+
+@dataclass(frozen=True)
+class Outlet:
+    """A segment of a side through which discs leave: a disc whose wall contact point lies on
+    it is removed. ``start`` < ``end`` are fractions of the side's length from its lower
+    coordinate (left and right sides: from the bottom; bottom and top: from the left); for
+    a Circle, fractions of the full turn counter-clockwise from +x."""
+
+    side: str
+    start: float
+    end: float
+
+    def __post_init__(self):
+        _set(self, side=_side("side", self.side),
+             start=_finite("start", self.start, lo=0.0, hi=1.0),
+             end=_finite("end", self.end, lo=0.0, hi=1.0))
+        if not self.start < self.end:
+            raise SceneError("end", f"must exceed start ({self.start}), got {self.end}")
+
+
+# --------------------------------------------------------------------------------------------
 # Scene
 
 
@@ -425,6 +488,8 @@ class Scene:
         counts: default initial population, ``{species name: count}``.
         temperature: default initial temperature (kT, k_B = 1).
         name, description: for listings.
+        thermal_walls: :class:`ThermalWall` s, at most one per side.
+        outlets: :class:`Outlet` s, not overlapping on a side.
     """
 
     bounds: Bounds
@@ -439,6 +504,8 @@ class Scene:
     temperature: float = 1.0
     name: str = ""
     description: str = ""
+    thermal_walls: Sequence[ThermalWall] = ()
+    outlets: Sequence[Outlet] = ()
 
     def __post_init__(self):
         if not isinstance(self.bounds, (Box, Circle)):
@@ -523,6 +590,60 @@ class Scene:
                 f"must be in (0, 1] (a fraction of the smallest radius), got "
                 f"{self.max_displacement}",
             )
+        self._check_walls(species)
+
+    def _check_walls(self, species) -> None:
+        """Thermal walls and outlets: of the right type, on sides this bounds kind has, one
+        thermal wall per side, outlets not overlapping, wall temperatures within the speed
+        limit (see :meth:`max_wall_temperature`)."""
+        if isinstance(self.thermal_walls, (str, Mapping)) or \
+                not isinstance(self.thermal_walls, Sequence):
+            raise SceneError("thermal_walls", f"expected a sequence of ThermalWall, got "
+                             f"{self.thermal_walls!r}")
+        if isinstance(self.outlets, (str, Mapping)) or not isinstance(self.outlets, Sequence):
+            raise SceneError("outlets", f"expected a sequence of Outlet, got {self.outlets!r}")
+        walls = tuple(self.thermal_walls)
+        outlets = tuple(self.outlets)
+        sides = sides_of(self.bounds)
+        seen = {}
+        t_max = self.max_wall_temperature(species)
+        for k, w in enumerate(walls):
+            where = f"thermal_walls[{k}]"
+            if not isinstance(w, ThermalWall):
+                raise SceneError(where, f"expected ThermalWall, got {w!r}")
+            if w.side not in sides:
+                raise SceneError(f"{where}.side", f"{w.side!r} is not a side of a "
+                                 f"{self.bounds.kind} (its sides: {list(sides)})")
+            if w.side in seen:
+                raise SceneError(f"{where}.side", f"{w.side!r} is already thermal_walls"
+                                 f"[{seen[w.side]}]")
+            seen[w.side] = k
+            if not w.temperature <= t_max:
+                raise SceneError(f"{where}.temperature", too_hot_for_walls(w.temperature, t_max))
+        spans = {}
+        for k, o in enumerate(outlets):
+            where = f"outlets[{k}]"
+            if not isinstance(o, Outlet):
+                raise SceneError(where, f"expected Outlet, got {o!r}")
+            if o.side not in sides:
+                raise SceneError(f"{where}.side", f"{o.side!r} is not a side of a "
+                                 f"{self.bounds.kind} (its sides: {list(sides)})")
+            for q, (a, b) in spans.get(o.side, {}).items():
+                if o.start < b and a < o.end:
+                    raise SceneError(f"{where}.start", f"[{o.start}, {o.end}] overlaps outlets"
+                                     f"[{q}] = [{a}, {b}] on side {o.side!r}")
+            spans.setdefault(o.side, {})[k] = (o.start, o.end)
+        _set(self, thermal_walls=walls, outlets=outlets)
+
+    def max_wall_temperature(self, species=None) -> float:
+        """The hottest a thermal wall may be: a draw of THERMAL_SPEED_MARGIN (40) thermal
+        speeds sqrt(kT / m) of the lightest species stays within the speed limit
+        (``Simulation.speed_limit``: 65536 substeps of max_displacement x the smallest radius
+        per step of dt)."""
+        species = self.species if species is None else species
+        v_max = 65536 * self.max_displacement * min(s.radius for s in species) / self.dt
+        m_min = min(s.mass for s in species)
+        return m_min * (v_max / THERMAL_SPEED_MARGIN) ** 2
 
     # ---- lookups
     def species_index(self, name: str) -> int:
@@ -574,13 +695,14 @@ class Scene:
         top = {
             "name", "description", "restitution", "dt", "internal_relaxation",
             "max_displacement", "collisions", "temperature", "bounds", "species",
-            "reactions", "counts",
+            "reactions", "counts", "thermal_walls", "outlets",
         }
         _no_unknown("", data, top)
         for req in ("bounds", "species"):
             if req not in data:
                 raise SceneError(req, "missing (required)")
-        kw = {k: data[k] for k in top - {"bounds", "species", "reactions", "counts"} if k in data}
+        kw = {k: data[k] for k in top - {"bounds", "species", "reactions", "counts",
+                                         "thermal_walls", "outlets"} if k in data}
         kw["bounds"] = _bounds_from_dict(data["bounds"])
         sp = data["species"]
         if not isinstance(sp, list):
@@ -594,6 +716,11 @@ class Scene:
         if not isinstance(counts, Mapping):
             raise SceneError("counts", "expected a table of species = count")
         kw["counts"] = dict(counts)
+        for key, kind in (("thermal_walls", ThermalWall), ("outlets", Outlet)):
+            lst = data.get(key, [])
+            if not isinstance(lst, list):
+                raise SceneError(key, f"expected an array of tables [[{key}]]")
+            kw[key] = [_obj_from_dict(kind, f"{key}[{k}]", d) for k, d in enumerate(lst)]
         return cls(**kw)
 
     def to_dict(self) -> dict:
@@ -620,6 +747,12 @@ class Scene:
             "reactions": [_reaction_to_dict(r) for r in self.reactions],
             "counts": dict(self.counts),
         }
+        if self.thermal_walls:
+            out["thermal_walls"] = [{"side": w.side, "temperature": w.temperature}
+                                    for w in self.thermal_walls]
+        if self.outlets:
+            out["outlets"] = [{"side": o.side, "start": o.start, "end": o.end}
+                              for o in self.outlets]
         return out
 
     def to_toml(self) -> str:
@@ -635,8 +768,17 @@ class Scene:
             lines += ["", "[[species]]"] + [f"{k} = {_toml_value(v)}" for k, v in s.items()]
         for r in d["reactions"]:
             lines += ["", "[[reactions]]"] + [f"{k} = {_toml_value(v)}" for k, v in r.items()]
+        for key in ("thermal_walls", "outlets"):
+            for w in d.get(key, []):
+                lines += ["", f"[[{key}]]"] + [f"{k} = {_toml_value(v)}" for k, v in w.items()]
         lines += ["", "[counts]"] + [f"{k} = {v}" for k, v in d["counts"].items()]
         return "\n".join(lines) + "\n"
+
+
+def too_hot_for_walls(kT: float, t_max: float) -> str:
+    return (f"{kT} is above {t_max:.4g}: a thermal wall this hot could draw a speed beyond "
+            f"the speed limit ({THERMAL_SPEED_MARGIN:g} sqrt(kT / m) of the lightest species "
+            "must stay within it); lower the temperature or dt")
 
 
 def validated_counts(bounds, species_by_name: Mapping[str, Species], counts) -> dict:
@@ -787,7 +929,7 @@ def _toml_value(v) -> str:
 
 def _line_of(text: str, field_path: str):
     """Best-effort line number of the key named last in ``field_path`` (1-based) or None."""
-    m = re.match(r"(species|reactions)\[(\d+)\]\.?(\w*)", field_path)
+    m = re.match(r"(species|reactions|thermal_walls|outlets)\[(\d+)\]\.?(\w*)", field_path)
     lines = text.splitlines()
     if m:
         table, idx, key = m.group(1), int(m.group(2)), m.group(3)

@@ -17,7 +17,7 @@ import numba
 import numpy as np
 from numba import typed
 
-from .compiled import CIRCLE, compile_scene, kernel_bounds
+from .compiled import CIRCLE, compile_scene, kernel_bounds, kernel_walls
 from .compiled import P_RMAX as _P_RMAX
 from .kernels import controls as _controls
 from .kernels import event_driven as _event
@@ -43,6 +43,8 @@ from .scene import (
     _finite,
     check_bounds_scale,
     plain,
+    sides_of,
+    too_hot_for_walls,
     validated_counts,
 )
 
@@ -161,6 +163,8 @@ class Simulation:
         self._work = _step.empty_work()  # the stepper's scratch, kept between calls
         self._fsum = np.zeros(_step.N_FSUMS, dtype=FLOAT)
         self._ch_count = np.zeros(len(self._cs.labels), dtype=COUNT)
+        self._outflow = np.zeros(len(scene.species), dtype=COUNT)
+        self._walls = kernel_walls(scene)  # (4,) kT per side, NaN: specular (Bounds.walls)
         self._since_reset = 0.0
         self._energy_input = 0.0
         self._threads = 4 * numba.get_num_threads()
@@ -380,8 +384,8 @@ class Simulation:
         # (the structs as plain tuples: see kernels.step.advance_rngs)
         discs = (self._pos, self._vel, self._species, self._internal_energy, self._ids,
                  self._idctr)
-        bounds = (self._bounds_kind, self._bounds_params)
-        counters = (self._icnt, self._fsum, self._ch_count)
+        bounds = (self._bounds_kind, self._bounds_params, self._walls)
+        counters = (self._icnt, self._fsum, self._ch_count, self._outflow)
         tables = tuple(cs.tables)
         if self._integrator == "event":  # one exact run of n_steps * dt
             discs, n = _event.run_steps_rngs(discs, self._n, n_steps, dt, bounds, tables,
@@ -422,9 +426,15 @@ class Simulation:
         return (self._pos, self._vel, self._species, self._internal_energy, self._ids, self._idctr)
 
     def kernel_counters(self) -> tuple:
-        """``(icnt, fsum, ch_count)``: the counter arrays themselves (see
+        """``(icnt, fsum, ch_count, outflow)``: the counter arrays themselves (see
         :mod:`discgym.kernels.step`). Internal, for discgym's environments."""
-        return (self._icnt, self._fsum, self._ch_count)
+        return (self._icnt, self._fsum, self._ch_count, self._outflow)
+
+    def kernel_walls(self) -> np.ndarray:
+        """The wall temperatures themselves, (4,) FLOAT (``Bounds.walls``: kT per side, NaN
+        for a specular one; always changed in place). Internal, for discgym's
+        environments."""
+        return self._walls
 
     @property
     def kernel_rngs(self):
@@ -437,10 +447,11 @@ class Simulation:
             self._reserve(capacity - self._n)
 
     def move_into(self, pos, vel, species, internal_energy, ids, next_id, icnt, fsum,
-                  ch_count) -> None:
-        """Copy the state and counters into the given arrays (as :meth:`kernel_arrays` and
-        :meth:`kernel_counters`; past the discs: zeros, species -1) and use them as its own
-        from now on: the vector environment keeps every reactor in rows of its batch."""
+                  ch_count, outflow, walls) -> None:
+        """Copy the state and counters into the given arrays (as :meth:`kernel_arrays`,
+        :meth:`kernel_counters` and :meth:`kernel_walls`; past the discs: zeros, species -1)
+        and use them as its own from now on: the vector environment keeps every reactor in
+        rows of its batch."""
         n = self._n
         pos[:] = 0.0
         vel[:] = 0.0
@@ -458,7 +469,10 @@ class Simulation:
         icnt[:] = self._icnt
         fsum[:] = self._fsum
         ch_count[:] = self._ch_count
+        outflow[:] = self._outflow
+        walls[:] = self._walls
         self._icnt, self._fsum, self._ch_count = icnt, fsum, ch_count
+        self._outflow, self._walls = outflow, walls
 
     def export_scalars(self, reactors, r: int) -> None:
         """Write the disc count, the kernel steps taken and the bounds into row ``r`` of
@@ -603,11 +617,89 @@ class Simulation:
         """Energy added by the controls since the start (heating, injection)."""
         return self._energy_input
 
+    @property
+    def wall_heat(self) -> float:
+        """Energy the thermal walls put into the discs since the start (negative: they took
+        more out than they put in): the sum of :meth:`wall_heat_by_side`."""
+        return _wall_heat(self._fsum)
+
+    def wall_heat_by_side(self) -> dict:
+        """``{side: energy put in by that side}`` since the start, for every side of the
+        bounds (0 for a specular one)."""
+        sides = sides_of(self.scene.bounds)
+        return {sd: float(self._fsum[_step.FS_WALL_HEAT + k]) for k, sd in enumerate(sides)}
+
+    @property
+    def outflow_energy(self) -> float:
+        """Energy (kinetic + internal + formation) the discs that left through outlets
+        carried out since the start."""
+        return float(self._fsum[_step.FS_OUTFLOW])
+
+    def outflow(self) -> dict:
+        """``{species name: discs that left through an outlet}`` since the start (every
+        species, zeros included; cumulative: :meth:`reset_counters` does not reset it)."""
+        return {sp.name: int(k) for sp, k in zip(self.scene.species, self._outflow)}
+
     def energy_balance(self) -> float:
-        """total energy now - (at the start + added by controls - dissipated): 0 up to
-        round-off when every change is accounted for."""
+        """total energy now - (at the start + added by controls - dissipated + put in by the
+        thermal walls - carried out through outlets): 0 up to round-off when every change is
+        accounted for."""
         return self.total_energy() - (self._energy_start + self._energy_input
-                                      - self.dissipated_energy)
+                                      - self.dissipated_energy + self.wall_heat
+                                      - self.outflow_energy)
+
+    # ------------------------------------------------------------------ thermal walls
+    @property
+    def wall_temperature(self) -> dict:
+        """``{side: kT}`` of the scene's thermal walls (empty without any)."""
+        sides = sides_of(self.scene.bounds)
+        return {w.side: float(self._walls[sides.index(w.side)])
+                for w in self.scene.thermal_walls}
+
+    def max_wall_temperature(self) -> float:
+        """The hottest a thermal wall may be set to: 40 thermal speeds sqrt(kT / m) of the
+        lightest species within :attr:`speed_limit` (``Scene.max_wall_temperature``)."""
+        return self.scene.max_wall_temperature()
+
+    def set_wall_temperature(self, side, temperature: float | None = None) -> None:
+        """Set the temperature kT of a thermal wall: ``set_wall_temperature("left", 2.0)``,
+        or of several: ``set_wall_temperature({"left": 2.0, "right": 0.5})``. Only sides the
+        scene declares thermal; kT finite, > 0 and at most :meth:`max_wall_temperature`
+        (else ``ValueError`` naming the side, and nothing changes)."""
+        if isinstance(side, Mapping):
+            if temperature is not None:
+                raise ValueError("set_wall_temperature(temperature): give either a mapping "
+                                 "{side: kT} or a side and a temperature, not both")
+            todo = dict(side)
+        else:
+            if temperature is None:
+                raise ValueError("set_wall_temperature(temperature): missing (a side needs "
+                                 "a temperature)")
+            todo = {side: temperature}
+        new = self._checked_walls(todo, "set_wall_temperature", partial=True)
+        _controls.set_wall_temperatures(self._walls, new, self.max_wall_temperature())
+
+    def _checked_walls(self, todo, what: str, partial: bool) -> np.ndarray:
+        """The wall array with the temperatures ``todo`` {side: kT} (all of the thermal
+        sides unless ``partial``), checked; ``ValueError`` starting with ``what``."""
+        sides = sides_of(self.scene.bounds)
+        thermal = [w.side for w in self.scene.thermal_walls]
+        walls = self._walls.copy()
+        t_max = self.max_wall_temperature()
+        for sd, kT in todo.items():
+            if not isinstance(sd, str) or sd not in thermal:
+                raise ValueError(f"{what}({sd!r}): not a thermal wall of this scene (its "
+                                 f"thermal walls: {thermal})")
+            kT = _real(f"{what}({sd!r})", kT)
+            if not math.isfinite(kT) or kT <= 0.0:
+                raise ValueError(f"{what}({sd!r}): need a finite temperature > 0, got {kT}")
+            if not kT <= t_max:
+                raise ValueError(f"{what}({sd!r}): {too_hot_for_walls(kT, t_max)}")
+            walls[sides.index(sd)] = kT
+        if not partial and set(todo) != set(thermal):
+            miss = sorted(set(thermal) - set(todo))
+            raise ValueError(f"{what}: no temperature for the thermal walls {miss}")
+        return walls
 
     def counters(self) -> dict:
         """Event counters since the start: collisions, wall hits, substeps, ..."""
@@ -763,7 +855,8 @@ class Simulation:
     _STATE_KEYS = ("positions", "velocities", "species", "internal_energy", "ids", "next_id",
                    "steps", "time", "bounds", "rng", "icnt", "fsum", "ch_count", "since_reset",
                    "energy_input", "energy_start")
-    _STATE_OPTIONAL = ("integrator", "scene_fingerprint", "clock")
+    _STATE_OPTIONAL = ("integrator", "scene_fingerprint", "clock", "wall_temperature",
+                       "outflow")
 
     def get_state(self) -> dict:
         """Everything needed to continue bit-identically (copies), and the fingerprint of the
@@ -789,6 +882,8 @@ class Simulation:
             "energy_start": self._energy_start,
             "integrator": self._integrator,
             "scene_fingerprint": self._scene_fingerprint(),
+            "wall_temperature": self.wall_temperature,
+            "outflow": self._outflow.copy(),
         }
 
     def _scene_fingerprint(self) -> dict:
@@ -899,7 +994,33 @@ class Simulation:
                                f"{_OLDEST_ICOUNTERS} to {len(self._icnt)}: the state comes "
                                "from another version of discgym")
         s["icnt"] = icnt
-        s["fsum"] = _state_array(state, "fsum", (len(self._fsum),), nonneg=True)
+        # (a state of a version before the thermal walls and outlets has 2 sums; those two
+        # are >= 0, the wall heat and the outflow energy may have either sign)
+        fsum = _state_array(state, "fsum", (None,))
+        if len(fsum) not in (2, len(self._fsum)):
+            raise _state_error("fsum", f"must have shape ({len(self._fsum)},), got "
+                               f"{fsum.shape}")
+        if fsum[:2].min() < 0:
+            k = int(np.argmin(fsum[:2]))
+            raise _state_error("fsum", f"of entry {k} is negative: {fsum[k]}")
+        s["fsum"] = np.zeros(len(self._fsum), dtype=FLOAT)
+        s["fsum"][:len(fsum)] = fsum
+        walls = state.get("wall_temperature", None)
+        if "wall_temperature" not in state:  # (a state of an earlier version)
+            s["walls"] = kernel_walls(self.scene)
+        elif not isinstance(walls, Mapping):
+            raise _state_error("wall_temperature", f"must be a dict {{side: kT}} of the "
+                               f"scene's thermal walls, got {_short(walls)}")
+        else:
+            try:
+                s["walls"] = self._checked_walls(walls, "wall_temperature", partial=False)
+            except ValueError as exc:
+                raise _state_error("wall_temperature", str(exc).split(": ", 1)[-1]) from None
+        S = len(self.scene.species)
+        if "outflow" in state:
+            s["outflow"] = _state_array(state, "outflow", (S,), integer=True)
+        else:
+            s["outflow"] = np.zeros(S, dtype=COUNT)
         s["ch_count"] = _state_array(state, "ch_count", (None,), integer=True)
         if len(s["ch_count"]) != len(cs.labels):
             raise _state_error("ch_count", f"has {len(s['ch_count'])} reaction channels, this "
@@ -935,7 +1056,9 @@ class Simulation:
             raise _state_error("velocities", "and state['internal_energy'] give a total "
                                f"energy of {kin + uin + form}, beyond the float range")
         if not math.isfinite(s["energy_start"] + s["energy_input"]
-                             - float(s["fsum"][_step.FS_DISSIPATED])):
+                             - float(s["fsum"][_step.FS_DISSIPATED])
+                             + _wall_heat(s["fsum"])
+                             - float(s["fsum"][_step.FS_OUTFLOW])):
             raise _state_error("energy_start", "+ state['energy_input'] - state['fsum'] "
                                "(dissipated) is beyond the float range: no energy balance")
         s["n"] = n
@@ -1020,6 +1143,8 @@ class Simulation:
         self._icnt[:len(s["icnt"])] = s["icnt"]
         self._fsum[:] = s["fsum"]
         self._ch_count[:] = s["ch_count"]
+        self._outflow[:] = s["outflow"]
+        self._walls[:] = s["walls"]
         self._since_reset = s["since_reset"]
         self._clock = list(s["clock"])
         self._energy_input = s["energy_input"]
@@ -1083,7 +1208,7 @@ def _state_array(state, key: str, shape: tuple, integer: bool = False,
         want = ", ".join("N" if w is None else str(w) for w in shape)
         raise _state_error(key, f"must have shape ({want}{',' if len(shape) == 1 else ''}), "
                            f"got {a.shape}")
-    item = "disc" if shape[0] is None and key not in ("icnt", "ch_count") else "entry"
+    item = "disc" if shape[0] is None and key not in ("icnt", "ch_count", "fsum") else "entry"
     if integer:
         if a.size and (a.min() < 0 or a.max() > _INT64_MAX):
             k = int(np.argmin(a)) if a.min() < 0 else int(np.argmax(a))
@@ -1173,6 +1298,12 @@ def _checked_rng(value) -> np.random.BitGenerator:
     return bg
 
 
+def _wall_heat(fsum) -> float:
+    """The heat of the four sides' sums, added in side order."""
+    k = _step.FS_WALL_HEAT
+    return float(fsum[k]) + float(fsum[k + 1]) + float(fsum[k + 2]) + float(fsum[k + 3])
+
+
 def _real(what: str, value) -> float:
     """A real-number argument as a float: numpy scalars (and 0-d arrays) as the Python
     numbers they are; bools and non-numbers raise ValueError naming ``what``."""
@@ -1226,6 +1357,12 @@ def _event_fit(integrator: str, scene: Scene, bounds) -> str:
     them every g / |v| (5e7 wall hits per unit time at g = 1e-8 radii), work without a
     practical bound. (The time-stepped integrator holds an exactly fitting disc in place.)"""
     if integrator == "event":
+        for key in ("thermal_walls", "outlets"):
+            if getattr(scene, key):
+                raise ValueError(
+                    f"integrator='event': the scene has {key}, which the event-driven "
+                    "integrator does not do (thermal walls draw velocities, outlets remove "
+                    "discs); use the time-stepped integrator (the default)")
         for s in scene.species:
             if isinstance(bounds, Circle):
                 gaps = [bounds.radius - s.radius]

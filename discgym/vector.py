@@ -165,6 +165,8 @@ class DiscReactorVectorEnv(VectorEnv):
         self._icnt = np.zeros((R, _step.N_ICOUNTERS), dtype=COUNT)
         self._fsum = np.zeros((R, _step.N_FSUMS), dtype=FLOAT)
         self._ch_count = np.zeros((R, len(cfg.compiled.labels)), dtype=COUNT)
+        self._outflow = np.zeros((R, S), dtype=COUNT)
+        self._walls = np.zeros((R, 4), dtype=FLOAT)
         self._cost = np.ones(R, dtype=FLOAT)  # the cost of each reactor's next step (estimate)
         self._order = np.zeros(R, dtype=np.int64)
         self._starts = np.zeros(numba.config.NUMBA_NUM_THREADS + 1, dtype=np.int64)
@@ -191,7 +193,8 @@ class DiscReactorVectorEnv(VectorEnv):
         self._kin = np.zeros(R, dtype=FLOAT)
         self._rx = Reactors(self._pos, self._vel, self._species, self._internal_energy,
                             self._ids, self._idctr, self._n, self._ksteps, self._bounds_kind,
-                            self._bounds_params, self._icnt, self._fsum, self._ch_count)
+                            self._bounds_params, self._icnt, self._fsum, self._ch_count,
+                            self._outflow, self._walls)
         K = len(cfg.compiled.labels)
         self._sp_form = np.zeros((R, S), dtype=FLOAT)
         self._ch_rate = np.zeros((R, K), dtype=FLOAT)
@@ -244,7 +247,8 @@ class DiscReactorVectorEnv(VectorEnv):
         n = len(sim)
         if n > cfg.max_discs:  # cannot happen: max_discs bounds the drawn contents
             raise RuntimeError(f"reactor {r}: {n} discs exceed the capacity plan")
-        sim.move_into(*self._views[r], self._icnt[r], self._fsum[r], self._ch_count[r])
+        sim.move_into(*self._views[r], self._icnt[r], self._fsum[r], self._ch_count[r],
+                      self._outflow[r], self._walls[r])
         sim.export_scalars(self._rx, r)
         self._cost[r] = n * cfg.steps_per_action  # (no history yet: one substep a step)
         self.simulations[r] = sim

@@ -195,6 +195,52 @@ def mutants():
         d = copy.deepcopy(base)
         d["bounds"] = {"shape": "box", "width": 1e-3, "height": 1e-3}
         add("bounds smaller than the discs", d, "species[0].radius")
+        # thermal walls and outlets (docs/physics.md): each field, structure, contradictions
+        side = "left" if shape == "box" else "wall"
+        other = "wall" if shape == "box" else "left"
+        good_wall = {"side": side, "temperature": 1.0}
+        good_outlet = {"side": side, "start": 0.25, "end": 0.5}
+        for v in [other, "nowhere", "", 5, True, ["left"]]:
+            d = copy.deepcopy(base)
+            d["thermal_walls"] = [dict(good_wall, side=v)]
+            add(f"thermal_walls[0].side={v!r}", d, "thermal_walls[0].side")
+            d = copy.deepcopy(base)
+            d["outlets"] = [dict(good_outlet, side=v)]
+            add(f"outlets[0].side={v!r}", d, "outlets[0].side")
+        for v in [0.0, -1.0, NAN, INF, 1e41, 1e30, *NUMBER_JUNK]:  # 1e30: past the speed limit
+            d = copy.deepcopy(base)
+            d["thermal_walls"] = [dict(good_wall, temperature=v)]
+            add(f"thermal_walls[0].temperature={v!r}", d, "thermal_walls[0].temperature")
+        for key, values in (("start", [-0.1, 1.5, NAN, 0.5, 0.75, *NUMBER_JUNK]),
+                            ("end", [1.01, 0.25, 0.1, NAN, INF, *NUMBER_JUNK])):
+            for v in values:
+                d = copy.deepcopy(base)
+                d["outlets"] = [dict(good_outlet, **{key: v})]
+                # (a start at or past the end is reported on end)
+                path = "outlets[0].end" if key == "start" and v in (0.5, 0.75) else \
+                    f"outlets[0].{key}"
+                add(f"outlets[0].{key}={v!r}", d, path)
+        for key, good in (("thermal_walls", good_wall), ("outlets", good_outlet)):
+            for field in good:
+                d = copy.deepcopy(base)
+                d[key] = [{a: b for a, b in good.items() if a != field}]
+                add(f"{key}[0].{field} missing", d, f"{key}[0].{field}")
+            d = copy.deepcopy(base)
+            d[key] = [dict(good, colour="red")]
+            add(f"{key}[0].colour unknown", d, f"{key}[0].colour")
+            for v in [good, "left", 5]:
+                d = copy.deepcopy(base)
+                d[key] = v
+                add(f"{key}={v!r}", d, key)
+            d = copy.deepcopy(base)
+            d[key] = ["left"]
+            add(f"{key}[0] not a table", d, f"{key}[0]")
+        d = copy.deepcopy(base)
+        d["thermal_walls"] = [good_wall, dict(good_wall, temperature=2.0)]
+        add("thermal_walls side twice", d, "thermal_walls[1].side")
+        d = copy.deepcopy(base)
+        d["outlets"] = [good_outlet, dict(good_outlet, start=0.4, end=0.6)]
+        add("outlets overlapping", d, "outlets[1].start")
     return out
 
 
@@ -247,7 +293,8 @@ def to_toml(d):
     for k, v in d.items():
         if k in ("bounds", "counts") and isinstance(v, dict):
             tables += ["", f"[{k}]"] + [f"{a} = {_toml_value(b)}" for a, b in v.items()]
-        elif k in ("species", "reactions") and isinstance(v, list) and v and \
+        elif k in ("species", "reactions", "thermal_walls", "outlets") and \
+                isinstance(v, list) and v and \
                 all(isinstance(x, dict) for x in v):
             for x in v:
                 tables += ["", f"[[{k}]]"] + [f"{a} = {_toml_value(b)}" for a, b in x.items()]

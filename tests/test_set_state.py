@@ -77,7 +77,7 @@ def buffers(sim) -> tuple:
     """The simulation's whole storage (capacity included) and its generator object."""
     return tuple(getattr(sim, nm).tobytes() for nm in
                  ("_pos", "_vel", "_species", "_internal_energy", "_ids", "_idctr", "_icnt",
-                  "_fsum", "_ch_count")) + (id(sim._rng), sim._n, sim._bounds_kind,
+                  "_fsum", "_ch_count", "_outflow", "_walls")) + (id(sim._rng), sim._n, sim._bounds_kind,
                                             sim._bounds_params.tobytes())
 
 
@@ -100,12 +100,12 @@ def assert_refused(sim, bad, key) -> str:
 
 # ------------------------------------------------------------------ the generated sweep
 PER_DISC_FLOAT = {"positions": (None, 2), "velocities": (None, 2), "internal_energy": (None,)}
-INT_ARRAYS = ("species", "ids", "icnt", "ch_count")
+INT_ARRAYS = ("species", "ids", "icnt", "ch_count", "outflow")
 FLOAT_ARRAYS = ("positions", "velocities", "internal_energy", "fsum")
 WHOLE = ("next_id", "steps")
 REAL = ("time", "since_reset", "energy_input", "energy_start")
-OTHER = ("bounds", "rng", "integrator", "scene_fingerprint", "clock")
-OPTIONAL = ("integrator", "scene_fingerprint", "clock")
+OTHER = ("bounds", "rng", "integrator", "scene_fingerprint", "clock", "wall_temperature")
+OPTIONAL = ("integrator", "scene_fingerprint", "clock", "wall_temperature", "outflow")
 
 
 def _set(key, value):
@@ -168,6 +168,13 @@ def _cases():
     add("shape", "icnt", _set("icnt", lambda s: np.append(s["icnt"], 0)), label="one-more")
     add("shape", "ch_count", _set("ch_count", lambda s: np.append(s["ch_count"], 0)),
         label="one-more")
+    add("shape", "outflow", _set("outflow", lambda s: np.append(s["outflow"], 0)),
+        label="one-more")
+    add("shape", "outflow", _set("outflow", lambda s: s["outflow"][:-1]), label="shorter")
+    add("shape", "fsum", _set("fsum", lambda s: s["fsum"][:3]), label="three-sums")
+    add("range", "wall_temperature", _set("wall_temperature", {"left": 1.0}),
+        label="not-thermal")
+    add("type", "wall_temperature", _set("wall_temperature", [("left", 1.0)]), label="pairs")
     add("negative", "internal_energy", _item("internal_energy", 3, -1e-300))
     add("negative", "fsum", _item("fsum", 1, -1.0))
     add("negative", "positions", _item("positions", (2, 1), -1.0))

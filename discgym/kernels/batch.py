@@ -172,7 +172,7 @@ def reactor_step(r, rx, ep, tables, params, flags, consts, rngs, act):
     # give the same bits: the shared tables are these rows' copies)
     tables = Tables(tables.sp_radius, tables.sp_mass, ep.sp_form[r], tables.ch_kind,
                     tables.ch_reac, tables.ch_prod, ep.ch_rate[r], ep.ch_energy[r],
-                    tables.uni_start, tables.uni_chan, tables.bi_table)
+                    tables.uni_start, tables.uni_chan, tables.bi_table, tables.outlets)
     a, bad_wall = _read_action(r, act, iout)
     _heat(r, a[0], discs, rx.n[r], ep, tables.sp_mass, consts)
     if not bad_wall:
@@ -186,8 +186,9 @@ def reactor_step(r, rx, ep, tables, params, flags, consts, rngs, act):
     for k in range(ch_count.shape[0]):
         ch_last[k] = ch_count[k]
     after, m, _w = advance(discs, rx.n[r], consts.steps_per_action, consts.dt,
-                           Bounds(rx.bounds_kind[r], rx.bounds_params[r]), tables, params,
-                           flags, rngs[r], Counters(rx.icnt[r], rx.fsum[r], ch_count),
+                           Bounds(rx.bounds_kind[r], rx.bounds_params[r], rx.bounds_walls[r]),
+                           tables, params, flags, rngs[r],
+                           Counters(rx.icnt[r], rx.fsum[r], ch_count, rx.outflow[r]),
                            1, rx.ksteps[r], consts.reorder_every, empty_work())
     if after.pos.shape[0] != cap:
         iout[r, O_STATUS] = GREW

@@ -180,3 +180,22 @@ def inject(discs, n, sp, targets, temperature, temperature_if_empty, speed_limit
     discs.next_id[0] = k0 + placed
     ke, ui, fo = energies(vel, species, internal_energy, sp_mass, sp_form, n + placed)
     return placed, ke + ui + fo - e0, fastest
+
+
+@njit(cache=True)
+def set_wall_temperatures(walls, temps, t_max):
+    """Set the thermal walls' temperatures: each side k of ``walls`` (N_SIDES,) that is
+    thermal (not NaN) takes ``temps[k]`` where that is not NaN, clipped to
+    [5e-324, t_max] (> 0; ``t_max``: the hottest a wall may be, see
+    ``Scene.max_wall_temperature``). Specular sides (NaN) stay specular. Returns the number of
+    sides changed. ``Simulation.set_wall_temperature`` validates its arguments (and refuses
+    what this clips) and calls it; an environment's action can call it directly."""
+    changed = 0
+    for k in range(walls.shape[0]):
+        t = temps[k]
+        if walls[k] == walls[k] and t == t:
+            t = min(max(t, 5e-324), t_max)
+            if t != walls[k]:
+                walls[k] = t
+                changed += 1
+    return changed

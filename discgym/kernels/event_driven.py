@@ -1014,7 +1014,7 @@ def run_steps(state, n, n_steps, dt, bounds, tables, params, flags, rng, counter
     rest = n_steps * dt - t
     if rest > 0.0:
         counters.icnt[IC_EVENTS_CAPPED] += 1
-        cnt = StepCounters(counters.icnt, counters.fsum, counters.ch_count)
+        cnt = StepCounters(counters.icnt, counters.fsum, counters.ch_count, counters.outflow)
         whole = min(int(rest / dt), n_steps)
         if whole > 0:
             state, n, _w = advance(state, n, whole, dt, bounds, tables, params, flags, rng, cnt,
@@ -1032,8 +1032,9 @@ def run_steps_rngs(discs, n, n_steps, dt, bounds, tables, params, flags, rngs, c
     counters of the time-stepped integrator (``cnt``: the fields of a
     :class:`~discgym.kernels.structs.Counters`; the statistics are dropped): the entry point
     of :class:`~discgym.Simulation`."""
-    icnt, fsum, ch_count = cnt
+    icnt, fsum, ch_count, outflow = cnt
     stats = np.zeros(N_STATS, dtype=COUNT)
     d, n = run_steps(Discs(*discs), n, n_steps, dt, Bounds(*bounds), Tables(*tables), params,
-                     flags, rngs[0], Counters(icnt, fsum, ch_count, stats), CELLS_PER_DISC)
+                     flags, rngs[0], Counters(icnt, fsum, ch_count, stats, outflow),
+                     CELLS_PER_DISC)
     return fields(d), n

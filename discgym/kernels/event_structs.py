@@ -34,6 +34,7 @@ class Counters(NamedTuple):
     fsum: np.ndarray
     ch_count: np.ndarray
     stats: np.ndarray
+    outflow: np.ndarray  #: (S,) discs that left through an outlet (none here: refused)
 
 
 class Flights(NamedTuple):

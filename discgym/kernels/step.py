@@ -55,6 +55,8 @@ from .structs import (
     F_BI,
     F_COLLISIONS,
     F_FISSION,
+    F_OUTLETS,
+    F_THERMAL,
     F_UNI,
     FLOAT,
     INDEX,
@@ -73,6 +75,9 @@ from .structs import (
 )
 from .walls import (
     GLIDE_CHORDS,
+    on_outlet,
+    side_of,
+    thermal_velocity,
     box_contact,
     circle_chord,
     circle_contact,
@@ -106,7 +111,12 @@ N_ICOUNTERS = 15
 # Float accumulators (fsum)
 FS_WALL_MOMENTUM = 0  # momentum delivered to the walls (for the pressure)
 FS_DISSIPATED = 1  # kinetic energy lost to restitution e < 1
-N_FSUMS = 2
+FS_WALL_HEAT = 2  # energy the thermal walls put into the discs (negative: taken out), per
+# side: FS_WALL_HEAT + side (LEFT ... TOP of kernels.structs; a circle's wall: side 0)
+FS_OUTFLOW = 6  # energy (kinetic + internal + formation) carried out through outlets
+N_FSUMS = 7
+# What a wall event did (_wall_event)
+W_NONE, W_REFLECTED, W_THERMAL, W_LEFT = range(4)
 
 MAX_SUBSTEPS = 1 << 16
 VR_ROUNDOFF = 1e-13  # a pair whose approach speed is below this fraction of its speeds is not
@@ -473,13 +483,17 @@ def _glide(i, tw, T, xc, yc, tau, psi, vn, r, mi, pos, vel, species, sp_radius, 
 
 @njit(cache=True, inline="always")
 def _wall_event(i, discs, tables, bounds, sc, cnt, rc, grid, H, size, nbin, n, reach, vfast,
-                t_glide):
+                t_glide, rng):
     """Disc i meets the wall (if it still does at its queued time): reflect it, settle it
     inside, and on a circle let a grazing disc glide through its chords in closed form, to the
     end of the substep or to the next queued event when discs near it could interfere
     (``reach``: the search radius for them; ``vfast``: the fastest speed in the substep).
-    Returns ``(hit, t_glide)``: whether it met the wall, and the latest time a glide took a
-    disc to."""
+    Where the scene has them (``rc.outlets``, ``rc.thermal``): a contact point on an outlet
+    removes the disc (species -1, its energy booked in FS_OUTFLOW, counted in
+    ``cnt.outflow``); a thermal side draws its velocity from ``rng`` (walls.thermal_velocity,
+    the energy exchanged booked in FS_WALL_HEAT + side); neither glides (a glide is a sequence of
+    specular reflections). Returns ``(what, t_glide)``: W_NONE (it does not meet the wall),
+    W_REFLECTED, W_THERMAL or W_LEFT, and the latest time a glide took a disc to."""
     pos, vel, species = discs.pos, discs.vel, discs.species
     sp_radius, sp_mass = tables.sp_radius, tables.sp_mass
     bounds_kind, bounds_params = bounds.kind, bounds.params
@@ -491,16 +505,45 @@ def _wall_event(i, discs, tables, bounds, sc, cnt, rc, grid, H, size, nbin, n, r
     tw, axis, inward = contact(pos[i, 0], pos[i, 1], vel[i, 0], vel[i, 1], r, bounds_kind,
                                bounds_params)
     if tw == math.inf:
-        return False, t_glide
+        return W_NONE, t_glide
     tw = max(tw, tlast[i])
     mi = sp_mass[species[i]]
-    fsum[FS_WALL_MOMENTUM] += reflect(i, tw, axis, pos, vel, mi, bounds_kind, bounds_params)
+    what = W_REFLECTED
+    if rc.thermal or rc.outlets:
+        xc = pos[i, 0] + tw * vel[i, 0]
+        yc = pos[i, 1] + tw * vel[i, 1]
+        side, frac = side_of(xc, yc, axis, vel[i, 0], vel[i, 1], bounds_kind, bounds_params)
+        if rc.outlets and on_outlet(side, frac, tables.outlets):
+            s_i = species[i]
+            fsum[FS_OUTFLOW] += 0.5 * mi * (vel[i, 0] * vel[i, 0] + vel[i, 1] * vel[i, 1]) + \
+                discs.internal_energy[i] + tables.sp_form[s_i]
+            cnt.outflow[s_i] += 1
+            species[i] = -1
+            pos[i, 0] = xc  # (where it left; removed at the end of the substep)
+            pos[i, 1] = yc
+            tlast[i] = tw
+            return W_LEFT, t_glide
+        kT = bounds.walls[side]
+        if rc.thermal and kT == kT:  # (NaN: a specular side)
+            vx0 = vel[i, 0]
+            vy0 = vel[i, 1]
+            vx, vy, vn_in, vn_out = thermal_velocity(xc, yc, vx0, vy0, side, kT, mi,
+                                                     bounds_kind, bounds_params, rng)
+            fsum[FS_WALL_MOMENTUM] += mi * (vn_in + vn_out)
+            fsum[FS_WALL_HEAT + side] += 0.5 * mi * ((vx * vx + vy * vy) - (vx0 * vx0 + vy0 * vy0))
+            vel[i, 0] = vx
+            vel[i, 1] = vy
+            pos[i, 0] = xc - tw * vx
+            pos[i, 1] = yc - tw * vy
+            what = W_THERMAL
+    if what == W_REFLECTED:
+        fsum[FS_WALL_MOMENTUM] += reflect(i, tw, axis, pos, vel, mi, bounds_kind, bounds_params)
     icnt[IC_WALL_HITS] += 1
     partner[i] = -1
     tlast[i] = tw
     if settle_after_reflection(i, axis, pos, r, bounds_kind, bounds_params):
         icnt[IC_PUSHED_INSIDE] += 1
-    elif bounds_kind == 1:
+    elif bounds_kind == 1 and not (rc.thermal or rc.outlets):
         xc = pos[i, 0] + tw * vel[i, 0]
         yc = pos[i, 1] + tw * vel[i, 1]
         tau, psi, vn = circle_chord(xc, yc, vel[i, 0], vel[i, 1], r, bounds_params[0],
@@ -520,11 +563,12 @@ def _wall_event(i, discs, tables, bounds, sc, cnt, rc, grid, H, size, nbin, n, r
                 nev[i] = DISC_EVENTS  # wedged: no finite sequence of events frees it
             else:
                 t_glide = max(t_glide, tlast[i])
-    return True, t_glide
+    return what, t_glide
 
 
 @njit(cache=True)
-def _events(n, H, size, tables, discs, sc, bounds, grid, cnt, rc, sub_id, h, vfast, cut_after):
+def _events(n, H, size, tables, discs, sc, bounds, grid, cnt, rc, sub_id, h, vfast, cut_after,
+            rng):
     """Process the queue earliest first (``discs``: :class:`~.structs.Discs`, ``sc``:
     :class:`~.structs.Scratch`, ``bounds``: :class:`~.structs.Bounds`, ``cnt``:
     :class:`~.structs.Counters`, ``rc``: :class:`~.structs.RunConsts`). Returns (H,
@@ -533,8 +577,9 @@ def _events(n, H, size, tables, discs, sc, bounds, grid, cnt, rc, sub_id, h, vfa
     (EVENTS_PER_DISC * n + 1024) ran out of events; the caller then repairs the state with
     :func:`~discgym.kernels.resolve.resolve`.
 
-    Energy released inside the substep: ``vrel`` is the largest speed a reactive collision or
-    a collision releasing internal energy (``kappa``) left a disc with (0 if none). When such
+    Energy released inside the substep: ``vrel`` is the largest speed a reactive collision,
+    a collision releasing internal energy (``kappa``) or a thermal wall (its draws from
+    ``rng``) left a disc with (0 if none). When such
     a disc would move more than ``maxdisp`` in what is left of the substep (-t), and -t >
     ``cut_after`` (inf: no cut), processing stops at that contact: ``t_cut`` = t (else 0),
     every disc has its latest event at or before t and the caller ends the substep there
@@ -596,13 +641,24 @@ def _events(n, H, size, tables, discs, sc, bounds, grid, cnt, rc, sub_id, h, vfa
         if j >= 0:
             nev[j] += 1
         if j < 0:
-            hit, t_glide = _wall_event(i, discs, tables, bounds, sc, cnt, rc, grid, H, size,
-                                       nbin, n, rcell + delta + h * vfast, vfast, t_glide)
-            if not hit:
+            what, t_glide = _wall_event(i, discs, tables, bounds, sc, cnt, rc, grid, H, size,
+                                        nbin, n, rcell + delta + h * vfast, vfast, t_glide,
+                                        rng)
+            if what == W_NONE:
                 continue
             stamp[i] += 1
+            if what == W_LEFT:  # gone through an outlet: removed at the end of the substep
+                n_dead += 1
+                continue
             if collide:
                 delta = max(delta, math.hypot(pos[i, 0] - binx[i], pos[i, 1] - biny[i]))
+            if what == W_THERMAL:  # a drawn speed: checked as a release of energy is
+                vi = math.hypot(vel[i, 0], vel[i, 1])
+                vfast = max(vfast, vi)
+                vrel = max(vrel, vi)
+                if vi * -t > maxdisp and -t > cut_after and t >= t_glide:
+                    t_cut = max(t, tlast[i])
+                    break
             H, size = _schedule(i, sp_radius, pos, vel, species, tlast, stamp, n, collide,
                                 bounds_kind, bounds_params, grid, cell_start, cell_items, nbin,
                                 rcell + delta, H, size, icnt)
@@ -1007,7 +1063,8 @@ def advance(discs, n, n_steps, dt, bounds, tables, params, flags, rng, cnt, thre
     H = new_heap(256)
     # cells sized by the small discs; the few much larger ones in the big cell (celllist)
     rcell = cell_radius(species, n, sp_radius)
-    rc = RunConsts(e, params[P_RELAX], maxdisp, rcell, collide, flags[F_BI] != 0)
+    rc = RunConsts(e, params[P_RELAX], maxdisp, rcell, collide, flags[F_BI] != 0,
+                   flags[F_THERMAL] != 0, flags[F_OUTLETS] != 0)
     grid = make_grid(bounds_kind, bounds_params, rcell, max(n, 1))
     ncx = int(grid[4])
     ncy = int(grid[5])
@@ -1044,7 +1101,7 @@ def advance(discs, n, n_steps, dt, bounds, tables, params, flags, rng, cnt, thre
             taken += 1
             H, n_dead, delta, dropped, vfast, vrel, t_cut = _events(
                 n, H, size, tables, Discs(pos, vel, species, internal_energy, ids, idctr), sc,
-                bounds, grid, cnt, rc, icnt[IC_SUBSTEPS], h, vfast, cut_after)
+                bounds, grid, cnt, rc, icnt[IC_SUBSTEPS], h, vfast, cut_after, rng)
             hu = h  # the length of this substep
             if t_cut < 0.0:
                 icnt[IC_CUTS] += 1

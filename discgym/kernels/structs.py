@@ -36,7 +36,12 @@ BOX, CIRCLE = 0, 1
 # Indices into a compiled scene's float parameter vector (params).
 P_RESTITUTION, P_RELAX, P_MAXDISP, P_RMIN, P_RMAX = range(5)
 # Indices into its flags vector.
-F_COLLISIONS, F_UNI, F_BI, F_FISSION = range(4)
+F_COLLISIONS, F_UNI, F_BI, F_FISSION, F_THERMAL, F_OUTLETS = range(6)
+# The sides of the bounds, indices into Bounds.walls and the side column of Tables.outlets:
+# a box's left, right, bottom, top (x = xmin, x = xmax, y = ymin, y = ymax); a circle's one
+# wall is side 0.
+LEFT, RIGHT, BOTTOM, TOP = range(4)
+N_SIDES = 4
 
 
 class Tables(NamedTuple):
@@ -54,6 +59,8 @@ class Tables(NamedTuple):
     uni_start: np.ndarray  #: (S + 1,) INDEX, CSR offsets into uni_chan per reactant species
     uni_chan: np.ndarray  #: (U,) INDEX, unimolecular channel indices
     bi_table: np.ndarray  #: (S, S) INDEX, bimolecular channel of a pair of species, or -1
+    outlets: np.ndarray  #: (M, 3) FLOAT outlet segments: side (LEFT ... TOP, 0 for a
+    #: circle), start, end (fractions of the side, or of the circle's turn from +x)
 
 
 class Discs(NamedTuple):
@@ -72,6 +79,8 @@ class Bounds(NamedTuple):
 
     kind: int  #: BOX or CIRCLE
     params: np.ndarray  #: (4,) FLOAT box (xmin, ymin, xmax, ymax), circle (cx, cy, radius, 0)
+    walls: np.ndarray  #: (N_SIDES,) FLOAT kT of each side's thermal wall (NaN: specular);
+    #: read only where flags[F_THERMAL] is set
 
 
 class Counters(NamedTuple):
@@ -80,6 +89,7 @@ class Counters(NamedTuple):
     icnt: np.ndarray  #: (N_ICOUNTERS,) COUNT integer counters (IC_* of kernels.step)
     fsum: np.ndarray  #: (N_FSUMS,) FLOAT float sums (FS_* of kernels.step)
     ch_count: np.ndarray  #: (K,) COUNT reactions fired per channel
+    outflow: np.ndarray  #: (S,) COUNT discs that left through an outlet, per species
 
 
 class Scratch(NamedTuple):
@@ -114,6 +124,8 @@ class RunConsts(NamedTuple):
     rcell: float  #: the cell radius of the grid
     collide: bool  #: the scene has disc-disc collisions
     has_bi: bool  #: ... and bimolecular reactions
+    thermal: bool  #: the scene has thermal walls (flags[F_THERMAL])
+    outlets: bool  #: ... outlets (flags[F_OUTLETS])
 
 
 class Reactors(NamedTuple):
@@ -133,6 +145,8 @@ class Reactors(NamedTuple):
     icnt: np.ndarray  #: (R, N_ICOUNTERS) COUNT integer counters (IC_* of kernels.step)
     fsum: np.ndarray  #: (R, N_FSUMS) FLOAT float sums (FS_* of kernels.step)
     ch_count: np.ndarray  #: (R, K) COUNT reactions fired per channel
+    outflow: np.ndarray  #: (R, S) COUNT discs that left through an outlet, per species
+    bounds_walls: np.ndarray  #: (R, N_SIDES) FLOAT wall temperatures (see Bounds.walls)
 
 
 class Episodes(NamedTuple):

@@ -359,3 +359,77 @@ def inside(x, y, r, bounds_kind, bounds_params):
     dy = y - bounds_params[1]
     L = bounds_params[2] - r
     return L >= 0.0 and dx * dx + dy * dy <= L * L
+
+
+# ------------------------------------------------------------ thermal walls and outlets
+@njit(cache=True)
+def side_of(xc, yc, axis, vx, vy, bounds_kind, bounds_params):
+    """The side a disc touching the wall at (xc, yc) (its centre at the contact) meets, moving
+    with (vx, vy) along ``axis`` (of :func:`contact`), and where on it: ``(side, frac)``.
+
+    Box: side LEFT, RIGHT (axis 0, by the sign of vx), BOTTOM, TOP (axis 1), ``frac`` the
+    contact point's coordinate along the side as a fraction of its length from its lower end
+    (the contact point and the centre share that coordinate). Circle: side 0, ``frac`` the
+    angle of the contact point counter-clockwise from +x, in turns [0, 1).
+    """
+    b0, b1, b2, b3 = bounds_params[0], bounds_params[1], bounds_params[2], bounds_params[3]
+    if bounds_kind == 0:
+        if axis == 0:
+            return (0 if vx < 0.0 else 1), (yc - b1) / (b3 - b1)
+        return (2 if vy < 0.0 else 3), (xc - b0) / (b2 - b0)
+    f = math.atan2(yc - b1, xc - b0) / (2.0 * math.pi)
+    if f < 0.0:
+        f += 1.0
+    return 0, f
+
+
+@njit(cache=True)
+def on_outlet(side, frac, outlets):
+    """Does the point ``frac`` of ``side`` lie on one of the outlet segments ``outlets``
+    ((M, 3) rows side, start, end; ends included)?"""
+    for k in range(outlets.shape[0]):
+        if int(outlets[k, 0]) == side and outlets[k, 1] <= frac <= outlets[k, 2]:
+            return True
+    return False
+
+
+@njit(cache=True)
+def thermal_velocity(xc, yc, vx, vy, side, kT, m, bounds_kind, bounds_params, rng):
+    """The velocity a disc of mass m leaves a thermal wall at temperature kT with, having
+    met it at (xc, yc) with (vx, vy): diffuse reflection, the flux-weighted Maxwell-Boltzmann
+    distribution of the wall. With s = sqrt(kT / m): inward normal speed s sqrt(-2 ln(1 - u))
+    (Rayleigh, u uniform in [0, 1): drawn first), tangential speed s g (g standard normal:
+    drawn second), both from ``rng``. The inward normal: box +x (LEFT), -x (RIGHT), +y
+    (BOTTOM), -y (TOP); circle towards the centre.
+
+    Returns ``(vx, vy, vn_in, vn_out)``: the new velocity, the normal speed with which the
+    disc arrived and the one with which it leaves (the wall receives m (vn_in + vn_out))."""
+    if bounds_kind == 0:
+        nx = 0.0
+        ny = 0.0
+        if side == 0:
+            nx = 1.0
+        elif side == 1:
+            nx = -1.0
+        elif side == 2:
+            ny = 1.0
+        else:
+            ny = -1.0
+    else:
+        nx = bounds_params[0] - xc
+        ny = bounds_params[1] - yc
+        d = math.sqrt(nx * nx + ny * ny)
+        if d > 0.0:
+            nx /= d
+            ny /= d
+        else:  # disc as large as the circle: back along its path
+            sp = math.sqrt(vx * vx + vy * vy)
+            nx = -vx / sp if sp > 0.0 else 1.0
+            ny = -vy / sp if sp > 0.0 else 0.0
+    vn_in = abs(vx * nx + vy * ny)
+    s = math.sqrt(kT / m)
+    u = rng.random()
+    vn = s * math.sqrt(-2.0 * math.log1p(-u))
+    vt = s * rng.standard_normal()
+    # tangent (-ny, nx)
+    return vn * nx - vt * ny, vn * ny + vt * nx, vn_in, vn

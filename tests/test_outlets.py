@@ -1,0 +1,199 @@
+"""Outlets (docs/physics.md, "Outlets"): two-dimensional effusion, per-species counts, the
+energy ledger, edge cases (corners, a whole side, a circle), the state and the refusals.
+
+Seeded; tolerances from the statistics (Poisson counts, 5 standard deviations)."""
+
+import math
+import pickle
+
+import numpy as np
+import pytest
+
+import discgym as dg
+
+A = dg.Species("A", 0.05, 1.0)
+B = dg.Species("B", 0.05, 4.0)
+
+
+def ideal_gas(n_each, kT, rng, width=10.0, r=0.05):
+    """Uniform positions in the centres' square and Maxwell-Boltzmann velocities, drawn
+    directly (no rescaling): an exact ideal gas (a collisionless scene allows overlaps)."""
+    pos, vel, spc = [], [], []
+    for k, (m, n) in enumerate(n_each):
+        pos.append(rng.uniform(r, width - r, size=(n, 2)))
+        vel.append(rng.standard_normal((n, 2)) * math.sqrt(kT / m))
+        spc += [k] * n
+    return np.concatenate(pos), np.concatenate(vel), spc
+
+
+def test_effusion_rate_per_species_is_n_L_sqrt_kT_over_2_pi_m():
+    """Two-dimensional effusion. A collisionless gas, uniform and Maxwellian (species A of
+    mass 1 and B of mass 4, 20000 discs each, kT = 1, centres in a 9.9 x 9.9 square: number
+    density n = 20000 / 9.9^2 per species), outlets [0.25, 0.75] on the left and the right
+    sides (length L = 5 each, away from the corners). The wall flux of a Maxwellian gas is
+    n sqrt(kT / (2 pi m)) per unit length: over t = 3 the expected count is
+    2 n L t sqrt(kT / (2 pi m)) (2430 for A, 1215 for B). Specular walls mirror a uniform
+    Maxwellian gas into itself, so the flux onto the outlets stays exact until discs that
+    met an outlet's part of the wall would have come back to it (two crossings, 19.8, in
+    t = 3: speeds above 6.6 sqrt(kT / m), a fraction 3e-10). Each disc leaves or not
+    independently: the counts are binomial, variance <= mean; within 5 sigma. The energy
+    they carry: the flux-weighted mean kinetic energy, 3/2 kT per disc (sd sqrt(3/2) kT)."""
+    rng = np.random.default_rng(12)
+    n_each = 20000
+    pos, vel, spc = ideal_gas([(1.0, n_each), (4.0, n_each)], 1.0, rng)
+    sc = dg.Scene(bounds=dg.Box(10.0, 10.0), species=[A, B], dt=0.02, collisions=False,
+                  outlets=[dg.Outlet("left", 0.25, 0.75), dg.Outlet("right", 0.25, 0.75)])
+    sim = dg.Simulation.from_arrays(sc, pos, vel, spc, seed=0)
+    e0 = sim.total_energy()
+    t = 3.0
+    sim.advance(t)
+    n = n_each / 9.9 ** 2
+    out = sim.outflow()
+    for name, m in (("A", 1.0), ("B", 4.0)):
+        mean = 2 * n * 5.0 * t * math.sqrt(1.0 / (2 * math.pi * m))
+        assert abs(out[name] - mean) < 5 * math.sqrt(mean), (name, out[name], mean)
+    k = sum(out.values())
+    assert abs(sim.outflow_energy / k - 1.5) < 5 * math.sqrt(1.5 / k)
+    assert len(sim) == 2 * n_each - k
+    assert abs(sim.energy_balance()) < 1e-12 * e0
+    assert sim.outside(1e-9) == 0
+
+
+def test_effusion_of_a_colliding_gas_follows_the_contact_density():
+    """With collisions (packing 0.04) the density of centres at a wall is the contact value
+    n_w = P / kT (the contact theorem of a hard wall: P is the momentum the reflecting walls
+    receive per unit time and per unit of the length the centres can touch), a little above
+    the bulk density: the outflow rate is n_w L sqrt(kT / (2 pi m)) = P L / sqrt(2 pi m kT).
+    2000 discs in a 40 x 40 box, outlets [0.25, 0.75] on the left and right sides (L = 20
+    each), t = 10: the gas loses ~11 % of its discs, and P and kT are averaged over the same
+    window (the count and P are both linear in the density, so its decay cancels to first
+    order). Within 5 Poisson sigma (~7 % of ~220: a consistency check of the colliding case;
+    the exact effusion test is the collisionless one above)."""
+    sp = dg.Species("A", 0.2, 1.0)
+    W = 40.0
+    sc = dg.Scene(bounds=dg.Box(W, W), species=[sp], dt=0.05, counts={"A": 2000},
+                  outlets=[dg.Outlet("left", 0.25, 0.75), dg.Outlet("right", 0.25, 0.75)])
+    sim = dg.Simulation(sc, seed=21)
+    temps = []
+    for _ in range(20):
+        sim.advance(0.5)
+        temps.append(sim.temperature())
+    kT = float(np.mean(temps))
+    k = sim.outflow()["A"]
+    L = 2 * 20.0
+    reflecting = 4 * (W - 2 * sp.radius) - L  # where the centres touch a reflecting wall
+    P = sim.get_state()["fsum"][0] / (10.0 * reflecting)
+    mean = P * L * 10.0 / math.sqrt(2 * math.pi * kT)
+    assert abs(k - mean) < 5 * math.sqrt(mean), (k, mean)
+    assert abs(sim.energy_balance()) < 1e-12 * sim.total_energy() * 10
+
+
+@pytest.mark.parametrize("outlet", [dg.Outlet("left", 0.0, 0.1), dg.Outlet("top", 0.9, 1.0),
+                                    dg.Outlet("bottom", 0.0, 1.0)])
+def test_outlets_at_corners_and_whole_sides_keep_the_rest_sound(outlet):
+    sp = dg.Species("A", 0.3, 1.0)
+    sc = dg.Scene(bounds=dg.Box(10.0, 8.0), species=[sp], dt=0.02, counts={"A": 150},
+                  outlets=[outlet])
+    sim = dg.Simulation(sc, seed=3)
+    e0 = sim.total_energy()
+    for _ in range(10):
+        sim.advance(1.0)
+        assert sim.outside(1e-9) == 0 and sim.overlaps(1e-9) == 0
+    assert sim.outflow()["A"] > 0 and len(sim) == 150 - sim.outflow()["A"]
+    assert abs(sim.energy_balance()) < 1e-12 * e0 * 10
+
+
+def test_a_circle_with_a_thermal_wall_and_an_outlet():
+    """A circle whose wall is thermal, with an outlet on a quarter of it (a turn from +x):
+    discs leave only there (the positions where they left are not kept, but every disc that
+    leaves counted, energy booked), the rest stays inside."""
+    sp = dg.Species("A", 0.1, 1.0)
+    sc = dg.Scene(bounds=dg.Circle(4.0, (1.0, -1.0)), species=[sp], dt=0.02,
+                  counts={"A": 200}, thermal_walls=[dg.ThermalWall("wall", 2.0)],
+                  outlets=[dg.Outlet("wall", 0.0, 0.25)])
+    sim = dg.Simulation(sc, seed=6)
+    e0 = sim.total_energy()
+    for _ in range(10):
+        sim.advance(1.0)
+        assert sim.outside(1e-9) == 0 and sim.overlaps(1e-9) == 0
+    assert 0 < sim.outflow()["A"] < 200 and len(sim) == 200 - sim.outflow()["A"]
+    assert sim.wall_heat != 0.0
+    assert abs(sim.energy_balance()) < 1e-12 * e0 * 10
+
+
+def test_where_discs_leave():
+    """Discs leave only through the outlet segment: a disc moving straight at the left wall
+    at heights inside [0.4, 0.6] of it leaves, one outside it (or at the bottom) reflects."""
+    sp = dg.Species("A", 0.1, 1.0)
+    sc = dg.Scene(bounds=dg.Box(10.0, 10.0), species=[sp], dt=0.02,
+                  outlets=[dg.Outlet("left", 0.4, 0.6)])
+    ys = [4.1, 4.5, 5.9, 3.85, 6.15]
+    sim = dg.Simulation.from_arrays(sc, [[1.0, y] for y in ys], [[-1.0, 0.0]] * 5,
+                                    ["A"] * 5, seed=0)
+    sim.advance(2.0)
+    assert sim.outflow() == {"A": 3}
+    assert sorted(sim.positions[:, 1].tolist()) == [3.85, 6.15]
+    assert (sim.velocities[:, 0] > 0).all()
+    # the pressure counts only the reflections: 2 discs, m 2 |v_x| each
+    assert sim.get_state()["fsum"][0] == pytest.approx(4.0)
+
+
+def test_outflow_of_reaction_products_is_counted_per_species():
+    """A -> B (first order) with an outlet: both species leave, each counted as itself, the
+    formation energy booked with the outflow; the ledger stays exact."""
+    a = dg.Species("A", 0.1, 1.0, formation_energy=0.5)
+    b = dg.Species("B", 0.1, 1.0, formation_energy=-0.25)
+    sc = dg.Scene(bounds=dg.Box(8.0, 8.0), species=[a, b], dt=0.02, counts={"A": 200},
+                  reactions=[dg.Transformation("A", "B", 0.3)],
+                  outlets=[dg.Outlet("top", 0.0, 1.0)])
+    sim = dg.Simulation(sc, seed=1)
+    e0 = sim.total_energy()
+    sim.advance(10.0)
+    out = sim.outflow()
+    assert out["A"] > 0 and out["B"] > 0
+    assert sum(out.values()) + len(sim) == 200
+    assert abs(sim.energy_balance()) < 1e-12 * abs(e0) * 100
+
+
+def test_the_event_integrator_refuses_outlets():
+    sc = dg.Scene(bounds=dg.Box(5.0, 5.0), species=[A], counts={"A": 5},
+                  outlets=[dg.Outlet("left", 0.0, 1.0)])
+    with pytest.raises(ValueError, match="outlets"):
+        dg.Simulation(sc, integrator="event")
+
+
+def test_outflow_state_round_trip_and_refusals():
+    sc = dg.Scene(bounds=dg.Box(5.0, 5.0), species=[A, B], counts={"A": 40, "B": 40},
+                  outlets=[dg.Outlet("left", 0.0, 1.0)])
+    sim = dg.Simulation(sc, seed=2)
+    sim.advance(3.0)
+    st = sim.get_state()
+    assert list(st["outflow"]) == [sim.outflow()["A"], sim.outflow()["B"]]
+    other = pickle.loads(pickle.dumps(sim))
+    assert other.outflow() == sim.outflow()
+    other.advance(1.0)
+    sim.advance(1.0)
+    assert np.array_equal(other.positions, sim.positions) and other.outflow() == sim.outflow()
+    for bad in ([1], [1, 2, 3], [-1, 0], [1.5, 0], "x"):
+        with pytest.raises(ValueError, match=r"state\['outflow'\]"):
+            sim.set_state(dict(st, outflow=bad))
+    sim.reset_counters()  # (cumulative: not reset with the pressure average)
+    assert sum(sim.outflow().values()) > 0
+
+
+def test_scene_validation_and_toml():
+    for kw, field in [(dict(side="left", start=0.5, end=0.5), "end"),
+                      (dict(side="left", start=-0.5, end=0.5), "start"),
+                      (dict(side="left", start=0.5, end=1.5), "end"),
+                      (dict(side="up", start=0.0, end=0.5), "side")]:
+        with pytest.raises(dg.SceneError) as exc:
+            dg.Outlet(**kw)
+        assert exc.value.field == field
+    with pytest.raises(dg.SceneError, match=r"outlets\[1\].start"):
+        dg.Scene(bounds=dg.Box(5.0, 5.0), species=[A],
+                 outlets=[dg.Outlet("left", 0.0, 0.5), dg.Outlet("left", 0.4, 1.0)])
+    with pytest.raises(dg.SceneError, match=r"outlets\[0\].side"):
+        dg.Scene(bounds=dg.Circle(5.0), species=[A], outlets=[dg.Outlet("left", 0.0, 0.5)])
+    sc = dg.Scene(bounds=dg.Circle(5.0), species=[A], outlets=[dg.Outlet("wall", 0.9, 1.0),
+                                                               dg.Outlet("wall", 0.0, 0.1)])
+    assert dg.Scene.from_toml_string(sc.to_toml()) == sc
