@@ -15,7 +15,7 @@ import math
 import numpy as np
 
 __all__ = ["Thermostat", "AdaptiveThermostat", "TwoStageThermostat", "BandThermostat",
-           "controller_for"]
+           "JacketThermostat", "controller_for"]
 
 
 class _Slots:
@@ -192,9 +192,45 @@ class BandThermostat:
         return a
 
 
+class JacketThermostat:
+    """For ``DiscJacket-v0``: a proportional controller of the jacket, with a schedule.
+
+    Rule: the target kT is ``t_hot`` until the yield reaches ``switch_yield``, then
+    ``t_cold`` (``DiscReactor-v0``'s schedule). The jacket is set to
+    ``target + gain x (target - kT)``: above the target while the reactor is colder (it heats
+    faster than a jacket at the target would), below it while the reaction heat pushes the
+    reactor over (it cools before the exotherm runs away). The wall at ``wall``, feed at
+    ``inject``.
+    """
+
+    def __init__(self, env, *, t_hot=1.6, t_cold=1.4, switch_yield=0.2, gain=4.0, wall=-1.0,
+                 inject=1.0):
+        self.s = _Slots(env)
+        u = getattr(env, "unwrapped", env)
+        self.t_min, self.t_max = u.config.t_min, u.config.t_max
+        self.t_hot, self.t_cold, self.switch_yield = t_hot, t_cold, switch_yield
+        self.gain, self.wall, self.inject = gain, wall, inject
+
+    def reset(self) -> None:
+        pass
+
+    def __call__(self, obs) -> np.ndarray:
+        o = np.asarray(obs, dtype=np.float64)
+        s = self.s
+        target = self.t_cold if o[s.i_yield] >= self.switch_yield else self.t_hot
+        T = s.temperature(o)
+        jacket = min(max(target + self.gain * (target - T), self.t_min), self.t_max)
+        a = np.empty(2 + s.n_feed, dtype=np.float32)
+        a[0] = 2.0 * math.log(jacket / self.t_min) / math.log(self.t_max / self.t_min) - 1.0
+        a[1] = self.wall
+        a[2:] = self.inject
+        return a
+
+
 def controller_for(env, **kwargs):
     """The hand-written controller of the task ``env`` is (by its registered id)."""
     env_id = env.spec.id if getattr(env, "spec", None) is not None else "DiscReactor-v0"
     cls = {"DiscReactor-v0": Thermostat, "DiscKinetics-v0": AdaptiveThermostat,
-           "DiscSeries-v0": TwoStageThermostat, "DiscEconomic-v0": BandThermostat}[env_id]
+           "DiscSeries-v0": TwoStageThermostat, "DiscEconomic-v0": BandThermostat,
+           "DiscJacket-v0": JacketThermostat}[env_id]
     return cls(env, **kwargs)

@@ -106,7 +106,15 @@ DEFAULTS = dict(
     activation_jitter=0.0,
     reverse_jitter=0.0,
     formation_jitter=0.0,
+    heating="scale",
+    reward="product",
+    observe_outflow=False,
+    feed_temperature=None,
 )
+
+#: The ways the heat action heats (see ``heating``) and the rewards (see ``reward``).
+HEATINGS = ("scale", "jacket")
+REWARDS = ("product", "outflow")
 
 #: Observations are clipped to these bounds (see the README, "Observation Space").
 OBS_ENERGY_MAX = 20.0  # per-species kT, mean internal energy, |total energy per disc|
@@ -177,6 +185,10 @@ class ReactorConfig:
     activation_jitter: float  # activation energies x U[1 - x, 1 + x] per episode
     reverse_jitter: float  # reverse probabilities x 10 ** U[-x, x] per episode (at most 1)
     formation_jitter: float  # formation energies + U[-x, x] per episode
+    heating: str  # "scale" (every velocity rescaled) or "jacket" (thermal walls set)
+    reward: str  # "product" (product made) or "outflow" (product leaving through outlets)
+    observe_outflow: bool
+    feed_temperature: tuple | None  # (low, high) of the inlet kT drawn per episode, or None
     obs_names: tuple
     obs_low: np.ndarray
     obs_high: np.ndarray
@@ -232,7 +244,10 @@ class ReactorConfig:
             feed=np.array(self.feed, dtype=INDEX), feed_budget=self.feed_budget,
             obs_low=self.obs_low, obs_high=self.obs_high, energy_edges=self.energy_edges,
             energy_bins=int(self.energy_bins), grid=int(self.grid),
-            obs_reactions=int(self.observe_reactions))
+            obs_reactions=int(self.observe_reactions),
+            heating=HEATINGS.index(self.heating),
+            obs_feed_kT=int(self.feed_temperature is not None),
+            obs_outflow=int(self.observe_outflow))
 
     @property
     def uncertain(self) -> bool:
@@ -345,10 +360,34 @@ class ReactorConfig:
         rj = _real(o["reverse_jitter"], "reverse_jitter", 0.0, 3.0,
                    why="a factor of 10 ** 3 either way")
         fj = _real(o["formation_jitter"], "formation_jitter", 0.0, 1e3)
+        heating = _choice(o["heating"], "heating", HEATINGS)
+        if heating == "jacket":
+            if not scene.thermal_walls:
+                raise ValueError("heating: 'jacket' sets the temperature of the scene's thermal "
+                                 "walls, and the scene has none (Scene(thermal_walls=...))")
+            if t_max > scene.max_wall_temperature():
+                raise ValueError(
+                    f"temperature_range: with heating='jacket' the high end {t_max} is a wall "
+                    f"temperature, above the hottest a thermal wall of this scene may be "
+                    f"({scene.max_wall_temperature():.4g})")
+        reward = _choice(o["reward"], "reward", REWARDS)
+        if reward == "outflow" and not scene.outlets:
+            raise ValueError("reward: 'outflow' rewards the product leaving through the scene's "
+                             "outlets, and the scene has none (Scene(outlets=...))")
+        observe_outflow = _flag(o["observe_outflow"], "observe_outflow")
+        feed_temperature = o["feed_temperature"]
+        if feed_temperature is not None:
+            feed_temperature = _pair(feed_temperature, "feed_temperature")
+            hottest = scene.max_wall_temperature()
+            if feed_temperature[1] > hottest:
+                raise ValueError(f"feed_temperature: {feed_temperature[1]} would inject discs "
+                                 f"beyond the speed limit (at most {hottest:.4g})")
         edges = energy_edges(scene, energy_bins)
         obs_names, lo, hi = _observation_slots(names, feed, size_min, size_max)
         _extra_slots(obs_names, lo, hi, names, energy_bins, edges, grid,
-                     cs.labels if observe_reactions else ())
+                     cs.labels if observe_reactions else (), jacket=heating == "jacket",
+                     t_max=t_max, feed_kT=feed_temperature is not None,
+                     outflow=observe_outflow)
         return cls(
             scene=scene, template=template, episode_steps=episode_steps,
             steps_per_action=spa, heat_rate=heat_rate, t_min=t_min, t_max=t_max,
@@ -357,7 +396,9 @@ class ReactorConfig:
             count_jitter=cj, temperature_jitter=tj, heat_cost=heat_cost, feed_cost=feed_cost,
             max_discs=max_discs, energy_bins=energy_bins, energy_edges=edges, grid=grid,
             observe_reactions=observe_reactions, activation_jitter=aj, reverse_jitter=rj,
-            formation_jitter=fj, obs_names=tuple(obs_names),
+            formation_jitter=fj, heating=heating, reward=reward,
+            observe_outflow=observe_outflow, feed_temperature=feed_temperature,
+            obs_names=tuple(obs_names),
             obs_low=np.array(lo, dtype=np.float32), obs_high=np.array(hi, dtype=np.float32),
             compiled=cs)
 
@@ -424,6 +465,22 @@ class ReactorConfig:
             species = [replace(sp, formation_energy=sp.formation_energy + float(
                 np_random.uniform(-fj, fj))) for sp in species]
         return scene.replace(species=species, reactions=reactions)
+
+    def draw_feed(self, np_random: np.random.Generator) -> tuple:
+        """``(kT, kT_next, switch)``: the inlet temperature of the episode, the one it changes
+        to and the step at which it does, drawn from ``np_random`` after the kinetics
+        (:meth:`draw_kinetics`) when ``feed_temperature`` = (low, high) is set: both kT from
+        U[low, high], the step uniform in [episode_steps / 3, 2 episode_steps / 3]. Without
+        it, ``(nan, nan, -1)``: injected discs take the reactor's own kT, as in
+        ``DiscReactor-v0``, and nothing is drawn."""
+        if self.feed_temperature is None:
+            return math.nan, math.nan, -1
+        lo, hi = self.feed_temperature
+        kT = float(np_random.uniform(lo, hi))
+        kT_next = float(np_random.uniform(lo, hi))
+        E = self.episode_steps
+        switch = int(np_random.integers(E // 3, 2 * E // 3 + 1))
+        return kT, kT_next, switch
 
     def kinetics(self, scene: Scene) -> tuple:
         """``(sp_form (S,), ch_rate (K,), ch_energy (K,))`` of a reactor of ``scene`` (this
@@ -573,12 +630,21 @@ def energy_edges(scene: Scene, bins: int) -> np.ndarray:
     return np.array(edges, dtype=FLOAT)
 
 
-def _extra_slots(obs_names, lo, hi, names, bins, edges, grid, labels) -> None:
+def _extra_slots(obs_names, lo, hi, names, bins, edges, grid, labels, *, jacket=False,
+                 t_max=0.0, feed_kT=False, outflow=False) -> None:
     """Append the optional blocks' slots (see :func:`discgym.kernels.batch.observe_one`)."""
     def slot(name, low, high):
         obs_names.append(name)
         lo.append(low)
         hi.append(high)
+
+    if jacket:
+        slot("jacket_kT", 0.0, t_max)
+    if feed_kT:
+        slot("feed_kT", 0.0, OBS_ENERGY_MAX)
+    if outflow:
+        for nm in names:
+            slot(f"outflow_{nm}", 0.0, OBS_RATE_MAX)
 
     for nm in names:
         for b in range(bins):
@@ -594,6 +660,14 @@ def _extra_slots(obs_names, lo, hi, names, bins, edges, grid, labels) -> None:
             slot(f"cell_kT_{i}_{j}", 0.0, OBS_ENERGY_MAX)
     for lab in labels:
         slot(f"reactions[{lab}]", 0.0, OBS_RATE_MAX)
+
+
+def _choice(v, name: str, choices: tuple) -> str:
+    if not isinstance(v, str):
+        raise TypeError(f"{name}: expected one of {list(choices)}, got {v!r}")
+    if v not in choices:
+        raise ValueError(f"{name}: expected one of {list(choices)}, got {v!r}")
+    return v
 
 
 def _flag(v, name: str) -> bool:
@@ -977,10 +1051,15 @@ class DiscReactorEnv(gym.Env):
         self._ch_rate = np.zeros((1, K), dtype=FLOAT)
         self._ch_energy = np.zeros((1, K), dtype=FLOAT)
         self._ch_last = np.zeros((1, K), dtype=np.int64)
+        self._out_last = np.zeros((1, S), dtype=np.int64)
+        self._feed_kT = np.full(1, np.nan, dtype=FLOAT)
+        self._feed_kT_next = np.full(1, np.nan, dtype=FLOAT)
+        self._feed_switch = np.full(1, -1, dtype=np.int64)
         self._ep = Episodes(self._size, self._feed_left, self._steps, self._n_init, self._n_ref,
                             self._temp, self._kin, self._stats, self._obs, self._fout,
                             self._iout, self._sp_form, self._ch_rate, self._ch_energy,
-                            self._ch_last)
+                            self._ch_last, self._out_last, self._feed_kT,
+                            self._feed_kT_next, self._feed_switch)
         self._feed_names = [cfg.species_names[f] for f in cfg.feed]
         self._ashape = (2 + F,)
         self._n_feed = F
@@ -1000,6 +1079,9 @@ class DiscReactorEnv(gym.Env):
         self._feed_left[0] = cfg.feed_budget
         self._sp_form[0], self._ch_rate[0], self._ch_energy[0] = cfg.kinetics(sim.scene)
         self._ch_last[0] = 0
+        self._out_last[0] = 0
+        self._feed_kT[0], self._feed_kT_next[0], self._feed_switch[0] = \
+            cfg.draw_feed(self.np_random)
         self._bind(sim)
         self._n_init[0] = len(sim)
         counts = np.bincount(sim.species, minlength=cfg.n_species)
@@ -1054,7 +1136,10 @@ class DiscReactorEnv(gym.Env):
         n_ref = self._n_ref_now
         counts = self._stats[0, :self._n_species].tolist()
         product = counts[cfg.product]
-        gain = (product - self._product) / n_ref
+        if cfg.reward == "outflow":
+            gain = float(self._out_last[0, cfg.product]) / n_ref
+        else:
+            gain = (product - self._product) / n_ref
         cost_heat = cfg.heat_cost * abs(heat) / n_ref
         cost_feed = cfg.feed_cost * float(sum(injected)) / n_ref
         reward = gain - cost_heat - cost_feed

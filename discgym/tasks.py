@@ -11,7 +11,7 @@ the single env).
 >>> import gymnasium as gym
 >>> import discgym
 >>> sorted(discgym.tasks.TASKS)  # doctest: +NORMALIZE_WHITESPACE
-['DiscEconomic-v0', 'DiscKinetics-v0', 'DiscReactor-v0', 'DiscSeries-v0']
+['DiscEconomic-v0', 'DiscJacket-v0', 'DiscKinetics-v0', 'DiscReactor-v0', 'DiscSeries-v0']
 >>> gym.make("DiscKinetics-v0").observation_space.shape
 (34,)
 """
@@ -31,6 +31,8 @@ __all__ = [
     "DiscSeriesVectorEnv",
     "DiscEconomicEnv",
     "DiscEconomicVectorEnv",
+    "DiscJacketEnv",
+    "DiscJacketVectorEnv",
     "register_tasks",
 ]
 
@@ -179,6 +181,53 @@ class DiscEconomicEnv(DiscReactorEnv):
     defaults = dict(DEFAULTS, heat_cost=0.08, feed_cost=0.3, energy_bins=4)
 
 
+class DiscJacketEnv(DiscReactorEnv):
+    """``DiscJacket-v0``: the reactor heated and cooled through its walls.
+
+    ## Description
+    The built-in scene ``jacket``: the chemistry of ``DiscReactor-v0`` (A + B -> C, activation
+    energy 4, against C + A -> W + B, activation energy 8), with much more reaction heat
+    (formation energies C -2.5, W -3.5), in a 30 x 30 box whose left wall is thermal: a disc
+    that hits it leaves with a velocity drawn from the wall's temperature (the diffuse,
+    flux-weighted Maxwell-Boltzmann rule, docs/physics.md). The agent sets this jacket's
+    temperature instead of rescaling every velocity. Heat reaches the rest of the reactor only
+    through collisions, so the reactor heats and cools with a lag and with a gradient: it pays
+    to heat before the reaction needs it and to cool before the exotherm runs away.
+
+    ## Action Space
+    ``Box(-1, 1, (4,), float32)``: jacket (every thermal wall to ``t_min (t_max / t_min) **
+    ((a + 1) / 2)``, log-uniform over ``temperature_range`` = [0.3, 6]; a NaN keeps the
+    jacket as it is), wall, inject A, inject B (as in ``DiscReactor-v0``).
+
+    ## Observation Space
+X
+    temperature (``jacket_kT``, in [0, 6]), then a 3 x 3 spatial histogram: per species the
+    share of its discs in each cell, and kT per cell (40 slots; ``spatial_grid=3``), where the
+    gradient between the walls and the middle shows.
+
+    ## Rewards
+    As ``DiscReactor-v0``: the gain in C per unit of limiting reactant (``heat_cost``, 0 by
+    default, charges the energy the walls exchange). ``info["heat_energy"]`` is the energy the
+    thermal walls put in during the step (negative: taken out).
+
+    ## Starting State
+    As ``DiscReactor-v0``; the jacket starts at the scene's 0.6.
+
+    ## Episode End
+    Never terminated; truncated after 100 steps (50 units of time).
+
+    ## Arguments
+    Those of ``DiscReactor-v0`` with the defaults ``scene="jacket"``, ``heating="jacket"``,
+    ``temperature_range=(0.3, 6.0)``, ``spatial_grid=3``.
+
+    ## Version History
+    - v0: first version.
+    """
+
+    defaults = dict(DEFAULTS, scene="jacket", heating="jacket", temperature_range=(0.3, 6.0),
+                    spatial_grid=3)
+
+
 def _vector(env_cls: type, name: str) -> type:
     """The native vector env of a task: :class:`DiscReactorVectorEnv` with the task's
     defaults (its docstring is the task's)."""
@@ -191,6 +240,7 @@ def _vector(env_cls: type, name: str) -> type:
 DiscKineticsVectorEnv = _vector(DiscKineticsEnv, "DiscKineticsVectorEnv")
 DiscSeriesVectorEnv = _vector(DiscSeriesEnv, "DiscSeriesVectorEnv")
 DiscEconomicVectorEnv = _vector(DiscEconomicEnv, "DiscEconomicVectorEnv")
+DiscJacketVectorEnv = _vector(DiscJacketEnv, "DiscJacketVectorEnv")
 
 #: ``{id: (env class, vector env class)}`` of every task, ``DiscReactor-v0`` included.
 TASKS = {
@@ -198,6 +248,7 @@ TASKS = {
     "DiscKinetics-v0": (DiscKineticsEnv, DiscKineticsVectorEnv),
     "DiscSeries-v0": (DiscSeriesEnv, DiscSeriesVectorEnv),
     "DiscEconomic-v0": (DiscEconomicEnv, DiscEconomicVectorEnv),
+    "DiscJacket-v0": (DiscJacketEnv, DiscJacketVectorEnv),
 }
 
 

@@ -200,10 +200,15 @@ class DiscReactorVectorEnv(VectorEnv):
         self._ch_rate = np.zeros((R, K), dtype=FLOAT)
         self._ch_energy = np.zeros((R, K), dtype=FLOAT)
         self._ch_last = np.zeros((R, K), dtype=np.int64)
+        self._out_last = np.zeros((R, S), dtype=np.int64)
+        self._feed_kT = np.full(R, np.nan, dtype=FLOAT)
+        self._feed_kT_next = np.full(R, np.nan, dtype=FLOAT)
+        self._feed_switch = np.full(R, -1, dtype=np.int64)
         self._ep = Episodes(self._size, self._feed_left, self._steps, self._n_init,
                             self._n_ref, self._temps, self._kin, self._stats, self._obs,
                             self._fout, self._iout, self._sp_form, self._ch_rate,
-                            self._ch_energy, self._ch_last)
+                            self._ch_energy, self._ch_last, self._out_last, self._feed_kT,
+                            self._feed_kT_next, self._feed_switch)
         # (the structs as plain tuples of their fields: see kernels.batch.env_step)
         self._fields = (tuple(self._rx), tuple(self._ep), tuple(cfg.tables),
                         tuple(cfg.consts))
@@ -257,6 +262,9 @@ class DiscReactorVectorEnv(VectorEnv):
         self._feed_left[r] = cfg.feed_budget
         self._sp_form[r], self._ch_rate[r], self._ch_energy[r] = cfg.kinetics(sim.scene)
         self._ch_last[r] = 0
+        self._out_last[r] = 0
+        self._feed_kT[r], self._feed_kT_next[r], self._feed_switch[r] = \
+            cfg.draw_feed(self._np_randoms[r])
         self._n_init[r] = n
         self._n_ref[r] = cfg.n_ref(np.bincount(sim.species, minlength=cfg.n_species))
         self._product[r] = np.count_nonzero(sim.species == cfg.product)
@@ -301,7 +309,10 @@ class DiscReactorVectorEnv(VectorEnv):
             self._observe_all()
         product = self._stats[:, cfg.product].copy()
         # rewards: the same arithmetic, in the same order, as DiscReactorEnv.step
-        gain = (product - self._product) / self._n_ref
+        if cfg.reward == "outflow":
+            gain = self._out_last[:, cfg.product].astype(FLOAT) / self._n_ref
+        else:
+            gain = (product - self._product) / self._n_ref
         cost_heat = cfg.heat_cost * np.abs(heat) / self._n_ref
         cost_feed = cfg.feed_cost * injected.sum(axis=1).astype(FLOAT) / self._n_ref
         rew = gain - cost_heat - cost_feed

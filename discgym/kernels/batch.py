@@ -35,9 +35,11 @@ import numpy as np
 from numba import njit, prange
 
 from .controls import RESIZED, heat, inject, resize
-from .step import advance, empty_work
+from .step import FS_WALL_HEAT, advance, empty_work
 from .structs import (
     BOX,
+    JACKET,
+    N_SIDES,
     P_RMAX,
     Bounds,
     Counters,
@@ -173,8 +175,14 @@ def reactor_step(r, rx, ep, tables, params, flags, consts, rngs, act):
     tables = Tables(tables.sp_radius, tables.sp_mass, ep.sp_form[r], tables.ch_kind,
                     tables.ch_reac, tables.ch_prod, ep.ch_rate[r], ep.ch_energy[r],
                     tables.uni_start, tables.uni_chan, tables.bi_table, tables.outlets)
-    a, bad_wall = _read_action(r, act, iout)
-    _heat(r, a[0], discs, rx.n[r], ep, tables.sp_mass, consts)
+    a, bad_heat, bad_wall = _read_action(r, act, iout)
+    if consts.heating == JACKET:
+        if not bad_heat:
+            _jacket(a[0], rx.bounds_walls[r], consts)
+    else:
+        _heat(r, a[0], discs, rx.n[r], ep, tables.sp_mass, consts)
+    if ep.steps[r] == ep.feed_switch[r]:  # the inlet temperature changes (flow tasks)
+        ep.feed_kT[r] = ep.feed_kT_next[r]
     if not bad_wall:
         _wall(r, a[1], discs, rx, ep, tables.sp_radius, params, consts, rngs)
     if not _inject_feed(r, a, discs, rx, ep, tables, consts, rngs):
@@ -185,6 +193,12 @@ def reactor_step(r, rx, ep, tables, params, flags, consts, rngs, act):
     ch_last = ep.ch_last[r]
     for k in range(ch_count.shape[0]):
         ch_last[k] = ch_count[k]
+    outflow = rx.outflow[r]
+    out_last = ep.out_last[r]
+    for k in range(outflow.shape[0]):
+        out_last[k] = outflow[k]
+    fsum = rx.fsum[r]
+    wall_heat0 = _wall_heat(fsum)
     after, m, _w = advance(discs, rx.n[r], consts.steps_per_action, consts.dt,
                            Bounds(rx.bounds_kind[r], rx.bounds_params[r], rx.bounds_walls[r]),
                            tables, params, flags, rngs[r],
@@ -195,6 +209,10 @@ def reactor_step(r, rx, ep, tables, params, flags, consts, rngs, act):
         return
     for k in range(ch_count.shape[0]):
         ch_last[k] = ch_count[k] - ch_last[k]
+    for k in range(outflow.shape[0]):
+        out_last[k] = outflow[k] - out_last[k]
+    if consts.heating == JACKET:  # the heat is what the thermal walls exchanged
+        fout[r, O_HEAT] = _wall_heat(fsum) - wall_heat0
     rx.n[r] = m
     rx.ksteps[r] += consts.steps_per_action
     ep.steps[r] += 1
@@ -204,20 +222,43 @@ def reactor_step(r, rx, ep, tables, params, flags, consts, rngs, act):
 @njit(cache=True)
 def _read_action(r, act, iout):
     """The action ``act[r]``: non-finite components do nothing (counted in
-    ``iout[r, O_INVALID]``), the rest clipped to [-1, 1]. Returns ``(a, bad_wall)``: the
-    components (A,) and whether the wall's was non-finite."""
+    ``iout[r, O_INVALID]``), the rest clipped to [-1, 1]. Returns ``(a, bad_heat,
+    bad_wall)``: the components (A,) and whether the heat's and the wall's were
+    non-finite."""
     A = act.shape[1]
     a = np.zeros(A)
+    bad_heat = False
     bad_wall = False
     for k in range(A):
         x = act[r, k]
         if not math.isfinite(x):
             iout[r, O_INVALID] += 1
-            if k == 1:
+            if k == 0:
+                bad_heat = True
+            elif k == 1:
                 bad_wall = True
         else:
             a[k] = min(max(x, -1.0), 1.0)
-    return a, bad_wall
+    return a, bad_heat, bad_wall
+
+
+@njit(cache=True)
+def _jacket(a0, walls, consts):
+    """Jacket control: every thermal wall (a side whose temperature is not NaN) to
+    ``t_min (t_max / t_min) ** ((a0 + 1) / 2)``: log-uniform over [t_min, t_max]."""
+    kT = consts.t_min * (consts.t_max / consts.t_min) ** (0.5 * (a0 + 1.0))
+    for k in range(walls.shape[0]):
+        if walls[k] == walls[k]:
+            walls[k] = kT
+
+
+@njit(cache=True)
+def _wall_heat(fsum):
+    """The energy the thermal walls have put in, all sides."""
+    e = 0.0
+    for k in range(N_SIDES):
+        e += fsum[FS_WALL_HEAT + k]
+    return e
 
 
 @njit(cache=True)
@@ -297,7 +338,8 @@ def _inject_feed(r, a, discs, rx, ep, tables, consts, rngs):
             if m + todo > cap:
                 iout[r, O_STATUS] = FULL
                 return False
-            placed, energy, _ = inject(discs, m, feed[k], np.full((todo, 2), np.nan), np.nan,
+            placed, energy, _ = inject(discs, m, feed[k], np.full((todo, 2), np.nan),
+                                       ep.feed_kT[r],
                                        consts.temperature, consts.speed_limit, tables,
                                        rx.bounds_kind[r], rx.bounds_params[r], rngs, r,
                                        consts.attempts)
@@ -401,6 +443,18 @@ def observe_one(r, rx, ep, sp_mass, consts):
         v = ep.feed_left[r, f] / feed_budget[f] if feed_budget[f] > 0 else 0.0
         o[k + 5 + f] = _clip(v, low[k + 5 + f], high[k + 5 + f])
     k += 5 + F
+    if consts.heating == JACKET:
+        o[k] = _clip(_jacket_kT(rx.bounds_walls[r]), low[k], high[k])
+        k += 1
+    if consts.obs_feed_kT:
+        v = ep.feed_kT[r] if ep.feed_kT[r] >= 0.0 else ep.temperature[r]
+        o[k] = _clip(v, low[k], high[k])
+        k += 1
+    if consts.obs_outflow:
+        last = ep.out_last[r]
+        for s in range(S):
+            o[k + s] = _clip(last[s] / ep.n_ref[r], low[k + s], high[k + s])
+        k += S
     B = consts.energy_bins
     if B > 0:
         _energy_histogram(o, k, vel, species, n, sp_mass, st, consts.energy_edges, B, low,
@@ -415,6 +469,15 @@ def observe_one(r, rx, ep, sp_mass, consts):
         last = ep.ch_last[r]
         for c in range(last.shape[0]):
             o[k + c] = _clip(last[c] / ep.n_ref[r], low[k + c], high[k + c])
+
+
+@njit(cache=True)
+def _jacket_kT(walls):
+    """The temperature of the thermal walls (the first that is not NaN; 0 if none)."""
+    for k in range(walls.shape[0]):
+        if walls[k] == walls[k]:
+            return walls[k]
+    return 0.0
 
 
 @njit(cache=True)

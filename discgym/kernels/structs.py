@@ -32,6 +32,9 @@ COUNT = np.int64  #: event counters and stamps (never overflow in practice)
 #   box:    (xmin, ymin, xmax, ymax)
 #   circle: (cx, cy, radius, 0)
 BOX, CIRCLE = 0, 1
+# How an environment's heat action heats: rescaling every velocity, or setting the
+# temperature of the thermal walls (ReactorConsts.heating).
+SCALE, JACKET = 0, 1
 
 # Indices into a compiled scene's float parameter vector (params).
 P_RESTITUTION, P_RELAX, P_MAXDISP, P_RMIN, P_RMAX = range(5)
@@ -168,6 +171,10 @@ class Episodes(NamedTuple):
     ch_rate: np.ndarray  #: (R, K) FLOAT each reactor's first-order rates (as Tables.ch_rate)
     ch_energy: np.ndarray  #: (R, K) FLOAT each reactor's activation energies and barriers
     ch_last: np.ndarray  #: (R, K) int64 reactions fired per channel in the last step
+    out_last: np.ndarray  #: (R, S) int64 discs that left through outlets in the last step
+    feed_kT: np.ndarray  #: (R,) FLOAT kT of injected discs (NaN: the reactor's own kT)
+    feed_kT_next: np.ndarray  #: (R,) FLOAT the inlet kT from step feed_switch on
+    feed_switch: np.ndarray  #: (R,) int64 the step at which the inlet kT changes (-1: never)
 
 
 class ReactorConsts(NamedTuple):
@@ -199,6 +206,9 @@ class ReactorConsts(NamedTuple):
     energy_bins: int  #: B, bins of the per-species kinetic-energy histogram (0: none)
     grid: int  #: G, cells per side of the spatial histogram (0: none)
     obs_reactions: int  #: 1: the observation counts the reactions of the last step
+    heating: int  #: SCALE (velocities rescaled) or JACKET (thermal walls set)
+    obs_feed_kT: int  #: 1: the observation shows the inlet temperature
+    obs_outflow: int  #: 1: the observation counts the discs that left in the last step
 
 
 @register_jitable
