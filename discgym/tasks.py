@@ -11,7 +11,8 @@ the single env).
 >>> import gymnasium as gym
 >>> import discgym
 >>> sorted(discgym.tasks.TASKS)  # doctest: +NORMALIZE_WHITESPACE
-['DiscEconomic-v0', 'DiscJacket-v0', 'DiscKinetics-v0', 'DiscReactor-v0', 'DiscSeries-v0']
+['DiscEconomic-v0', 'DiscFlow-v0', 'DiscJacket-v0', 'DiscKinetics-v0', 'DiscReactor-v0',
+ 'DiscSeries-v0']
 >>> gym.make("DiscKinetics-v0").observation_space.shape
 (34,)
 """
@@ -33,6 +34,8 @@ __all__ = [
     "DiscEconomicVectorEnv",
     "DiscJacketEnv",
     "DiscJacketVectorEnv",
+    "DiscFlowEnv",
+    "DiscFlowVectorEnv",
     "register_tasks",
 ]
 
@@ -228,6 +231,57 @@ X
                     spatial_grid=3)
 
 
+class DiscFlowEnv(DiscReactorEnv):
+    """``DiscFlow-v0``: a continuous stirred reactor, run for the product that leaves it.
+
+    ## Description
+    The built-in scene ``flow``: the chemistry of ``DiscReactor-v0`` (A + B -> C, activation
+    energy 4, against C + A -> W + B, activation energy 8) in a 16 x 16 box whose right wall
+    is an outlet: every disc that reaches it leaves (by two-dimensional effusion, a disc of
+    the gas stays about 30 units of time at kT 1.5; a wider reactor keeps it longer). It
+    starts with ~40 A and ~40 B, cold (kT ~0.6), and is fed A and B (up to 4 of each per step,
+    400 of each per episode). The fed discs come in at an inlet temperature drawn per episode
+    from U[0.3, 2.0], which changes, to another draw, at a random step in the middle third of
+    the episode: a cold feed must be heated, and the heating costs. The reward is the product
+    leaving per step, less the heating energy and the feed: the reactor must be hot and wide
+    enough to convert what passes through, not so hot that the side reaction eats the product,
+    and not heated or fed beyond what pays.
+
+    ## Action Space
+    As ``DiscReactor-v0``: ``Box(-1, 1, (4,), float32)``: heat, wall (the right wall, with
+    the outlet on it), inject A, inject B.
+
+    ## Observation Space
+    ``Box(low, high, (24,), float32)``: the 19 slots of ``DiscReactor-v0`` (``yield``: C in
+    the reactor / n_ref), the inlet temperature (``feed_kT``, in [0, 20]), then the discs of
+    each species that left in the last step / n_ref (``outflow_<species>``, in [0, 4]).
+
+    ## Rewards
+    ``C_out / n_ref - 0.005 |heat energy| / n_ref - 0.02 x injected / n_ref`` per step, C_out
+    the discs of C that left through the outlet during the step, n_ref the initial count of the
+    limiting feed species (~40).
+
+    ## Starting State
+    As ``DiscReactor-v0`` with the scene's counts (A = B = 40) x U[0.9, 1.1]; then the inlet
+    temperatures and the step of the change (``ReactorConfig.draw_feed``).
+
+    ## Episode End
+    Never terminated; truncated after 100 steps (50 units of time).
+
+    ## Arguments
+    Those of ``DiscReactor-v0`` with the defaults ``scene="flow"``, ``reward="outflow"``,
+    ``observe_outflow=True``, ``inject_max=4``, ``feed_budget=400``,
+    ``feed_temperature=(0.3, 2.0)``, ``heat_cost=0.005``, ``feed_cost=0.02``.
+
+    ## Version History
+    - v0: first version.
+    """
+
+    defaults = dict(DEFAULTS, scene="flow", reward="outflow", observe_outflow=True,
+                    inject_max=4, feed_budget=400, feed_temperature=(0.3, 2.0),
+                    heat_cost=0.005, feed_cost=0.02)
+
+
 def _vector(env_cls: type, name: str) -> type:
     """The native vector env of a task: :class:`DiscReactorVectorEnv` with the task's
     defaults (its docstring is the task's)."""
@@ -241,6 +295,7 @@ DiscKineticsVectorEnv = _vector(DiscKineticsEnv, "DiscKineticsVectorEnv")
 DiscSeriesVectorEnv = _vector(DiscSeriesEnv, "DiscSeriesVectorEnv")
 DiscEconomicVectorEnv = _vector(DiscEconomicEnv, "DiscEconomicVectorEnv")
 DiscJacketVectorEnv = _vector(DiscJacketEnv, "DiscJacketVectorEnv")
+DiscFlowVectorEnv = _vector(DiscFlowEnv, "DiscFlowVectorEnv")
 
 #: ``{id: (env class, vector env class)}`` of every task, ``DiscReactor-v0`` included.
 TASKS = {
@@ -249,6 +304,7 @@ TASKS = {
     "DiscSeries-v0": (DiscSeriesEnv, DiscSeriesVectorEnv),
     "DiscEconomic-v0": (DiscEconomicEnv, DiscEconomicVectorEnv),
     "DiscJacket-v0": (DiscJacketEnv, DiscJacketVectorEnv),
+    "DiscFlow-v0": (DiscFlowEnv, DiscFlowVectorEnv),
 }
 
 

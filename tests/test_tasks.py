@@ -219,3 +219,66 @@ def test_each_task_has_a_hand_written_controller_that_copies_with_its_state(env_
         obs, *_ = env.step(a)
     twin = copy.deepcopy(ctl)
     assert np.array_equal(twin(obs), ctl(obs))
+
+
+def test_jacket_action_sets_the_thermal_walls_and_reports_their_heat():
+    env = gym.make("DiscJacket-v0")
+    u = env.unwrapped
+    cfg = u.config
+    names = u.observation_names
+    obs, _ = env.reset(seed=1)
+    sim = u.simulation
+    assert obs[names.index("jacket_kT")] == np.float32(0.6)  # the scene's
+    for a0, want in [(-1.0, cfg.t_min), (1.0, cfg.t_max),
+                     (0.0, math.sqrt(cfg.t_min * cfg.t_max))]:
+        heat0 = sim.wall_heat
+        kin0 = sim.kinetic_energy()
+        obs, r, _, _, info = env.step(np.array([a0, 0.0, 0.0, 0.0], np.float32))
+        sim = u.simulation
+        assert math.isclose(sim.wall_temperature["left"], want, rel_tol=1e-12)
+        assert obs[names.index("jacket_kT")] == np.float32(sim.wall_temperature["left"])
+        assert info["heat_energy"] == pytest.approx(sim.wall_heat - heat0, rel=1e-12, abs=1e-12)
+        assert sim.energy_input == 0.0  # the velocities were never rescaled
+        del kin0
+    before = sim.wall_temperature["left"]
+    env.step(np.array([np.nan, 0.0, 0.0, 0.0], np.float32))  # a NaN keeps the jacket
+    assert u.simulation.wall_temperature["left"] == before
+    sim = u.simulation
+    assert abs(sim.energy_balance()) <= 1e-9 * max(1.0, abs(sim.total_energy()))
+
+
+def test_flow_reward_is_the_product_leaving_and_the_inlet_temperature_switches():
+    env = gym.make("DiscFlow-v0", episode_steps=40, max_episode_steps=40)
+    u = env.unwrapped
+    cfg = u.config
+    names = u.observation_names
+    obs, _ = env.reset(seed=4)
+    sim = u.simulation
+    kT0, kT1, switch = float(u._feed_kT[0]), float(u._feed_kT_next[0]), int(u._feed_switch[0])
+    assert 0.3 <= kT0 <= 2.0 and 0.3 <= kT1 <= 2.0 and 40 // 3 <= switch <= 2 * 40 // 3
+    assert obs[names.index("feed_kT")] == np.float32(kT0)
+    n_ref = float(u._n_ref[0])
+    for k in range(40):
+        out0 = sim.outflow()
+        obs, r, _, trunc, info = env.step(np.array([0.3, 1.0, 1.0, 1.0], np.float32))
+        sim = u.simulation
+        out1 = sim.outflow()
+        left = {s: out1[s] - out0.get(s, 0) for s in out1}
+        injected = sum(info["injected"].values()) if isinstance(info.get("injected"), dict) \
+            else sum(v for key, v in info.items() if key.startswith("injected_"))
+        want = left["C"] / n_ref - cfg.heat_cost * abs(info["heat_energy"]) / n_ref - \
+            cfg.feed_cost * injected / n_ref
+        assert r == pytest.approx(want, rel=1e-12, abs=1e-15)
+        for s, nm in enumerate(cfg.species_names):
+            assert obs[names.index(f"outflow_{nm}")] == np.float32(min(left[nm] / n_ref, 4.0))
+        kT = kT1 if k + 1 > switch else kT0  # (the change applies from step `switch` on)
+        assert obs[names.index("feed_kT")] == np.float32(kT), k
+    assert sum(sim.outflow().values()) > 0
+    assert abs(sim.energy_balance()) <= 1e-9 * max(1.0, abs(sim.total_energy()))
+
+
+def test_jacket_and_outflow_need_their_walls():
+    with pytest.raises(ValueError, match="^heating"):
+        gym.make("DiscReactor-v0", heating="jacket")
+    with pytest.raises(ValueError, match="^reward"):
+        gym.make("DiscReactor-v0", reward="outflow")
