@@ -148,6 +148,61 @@ def seconds(s: float) -> str:
     return f"{s:.2f} s" if s >= 1.0 else f"{s * 1e3:.0f} ms"
 
 
+def oracle_variants(env_id: str) -> dict:
+    """Other planners and budgets on the task's controller (``--variants``), against the
+    default oracle: re-planning every step or every 10, a 10-step horizon, and the sampling
+    planner (:class:`discgym.oracle.ShootingOracle`)."""
+    from discgym.oracle import ShootingOracle
+
+    tb = TASK_BASELINES[env_id]
+    return {
+        "rollout, re-plan every step": tb.oracle(replan_every=1),
+        "rollout, re-plan every 10": tb.oracle(replan_every=10),
+        "rollout, horizon 10": tb.oracle(horizon=10),
+        "CEM 2 x 8 sequences, segments of 10, re-plan every 10":
+            lambda env: ShootingOracle(env, tb.controller(env), samples=8, iterations=2,
+                                       elite=2, segment=10, replan_every=10, generator=0),
+    }
+
+
+def run_variants(res: dict, log=print) -> list:
+    """Each of :func:`oracle_variants` on the ladder's seeds: mean [CI], time per episode,
+    simulated steps per episode, and the paired difference to the default oracle."""
+    env_id, seeds, kw = res["env_id"], res["eval_seeds"], res["env_kwargs"]
+    ref = np.array(res["policies"]["oracle"]["returns"])
+    out = []
+    for name, fac in oracle_variants(env_id).items():
+        t = time.perf_counter()
+        r = run_episodes(env_id, fac, seeds, kw)
+        log(f"{env_id}: {name} done ({time.perf_counter() - t:.0f} s)")
+        out.append({"name": name, "mean": mean_ci(r.returns).as_dict(),
+                    "minus_default": paired_difference(r.returns, ref).as_dict(),
+                    "seconds_per_episode": float(r.seconds.mean()),
+                    "simulated_steps_per_episode": float(np.mean(
+                        [st["simulated_steps"] for st in r.stats])),
+                    "returns": [float(x) for x in r.returns]})
+    return out
+
+
+def variants_table(res: dict) -> str:
+    b = res["oracle_budget"]
+
+    def ci(d):
+        return f"{d['value']:.3f} [{d['low']:.3f}, {d['high']:.3f}]"
+
+    lines = [f"| oracle ({len(res['eval_seeds'])} seeds) | mean [95% CI] | minus the default "
+             "[95% CI] | simulated steps per episode | wall time per episode |",
+             "|---|---|---|---|---|",
+             f"| default: rollout, re-plan every {b['replan_every']} | "
+             f"{ci(res['policies']['oracle']['mean'])} | | "
+             f"{b['simulated_steps_per_episode']:.0f} | {seconds(b['seconds_per_episode'])} |"]
+    for v in res["oracle_variants"]:
+        lines.append(f"| {v['name']} | {ci(v['mean'])} | {ci(v['minus_default'])} | "
+                     f"{v['simulated_steps_per_episode']:.0f} | "
+                     f"{seconds(v['seconds_per_episode'])} |")
+    return "\n".join(lines)
+
+
 def table(res: dict) -> str:
     n = len(res["eval_seeds"])
     names = {"random": "random", "best constant": "best constant "
@@ -230,6 +285,8 @@ def main(argv=None) -> int:
     p.add_argument("--plot", action="store_true", help="write the bar chart")
     p.add_argument("--plot-path", default=None,
                    help="default docs/img/ladder_<env>.png (ladder_all.png for --env all)")
+    p.add_argument("--variants", action="store_true",
+                   help="also run other oracle budgets and the sampling planner (slow)")
     p.add_argument("--check", action="store_true",
                    help="exit 1 if the means are not ordered random < constant < "
                    "hand-written < oracle")
@@ -261,6 +318,10 @@ def main(argv=None) -> int:
         res.update(date=date, machine=machine(), versions=versions(), command=cmd,
                    total_seconds=time.perf_counter() - t0)
         res["table"] = table(res)
+        if a.variants:
+            res["oracle_variants"] = run_variants(
+                res, log=lambda s: print(s, file=sys.stderr, flush=True))
+            res["variants_table"] = variants_table(res)
         out = Path(a.out.format(env=env_id))
         out.parent.mkdir(parents=True, exist_ok=True)
         out.write_text(json.dumps(res, indent=2) + "\n")
@@ -277,6 +338,8 @@ def main(argv=None) -> int:
         print(f"seeds {eval_seeds[0]}..{eval_seeds[-1]} (search {search_seeds[0]}.."
               f"{search_seeds[-1]}), {date}, {res['machine']}, {res['total_seconds']:.0f} s; "
               f"wrote {out}")
+        if a.variants:
+            print(f"\n{res['variants_table']}\n")
         ok &= res["ordered"]
         results.append(res)
     if a.plot:

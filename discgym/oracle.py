@@ -35,7 +35,7 @@ from collections.abc import Callable, Sequence
 import gymnasium as gym
 import numpy as np
 
-__all__ = ["RolloutOracle", "component_offsets", "steps_left"]
+__all__ = ["RolloutOracle", "ShootingOracle", "component_offsets", "steps_left"]
 
 Policy = Callable[[np.ndarray], np.ndarray]
 #: ``candidates(base_action, env) -> (K, A)`` first actions to try; row 0 must be the base
@@ -197,3 +197,111 @@ class RolloutOracle:
             n += 1
         st["simulated_steps"] += n
         return total, plan
+
+
+class ShootingOracle:
+    """A sampling planner (the cross-entropy method over piecewise-constant perturbations of
+    an incumbent action sequence), the second oracle option; :class:`RolloutOracle` is the
+    default one.
+
+    At a re-plan the incumbent is the rest of the previous best sequence (at the first: the
+    base policy's own actions to the end of the episode, found by a rollout on a copy). Each
+    of ``iterations`` rounds samples ``samples`` sequences around the current mean: the
+    mean plus Gaussian noise of scale ``sigma`` (one per action component) held constant over
+    segments of ``segment`` steps, clipped to the action space; each is replayed open loop
+    on a copy of the env to the episode's end (replaying a sequence on an exact copy is
+    exact, so the incumbent's value is what following it will return). The mean moves to
+    the ``elite`` best; the best sequence seen (the incumbent on ties) is kept, and its first
+    ``replan_every`` actions executed. Since the incumbent is always among the sequences,
+    the return never falls below the base policy's.
+
+    ``generator``: a ``numpy.random.Generator`` (or seed) of the sampling, independent of the
+    env's.
+    """
+
+    def __init__(self, env: gym.Env, base: Policy, samples: int = 8, iterations: int = 2,
+                 elite: int = 2, segment: int = 10, sigma=0.3, replan_every: int = 10,
+                 generator=None):
+        if not callable(base):
+            raise TypeError(f"base: expected a policy (observation -> action), got {base!r}")
+        for name, v, lo in (("samples", samples, 1), ("iterations", iterations, 1),
+                            ("elite", elite, 1), ("segment", segment, 1),
+                            ("replan_every", replan_every, 1)):
+            if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < lo:
+                raise ValueError(f"{name}: need a whole number >= {lo}, got {v!r}")
+        if elite > samples:
+            raise ValueError(f"elite: need at most samples ({samples}), got {elite}")
+        sigma = np.broadcast_to(np.asarray(sigma, dtype=np.float64),
+                                env.action_space.shape).copy()
+        if not np.all(np.isfinite(sigma)) or np.any(sigma < 0):
+            raise ValueError(f"sigma: need finite scales >= 0, got {sigma}")
+        self.env, self.base = env, base
+        self.samples, self.iterations, self.elite = int(samples), int(iterations), int(elite)
+        self.segment, self.sigma, self.replan_every = int(segment), sigma, int(replan_every)
+        self.rng = np.random.default_rng(generator)
+        self._best: np.ndarray | None = None  # (T, A) the rest of the best sequence
+        self._todo = 0  # actions of it still to execute before the next re-plan
+        self.stats = dict(decisions=0, replans=0, rollouts=0, simulated_steps=0, copies=0,
+                          planning_seconds=0.0)
+
+    def _replay(self, u: gym.Env, seq: np.ndarray) -> float:
+        env = _copy_env(u)
+        self.stats["copies"] += 1
+        self.stats["rollouts"] += 1
+        total, n = 0.0, 0
+        for a in seq:
+            _, r, term, trunc, _ = env.step(a)
+            total += float(r)
+            n += 1
+            if term or trunc:
+                break
+        self.stats["simulated_steps"] += n
+        return total
+
+    def _base_sequence(self, u: gym.Env, obs, limit: int | None) -> np.ndarray:
+        env = _copy_env(u)
+        pol = copy.deepcopy(self.base)
+        self.stats["copies"] += 1
+        seq, done = [], False
+        while not done and (limit is None or len(seq) < limit):
+            a = np.asarray(pol(obs), dtype=np.float32)
+            seq.append(a)
+            obs, _, term, trunc, _ = env.step(a)
+            done = term or trunc
+        self.stats["simulated_steps"] += len(seq)
+        return np.stack(seq)
+
+    def __call__(self, obs: np.ndarray) -> np.ndarray:
+        st = self.stats
+        st["decisions"] += 1
+        if self._best is not None and self._todo > 0 and len(self._best):
+            a, self._best = self._best[0], self._best[1:]
+            self._todo -= 1
+            return a.copy()
+        t0 = time.perf_counter()
+        u = self.env.unwrapped
+        limit = steps_left(self.env)
+        if self._best is None or not len(self._best):
+            self._best = self._base_sequence(u, obs, limit)
+        inc = self._best if limit is None else self._best[:limit]
+        best_v = self._replay(u, inc)
+        best = inc
+        mean = inc.astype(np.float64)
+        space = self.env.action_space
+        T, A = mean.shape
+        n_seg = -(-T // self.segment)
+        for _ in range(self.iterations):
+            noise = self.rng.normal(0.0, 1.0, (self.samples, n_seg, A)) * self.sigma
+            noise = np.repeat(noise, self.segment, axis=1)[:, :T]
+            cands = np.clip(mean[None] + noise, space.low, space.high).astype(np.float32)
+            vals = np.array([self._replay(u, c) for c in cands])
+            k = int(np.argmax(vals))
+            if vals[k] > best_v:  # strictly: the incumbent keeps ties
+                best_v, best = vals[k], cands[k]
+            elite = cands[np.argsort(-vals, kind="stable")[:self.elite]]
+            mean = elite.astype(np.float64).mean(axis=0)
+        st["replans"] += 1
+        st["planning_seconds"] += time.perf_counter() - t0
+        self._best = best[1:]
+        self._todo = self.replan_every - 1
+        return best[0].copy()

@@ -24,7 +24,7 @@ from discgym.baselines import (
     run_episodes,
     search_constant,
 )
-from discgym.oracle import RolloutOracle, component_offsets, steps_left
+from discgym.oracle import RolloutOracle, ShootingOracle, component_offsets, steps_left
 
 ENV = "DiscReactor-v0"
 TINY = dict(n_discs=80, episode_steps=10, max_episode_steps=10)
@@ -115,6 +115,27 @@ def test_candidates_and_arguments_are_checked():
         RolloutOracle(env, None)
     with pytest.raises(ValueError, match="offsets"):
         component_offsets([(0.1,)] * 5)(a, env)
+
+
+def test_the_shooting_oracle_is_never_worse_than_its_base_policy():
+    """The CEM planner keeps the incumbent sequence (first: the base policy's own actions)
+    among its samples, so it too never falls below the base policy."""
+    base = run_episodes(ENV, reactor_heuristic, SEEDS[:3], TINY)
+    orc = run_episodes(ENV, lambda env: ShootingOracle(
+        env, reactor_heuristic(env), samples=4, iterations=2, segment=3, replan_every=4,
+        generator=0), SEEDS[:3], TINY)
+    assert np.all(orc.returns >= base.returns), (orc.returns, base.returns)
+    st = orc.stats[0]
+    assert st["decisions"] == 10 and st["replans"] == 3
+    assert st["rollouts"] == 3 * (1 + 2 * 4)
+    env = gym.make(ENV, **TINY)
+    h = reactor_heuristic(env)
+    with pytest.raises(ValueError, match="elite"):
+        ShootingOracle(env, h, samples=2, elite=3)
+    with pytest.raises(ValueError, match="sigma"):
+        ShootingOracle(env, h, sigma=-1.0)
+    with pytest.raises(ValueError, match="segment"):
+        ShootingOracle(env, h, segment=0)
 
 
 def test_the_oracle_leaves_the_real_env_alone():
