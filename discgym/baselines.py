@@ -458,14 +458,14 @@ class TaskBaselines:
     env_kwargs: Mapping = field(default_factory=dict)
     controller_name: str = "hand-written"
 
-    def oracle(self, replan_every: int | None = None, horizon: int | None = None,
-               use_default_horizon: bool = True) -> PolicyFactory:
-        """A factory of the rollout oracle on this task's controller (its defaults unless
-        given)."""
+    def oracle(self, replan_every: int | None = None,
+               horizon: int | None = None) -> PolicyFactory:
+        """A factory of the rollout oracle on this task's controller (``replan_every`` and
+        ``horizon``: the task's defaults when None)."""
         from .oracle import RolloutOracle
 
         k = self.oracle_replan_every if replan_every is None else replan_every
-        h = horizon if horizon is not None or not use_default_horizon else self.oracle_horizon
+        h = self.oracle_horizon if horizon is None else horizon
 
         def factory(env):
             return RolloutOracle(env, self.controller(env), self.oracle_candidates,
