@@ -17,7 +17,6 @@ counts).
 from __future__ import annotations
 
 import argparse
-import itertools
 import json
 import os
 import platform
@@ -32,6 +31,7 @@ from discgym.baselines import (
     constant_policy,
     evaluate,
     random_policy,
+    reactor_constant_grid,
 )
 from discgym.env import ReactorConfig
 
@@ -61,14 +61,9 @@ def load_policy(run: Path):
 
 
 def constant_grid(n_actions: int) -> np.ndarray:
-    """Candidate constant actions: heat x wall x each feed on or off (120 for the default
-    env). A constant heat action is a constant *rate* of heating, so the heat levels are
-    dense near 0, where the useful ones are (a slow ramp through the activation window)."""
-    heat = [-0.1, -0.02, 0.0, 0.005, 0.01, 0.02, 0.03, 0.05, 0.1, 0.3]
-    wall = [-1.0, 0.0, 1.0]
-    feeds = list(itertools.product([0.0, 1.0], repeat=n_actions - 2))
-    rows = [[h, w, *f] for h, w, f in itertools.product(heat, wall, feeds)]
-    return np.array(rows, dtype=np.float32)
+    """Candidate constant actions: :func:`discgym.baselines.reactor_constant_grid` (heat x
+    wall x each feed on or off, 120 for the default env, heat levels dense near 0)."""
+    return reactor_constant_grid(n_actions)
 
 
 def compare(run: Path | None, episodes: int = 10, seed: int = 0, env_kwargs=None,

@@ -1,4 +1,5 @@
-"""Baselines for ``DiscReactor-v0``: a scheduled heuristic, constant actions, random actions.
+"""Baselines for the reactor tasks: a scheduled heuristic, constant actions, random actions,
+the per-task registry the baseline ladder reads, and evaluation with confidence intervals.
 
 Policies here map an observation (D,) or a batch (R, D) to an action (A,) or (R, A);
 :func:`evaluate` runs one on a :class:`~discgym.vector.DiscReactorVectorEnv`, one episode per
@@ -7,12 +8,24 @@ physics; their returns on the default env are in ``docs/env.md``.
 
 >>> from discgym.baselines import evaluate, heuristic_policy
 >>> returns = evaluate(heuristic_policy, episodes=2, episode_steps=5)  # doctest: +SKIP
+
+The baseline ladder (``benchmarks/ladder.py``, ``docs/tasks.md``) runs, for every env id of
+:data:`TASK_BASELINES`, random actions, the best constant action (searched on
+:data:`SEARCH_SEEDS`), the task's hand-written controller and the rollout oracle of
+:mod:`discgym.oracle` on :data:`EVAL_SEEDS` (disjoint from the search seeds), one fresh
+``gymnasium.make`` env per seed (:func:`run_episodes`), and summarises the per-seed returns
+with bootstrap confidence intervals (:func:`mean_ci`, :func:`iqm_ci`,
+:func:`paired_difference`: ``scipy.stats.bootstrap``).
 """
 
 from __future__ import annotations
 
+import copy
+import itertools
 import math
-from collections.abc import Callable, Sequence
+import time
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -27,6 +40,18 @@ __all__ = [
     "random_policy",
     "evaluate",
     "best_constant_action",
+    "reactor_constant_grid",
+    "EVAL_SEEDS",
+    "SEARCH_SEEDS",
+    "Summary",
+    "TaskBaselines",
+    "TASK_BASELINES",
+    "run_episodes",
+    "search_constant",
+    "mean_ci",
+    "iqm_ci",
+    "paired_difference",
+    "check_disjoint",
 ]
 
 
@@ -144,3 +169,317 @@ def best_constant_action(candidates: Sequence[Sequence[float]], episodes: int = 
                       .mean() for c in cand])
     return cand[int(np.argmax(means))], means
 
+
+
+# --------------------------------------------------------------------------------------------
+# the baseline ladder: seeds, per-seed evaluation, confidence intervals, the per-task registry
+
+#: Default evaluation seeds of the ladder (20 episodes).
+EVAL_SEEDS: tuple = tuple(range(1000, 1020))
+#: Default seeds of the constant-action search: disjoint from :data:`EVAL_SEEDS`, so the
+#: selection does not flatter the chosen action.
+SEARCH_SEEDS: tuple = tuple(range(0, 10))
+
+PolicyFactory = Callable[[object], Callable[[np.ndarray], np.ndarray]]
+
+
+def check_disjoint(eval_seeds: Sequence[int], search_seeds: Sequence[int]) -> None:
+    """``ValueError`` if the search seeds share a seed with the evaluation seeds."""
+    common = sorted(set(int(s) for s in eval_seeds) & set(int(s) for s in search_seeds))
+    if common:
+        raise ValueError(f"search_seeds: {len(common)} seed(s) also among the evaluation seeds "
+                         f"({common[:5]}{' ...' if len(common) > 5 else ''}); a constant action "
+                         "chosen on the evaluation seeds would be flattered")
+
+
+def _seeds(seeds, name: str) -> list:
+    out = []
+    for s in seeds:
+        if isinstance(s, (bool, np.bool_)) or not isinstance(s, (int, np.integer)) or s < 0:
+            raise ValueError(f"{name}: need whole numbers >= 0, got {s!r}")
+        out.append(int(s))
+    if len(set(out)) != len(out):
+        raise ValueError(f"{name}: repeated seeds in {out}")
+    if not out:
+        raise ValueError(f"{name}: need at least one seed")
+    return out
+
+
+@dataclass(frozen=True)
+class RunResult:
+    """Per-seed results of :func:`run_episodes`: ``returns`` (E,) undiscounted, ``seconds``
+    (E,) wall time of each episode (reset excluded), ``steps`` (E,) and ``stats`` (the
+    policy's ``stats`` dict after each episode, if it has one, e.g. the oracle's budget)."""
+
+    seeds: tuple
+    returns: np.ndarray
+    seconds: np.ndarray
+    steps: np.ndarray
+    stats: tuple
+
+
+def run_episodes(env_id: str, factory: PolicyFactory, seeds: Sequence[int] = EVAL_SEEDS,
+                 env_kwargs: Mapping | None = None) -> RunResult:
+    """One episode per seed, each on a fresh ``gymnasium.make(env_id, **env_kwargs)``:
+    ``policy = factory(env)``, then ``env.reset(seed=s)`` (and ``env.action_space.seed(s)``,
+    so that a policy sampling the action space is reproducible) and ``policy(obs)`` until the
+    episode terminates or is truncated."""
+    import gymnasium as gym
+
+    seeds = _seeds(seeds, "seeds")
+    rets, secs, steps, stats = [], [], [], []
+    for s in seeds:
+        env = gym.make(env_id, **dict(env_kwargs or {}))
+        try:
+            policy = factory(env)
+            obs, _ = env.reset(seed=s)
+            env.action_space.seed(s)
+            total, n, done = 0.0, 0, False
+            t0 = time.perf_counter()
+            while not done:
+                obs, r, term, trunc, _ = env.step(policy(obs))
+                total += float(r)
+                n += 1
+                done = term or trunc
+            secs.append(time.perf_counter() - t0)
+        finally:
+            env.close()
+        rets.append(total)
+        steps.append(n)
+        stats.append(dict(policy.stats) if isinstance(getattr(policy, "stats", None), dict)
+                     else None)
+    return RunResult(tuple(seeds), np.array(rets), np.array(secs), np.array(steps),
+                     tuple(stats))
+
+
+def search_constant(env_id: str, grid, seeds: Sequence[int] = SEARCH_SEEDS,
+                    env_kwargs: Mapping | None = None,
+                    avoid: Sequence[int] = EVAL_SEEDS) -> tuple[np.ndarray, np.ndarray]:
+    """The best constant action of ``grid`` ((K, A) actions, or ``env -> (K, A)``) by mean
+    return over ``seeds``; returns ``(best action (A,), mean returns (K,))``. ``seeds`` must
+    not meet ``avoid`` (the evaluation seeds). Each seed is reset once and every candidate
+    runs on a ``clone()`` of the reset env (bit for bit what a reset would give, without its
+    cost); ties go to the first candidate."""
+    import gymnasium as gym
+
+    from .oracle import steps_left
+
+    seeds = _seeds(seeds, "seeds")
+    check_disjoint(avoid, seeds)
+    totals = None
+    for s in seeds:
+        env = gym.make(env_id, **dict(env_kwargs or {}))
+        try:
+            env.reset(seed=s)
+            cand = np.asarray(grid(env) if callable(grid) else grid, dtype=np.float32)
+            if cand.ndim != 2 or cand.shape[1:] != env.action_space.shape:
+                raise ValueError(f"grid: need (K, {env.action_space.shape[0]}) actions, got "
+                                 f"shape {cand.shape}")
+            limit = steps_left(env)
+            u = env.unwrapped
+            if totals is None:
+                totals = np.zeros(len(cand))
+            for k, a in enumerate(cand):
+                c = u.clone() if hasattr(u, "clone") else copy.deepcopy(u)
+                n, done = 0, False
+                while not done and (limit is None or n < limit):
+                    _, r, term, trunc, _ = c.step(a)
+                    totals[k] += float(r)
+                    n += 1
+                    done = term or trunc
+        finally:
+            env.close()
+    means = totals / len(seeds)
+    return cand[int(np.argmax(means))].copy(), means
+
+
+# ---------------------------------------------------------------- confidence intervals
+
+
+@dataclass(frozen=True)
+class Summary:
+    """A statistic of per-seed values and its bootstrap confidence interval."""
+
+    value: float
+    low: float
+    high: float
+    method: str  # the scipy.stats.bootstrap method that gave the interval
+
+    def separated(self) -> bool:
+        """The interval excludes 0 (for a difference: the two policies are separated)."""
+        return self.low > 0.0 or self.high < 0.0
+
+    def text(self, digits: int = 3) -> str:
+        return f"{self.value:.{digits}f} [{self.low:.{digits}f}, {self.high:.{digits}f}]"
+
+    def as_dict(self) -> dict:
+        return {"value": self.value, "low": self.low, "high": self.high, "method": self.method}
+
+
+def _bootstrap(x, statistic, confidence: float, n_resamples: int, random_state: int,
+               method: str, name: str) -> Summary:
+    """``scipy.stats.bootstrap`` of one sample. A sample of identical values has a point as
+    its bootstrap distribution: BCa is undefined there (scipy returns NaN), so such a sample
+    (and any other where BCa fails) gets the percentile interval, a point for a constant."""
+    from scipy import stats
+
+    x = np.asarray(x, dtype=np.float64)
+    if x.ndim != 1 or len(x) < 2:
+        raise ValueError(f"{name}: need a 1-d array of at least 2 values, got shape {x.shape}")
+    if not np.all(np.isfinite(x)):
+        raise ValueError(f"{name}: non-finite values in {x}")
+    if not 0.0 < confidence < 1.0:
+        raise ValueError(f"confidence: need a number in (0, 1), got {confidence!r}")
+    value = float(statistic(x, axis=-1))
+    methods = [method] if np.ptp(x) > 0 else []
+    if "percentile" not in methods:
+        methods.append("percentile")
+    for m in methods:
+        res = stats.bootstrap((x,), statistic, n_resamples=n_resamples, vectorized=True,
+                              confidence_level=confidence, method=m,
+                              rng=np.random.default_rng(random_state))
+        lo, hi = (float(v) for v in res.confidence_interval)
+        if np.isfinite(lo) and np.isfinite(hi):
+            return Summary(value, lo, hi, m)
+    raise ValueError(f"{name}: no finite bootstrap interval for {x}")
+
+
+def _mean(x, axis=-1):
+    return np.mean(x, axis=axis)
+
+
+def _iqm(x, axis=-1):
+    from scipy.stats import trim_mean
+
+    return trim_mean(x, 0.25, axis=axis)
+
+
+def mean_ci(returns, confidence: float = 0.95, n_resamples: int = 9999,
+            random_state: int = 0, method: str = "BCa") -> Summary:
+    """The mean of ``returns`` (E,) with its bootstrap confidence interval
+    (``scipy.stats.bootstrap``, BCa by default; fixed ``random_state``: reproducible)."""
+    return _bootstrap(returns, _mean, confidence, n_resamples, random_state, method, "returns")
+
+
+def iqm_ci(returns, confidence: float = 0.95, n_resamples: int = 9999,
+           random_state: int = 0, method: str = "BCa") -> Summary:
+    """The interquartile mean (``scipy.stats.trim_mean(x, 0.25)``: the mean of the middle
+    half) of ``returns`` with its bootstrap confidence interval."""
+    return _bootstrap(returns, _iqm, confidence, n_resamples, random_state, method, "returns")
+
+
+def paired_difference(a, b, confidence: float = 0.95, n_resamples: int = 9999,
+                      random_state: int = 0, method: str = "BCa") -> Summary:
+    """Mean of ``a - b`` over the same seeds (a paired bootstrap: seeds resampled together)
+    with its confidence interval; :meth:`Summary.separated` when it excludes 0."""
+    a, b = np.asarray(a, dtype=np.float64), np.asarray(b, dtype=np.float64)
+    if a.shape != b.shape:
+        raise ValueError(f"a, b: need returns on the same seeds, got shapes {a.shape} and "
+                         f"{b.shape}")
+    return _bootstrap(a - b, _mean, confidence, n_resamples, random_state, method, "a - b")
+
+
+# ---------------------------------------------------------------- the per-task registry
+
+
+def reactor_constant_grid(n_actions: int) -> np.ndarray:
+    """Candidate constant actions of the reactor tasks: heat x wall x each feed on or off
+    (120 for the default env). A constant heat action is a constant *rate* of heating, so
+    the heat levels are dense near 0, where the useful ones are (a slow ramp through the
+    activation window)."""
+    heat = [-0.1, -0.02, 0.0, 0.005, 0.01, 0.02, 0.03, 0.05, 0.1, 0.3]
+    wall = [-1.0, 0.0, 1.0]
+    feeds = list(itertools.product([0.0, 1.0], repeat=n_actions - 2))
+    rows = [[h, w, *f] for h, w, f in itertools.product(heat, wall, feeds)]
+    return np.array(rows, dtype=np.float32)
+
+
+def reactor_grid(env) -> np.ndarray:
+    """:func:`reactor_constant_grid` for ``env``'s action size."""
+    return reactor_constant_grid(env.action_space.shape[0])
+
+
+def reactor_heuristic(env) -> HeuristicPolicy:
+    """The scheduled heuristic (:class:`HeuristicPolicy`, default settings) for ``env``:
+    a thermostat on the observed temperature, hot (kT 1.8) until the product yield reaches
+    0.2, then 1.6; smallest reactor; full injection. Reads the env's observation names and
+    heat rate."""
+    u = env.unwrapped
+    return HeuristicPolicy(u.observation_names, heat_rate=u.config.heat_rate)
+
+
+def reactor_oracle_candidates(base: np.ndarray, env) -> np.ndarray:
+    """The oracle's first actions on a reactor task (11 for the default env): the base
+    action; its heat action moved by -0.6, -0.3, -0.1, +0.1, +0.3, +0.6; its wall action
+    moved by +1 and +2 (from the heuristic's -1: hold the size, expand); each feed's
+    injection moved by -1 (from the heuristic's 1: none this step). Clipped to [-1, 1],
+    duplicates dropped."""
+    from .oracle import component_offsets
+
+    n_feed = env.action_space.shape[0] - 2
+    offsets = [(-0.6, -0.3, -0.1, 0.1, 0.3, 0.6), (1.0, 2.0)] + [(-1.0,)] * n_feed
+    return component_offsets(offsets)(base, env)
+
+
+def random_factory(env):
+    """Uniform random actions: ``env.action_space.sample()`` (seeded by
+    :func:`run_episodes` with the episode's seed)."""
+    return lambda obs: env.action_space.sample()
+
+
+def constant_factory(action) -> PolicyFactory:
+    """A factory of :func:`constant_policy` ``(action)``."""
+    action = np.asarray(action, dtype=np.float32)
+    return lambda env: constant_policy(action)
+
+
+@dataclass(frozen=True)
+class TaskBaselines:
+    """The baselines of one task (an env id) for the ladder of ``benchmarks/ladder.py``.
+
+    - ``controller``: the hand-written controller, ``env -> policy`` (obs -> action); its
+      rule is its docstring (shown in docs/tasks.md).
+    - ``constant_grid``: candidate constant actions, ``env -> (K, A)`` (or an array),
+      searched on :data:`SEARCH_SEEDS`.
+    - ``oracle_candidates``: ``(base_action, env) -> (K, A)`` first actions of the rollout
+      oracle (:class:`discgym.oracle.RolloutOracle`), row 0 the base action; its base policy
+      is ``controller``.
+    - ``oracle_replan_every``, ``oracle_horizon``: the oracle's defaults (horizon None: to
+      the episode's end, which guarantees oracle >= controller on every seed).
+    - ``env_kwargs``: keyword arguments of ``gymnasium.make`` for the ladder (usually none).
+    - ``controller_name``: the controller's name in the ladder's table.
+    """
+
+    controller: PolicyFactory
+    constant_grid: Callable | np.ndarray
+    oracle_candidates: Callable
+    oracle_replan_every: int = 5
+    oracle_horizon: int | None = None
+    env_kwargs: Mapping = field(default_factory=dict)
+    controller_name: str = "hand-written"
+
+    def oracle(self, replan_every: int | None = None,
+               horizon: int | None = None) -> PolicyFactory:
+        """A factory of the rollout oracle on this task's controller (``replan_every`` and
+        ``horizon``: the task's defaults when None)."""
+        from .oracle import RolloutOracle
+
+        k = self.oracle_replan_every if replan_every is None else replan_every
+        h = self.oracle_horizon if horizon is None else horizon
+
+        def factory(env):
+            return RolloutOracle(env, self.controller(env), self.oracle_candidates,
+                                 horizon=h, replan_every=k)
+
+        return factory
+
+
+#: The baselines of every task, keyed by env id (extend it when you register a task).
+TASK_BASELINES: dict[str, TaskBaselines] = {
+    "DiscReactor-v0": TaskBaselines(
+        controller=reactor_heuristic,
+        constant_grid=reactor_grid,
+        oracle_candidates=reactor_oracle_candidates,
+        controller_name="scheduled heuristic",
+    ),
+}

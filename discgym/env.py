@@ -30,6 +30,7 @@ the trajectory of a lone environment with the same seed and actions.
 
 from __future__ import annotations
 
+import copy
 import math
 import numbers
 import os
@@ -1237,6 +1238,23 @@ class DiscReactorEnv(gym.Env):
         y = self._product / float(self._n_ref[0])
         title = f"T {self._temperature:.2f} Y {y:.2f}"
         return render_frame(self.simulation, size=self.render_size, title=title)
+
+    def clone(self) -> DiscReactorEnv:
+        """An independent copy that continues bit for bit as this env would under the same
+        actions (observations, rewards, infos, the next ``reset()`` without a seed): what
+        ``copy.deepcopy(env)`` gives, for planners that copy at every decision (see
+        :class:`discgym.oracle.RolloutOracle`). The frozen :class:`ReactorConfig` is shared
+        and so is the simulation's frozen :class:`~discgym.Scene` (deepcopy copies and compiles
+        them again), everything else is copied: the
+        :class:`~discgym.Simulation` (state, counters, random generator), the env's
+        ``np_random``, the episode bookkeeping and the spaces (with their own generators). No
+        figure: a clone renders into a new one. It costs about as much as ``deepcopy`` (~0.7 ms
+        for the default env, about three env steps, measured 2026-12-02 on a 2-core AMD EPYC
+        VM): most of it is copying the simulation's state."""
+        memo = {id(self.config): self.config}
+        if self.simulation is not None:  # (its Scene is frozen too)
+            memo[id(self.simulation.scene)] = self.simulation.scene
+        return copy.deepcopy(self, memo)
 
     def __getstate__(self):
         d = self.__dict__.copy()

@@ -1,0 +1,353 @@
+"""The baseline ladder of a task: random < best constant < hand-written controller, with the
+rollout oracle above, on the same evaluation seeds, with 95% bootstrap confidence intervals.
+
+    python benchmarks/ladder.py --env DiscReactor-v0 --seeds 20 --plot
+    python benchmarks/ladder.py --env all            # every task of TASK_BASELINES
+
+For each env id of ``discgym.baselines.TASK_BASELINES``:
+- random: ``env.action_space.sample()``, the space seeded with the episode's seed;
+- best constant: the best of the task's constant grid by mean return on the *search* seeds
+  (0 .. --search-seeds - 1, disjoint from the evaluation seeds);
+- hand-written: the task's controller (its rule is its docstring);
+- oracle: ``discgym.oracle.RolloutOracle`` on the controller (rollouts to the episode's end on
+  clones of the true env, re-planned every ``--replan-every`` steps).
+Each runs one episode per evaluation seed (--first-seed .. --first-seed + --seeds - 1) on a
+fresh ``gymnasium.make(env_id)``. The table gives the mean and the IQM with BCa bootstrap
+95% intervals (scipy.stats.bootstrap, fixed random_state) and the wall time per episode; the
+ladder's steps are compared by paired differences over the seeds (separated: the interval
+excludes 0). Writes JSON (--out: per-seed returns, the table, the oracle's budget, date,
+machine, versions) and, with --plot, a bar chart (docs/img/ladder_<env>.png, or
+ladder_all.png with one panel per task).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import platform
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+import discgym  # noqa: F401  (registers the envs)
+from discgym.baselines import (
+    SEARCH_SEEDS,
+    TASK_BASELINES,
+    check_disjoint,
+    constant_factory,
+    iqm_ci,
+    mean_ci,
+    paired_difference,
+    random_factory,
+    run_episodes,
+    search_constant,
+)
+
+ROOT = Path(__file__).resolve().parent.parent
+LADDER = ("random", "best constant", "hand-written", "oracle")
+
+
+def _cpu_name() -> str:
+    try:
+        for line in open("/proc/cpuinfo"):
+            if line.startswith("model name"):
+                return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or "unknown CPU"
+
+
+def machine() -> str:
+    return f"{platform.machine()}, {os.cpu_count()} CPUs, {_cpu_name()}"
+
+
+def versions() -> dict:
+    import gymnasium
+    import numba
+    import scipy
+
+    out = {"python": platform.python_version(), "numpy": np.__version__,
+           "numba": numba.__version__, "gymnasium": gymnasium.__version__,
+           "scipy": scipy.__version__, "discgym": discgym.__version__}
+    try:
+        out["git"] = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=ROOT,
+                                    capture_output=True, text=True, timeout=10).stdout.strip()
+    except (OSError, subprocess.SubprocessError):
+        pass
+    return out
+
+
+def run_task(env_id: str, eval_seeds: list, search_seeds: list, env_kwargs: dict,
+             replan_every: int | None = None, horizon: int | None = None,
+             log=print) -> dict:
+    """The ladder of one task: every policy's per-seed returns, the summaries, the paired
+    differences between the ladder's steps, the oracle's budget."""
+    tb = TASK_BASELINES[env_id]
+    check_disjoint(eval_seeds, search_seeds)
+    kw = {**dict(tb.env_kwargs), **env_kwargs}
+    t0 = time.perf_counter()
+    best, means = search_constant(env_id, tb.constant_grid, seeds=search_seeds, env_kwargs=kw,
+                                  avoid=eval_seeds)
+    search_s = time.perf_counter() - t0
+    log(f"{env_id}: best constant {[round(float(x), 4) for x in best]} of {len(means)} on seeds "
+        f"{search_seeds[0]}..{search_seeds[-1]} ({search_s:.0f} s)")
+    oracle = tb.oracle(replan_every=replan_every, horizon=horizon)
+    factories = {"random": random_factory, "best constant": constant_factory(best),
+                 "hand-written": tb.controller, "oracle": oracle}
+    runs = {}
+    for name, fac in factories.items():
+        t = time.perf_counter()
+        runs[name] = run_episodes(env_id, fac, eval_seeds, kw)
+        log(f"{env_id}: {name} done ({time.perf_counter() - t:.0f} s)")
+    rows = {}
+    for name, r in runs.items():
+        rows[name] = {"mean": mean_ci(r.returns).as_dict(), "iqm": iqm_ci(r.returns).as_dict(),
+                      "seconds_per_episode": float(r.seconds.mean()),
+                      "returns": [float(x) for x in r.returns]}
+    steps = []
+    for lo, hi in zip(LADDER[:-1], LADDER[1:]):
+        d = paired_difference(runs[hi].returns, runs[lo].returns)
+        steps.append({"step": f"{hi} - {lo}", "difference": d.as_dict(),
+                      "ordered": bool(d.value > 0), "separated": bool(d.low > 0)})
+    ost = [s for s in runs["oracle"].stats if s]
+    ep_steps = runs["oracle"].steps
+    budget = {
+        "candidates_per_replan": float(np.mean([s["rollouts"] / s["replans"] for s in ost])),
+        "candidate_rule": (tb.oracle_candidates.__doc__ or "").strip(),
+        "replan_every": tb.oracle_replan_every if replan_every is None else replan_every,
+        "horizon": "episode end" if (horizon or tb.oracle_horizon) is None
+        else (horizon or tb.oracle_horizon),
+        "replans_per_episode": float(np.mean([s["replans"] for s in ost])),
+        "rollouts_per_episode": float(np.mean([s["rollouts"] for s in ost])),
+        "simulated_steps_per_episode": float(np.mean([s["simulated_steps"] for s in ost])),
+        "simulated_steps_per_env_step": float(np.mean([s["simulated_steps"] for s in ost])
+                                              / np.mean(ep_steps)),
+        "planning_seconds_per_episode": float(np.mean([s["planning_seconds"] for s in ost])),
+        "seconds_per_episode": float(runs["oracle"].seconds.mean()),
+        "plan_mismatches": int(sum(s["plan_mismatches"] for s in ost)),
+    }
+    return {
+        "env_id": env_id, "env_kwargs": kw, "eval_seeds": eval_seeds,
+        "search_seeds": search_seeds, "episode_steps": [int(x) for x in ep_steps],
+        "best_constant": {"action": [float(x) for x in best], "grid_size": len(means),
+                          "search_means": [float(x) for x in means],
+                          "search_seconds": search_s},
+        "controller": {"name": tb.controller_name,
+                       "rule": (tb.controller.__doc__ or "").strip()},
+        "policies": rows, "ladder": steps,
+        "ordered": all(s["ordered"] for s in steps),
+        "oracle_budget": budget,
+    }
+
+
+def seconds(s: float) -> str:
+    return f"{s:.2f} s" if s >= 1.0 else f"{s * 1e3:.0f} ms"
+
+
+def oracle_variants(env_id: str) -> dict:
+    """Other planners and budgets on the task's controller (``--variants``), against the
+    default oracle: re-planning every step or every 10, a 10-step horizon, and the sampling
+    planner (:class:`discgym.oracle.ShootingOracle`)."""
+    from discgym.oracle import ShootingOracle
+
+    tb = TASK_BASELINES[env_id]
+    return {
+        "rollout, re-plan every step": tb.oracle(replan_every=1),
+        "rollout, re-plan every 10": tb.oracle(replan_every=10),
+        "rollout, horizon 10": tb.oracle(horizon=10),
+        "CEM 2 x 8 sequences, segments of 10, re-plan every 10":
+            lambda env: ShootingOracle(env, tb.controller(env), samples=8, iterations=2,
+                                       elite=2, segment=10, replan_every=10, generator=0),
+    }
+
+
+def run_variants(res: dict, log=print) -> list:
+    """Each of :func:`oracle_variants` on the ladder's seeds: mean [CI], time per episode,
+    simulated steps per episode, and the paired difference to the default oracle."""
+    env_id, seeds, kw = res["env_id"], res["eval_seeds"], res["env_kwargs"]
+    ref = np.array(res["policies"]["oracle"]["returns"])
+    out = []
+    for name, fac in oracle_variants(env_id).items():
+        t = time.perf_counter()
+        r = run_episodes(env_id, fac, seeds, kw)
+        log(f"{env_id}: {name} done ({time.perf_counter() - t:.0f} s)")
+        out.append({"name": name, "mean": mean_ci(r.returns).as_dict(),
+                    "minus_default": paired_difference(r.returns, ref).as_dict(),
+                    "seconds_per_episode": float(r.seconds.mean()),
+                    "simulated_steps_per_episode": float(np.mean(
+                        [st["simulated_steps"] for st in r.stats])),
+                    "returns": [float(x) for x in r.returns]})
+    return out
+
+
+def variants_table(res: dict) -> str:
+    b = res["oracle_budget"]
+
+    def ci(d):
+        return f"{d['value']:.3f} [{d['low']:.3f}, {d['high']:.3f}]"
+
+    lines = [f"| oracle ({len(res['eval_seeds'])} seeds) | mean [95% CI] | minus the default "
+             "[95% CI] | simulated steps per episode | wall time per episode |",
+             "|---|---|---|---|---|",
+             f"| default: rollout, re-plan every {b['replan_every']} | "
+             f"{ci(res['policies']['oracle']['mean'])} | | "
+             f"{b['simulated_steps_per_episode']:.0f} | {seconds(b['seconds_per_episode'])} |"]
+    for v in res["oracle_variants"]:
+        lines.append(f"| {v['name']} | {ci(v['mean'])} | {ci(v['minus_default'])} | "
+                     f"{v['simulated_steps_per_episode']:.0f} | "
+                     f"{seconds(v['seconds_per_episode'])} |")
+    return "\n".join(lines)
+
+
+def table(res: dict) -> str:
+    n = len(res["eval_seeds"])
+    names = {"random": "random", "best constant": "best constant "
+             f"`{[round(x, 3) for x in res['best_constant']['action']]}`",
+             "hand-written": res["controller"]["name"],
+             "oracle": f"oracle (rollout MPC on the {res['controller']['name']})"}
+    lines = [f"| policy ({n} seeds) | mean [95% CI] | IQM [95% CI] | wall time per episode |",
+             "|---|---|---|---|"]
+
+    def ci(d):
+        return f"{d['value']:.3f} [{d['low']:.3f}, {d['high']:.3f}]"
+
+    for k in LADDER:
+        r = res["policies"][k]
+        lines.append(f"| {names[k]} | {ci(r['mean'])} | {ci(r['iqm'])} | "
+                     f"{seconds(r['seconds_per_episode'])} |")
+    lines += ["", "| ladder step | paired difference of means [95% CI] | separated (CI above 0) |",
+              "|---|---|---|"]
+    for s in res["ladder"]:
+        lines.append(f"| {s['step']} | {ci(s['difference'])} | "
+                     f"{'yes' if s['separated'] else 'no'} |")
+    return "\n".join(lines)
+
+
+def plot(results: list, path: Path) -> Path:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(1, len(results), figsize=(4.2 * len(results), 3.4), squeeze=False)
+    for ax, res in zip(axes[0], results):
+        rows = [res["policies"][k] for k in LADDER]
+        m = np.array([r["mean"]["value"] for r in rows])
+        lo = m - np.array([r["mean"]["low"] for r in rows])
+        hi = np.array([r["mean"]["high"] for r in rows]) - m
+        x = np.arange(len(LADDER))
+        ax.bar(x, m, yerr=[lo, hi], capsize=4, color=["0.7", "0.55", "tab:blue", "tab:green"])
+        for i, r in enumerate(rows):
+            pts = np.array(r["returns"])
+            ax.plot(np.full(len(pts), i) + np.linspace(-0.25, 0.25, len(pts)), pts, ".",
+                    color="k", ms=2, alpha=0.5)
+        ax.set_xticks(x, ["random", "best\nconstant", "hand-\nwritten", "oracle"])
+        ax.set_ylabel("return (mean, 95% CI; dots: seeds)")
+        ax.set_title(f"{res['env_id']} ({len(res['eval_seeds'])} seeds)")
+    fig.tight_layout()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
+def _kwarg(text: str):
+    if "=" not in text:
+        raise argparse.ArgumentTypeError(f"--env-kwarg: expected key=value, got {text!r}")
+    k, v = text.split("=", 1)
+    try:
+        return k, json.loads(v)
+    except json.JSONDecodeError:
+        return k, v
+
+
+def main(argv=None) -> int:
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    p.add_argument("--env", default="DiscReactor-v0",
+                   help=f"an env id of TASK_BASELINES ({', '.join(TASK_BASELINES)}) or 'all'")
+    p.add_argument("--seeds", type=int, default=20, help="evaluation seeds (>= 2; 20 for docs)")
+    p.add_argument("--first-seed", type=int, default=1000, help="the first evaluation seed")
+    p.add_argument("--search-seeds", type=int, default=len(SEARCH_SEEDS),
+                   help="seeds 0 .. n-1 of the constant-action search")
+    p.add_argument("--replan-every", type=int, default=None,
+                   help="the oracle re-plans every k steps (default: the task's)")
+    p.add_argument("--horizon", type=int, default=None,
+                   help="the oracle's rollout length (default: the task's, the episode end)")
+    p.add_argument("--env-kwarg", type=_kwarg, action="append", default=[],
+                   metavar="KEY=VALUE", help="a keyword of gymnasium.make (JSON value), e.g. "
+                   "episode_steps=10; repeatable")
+    p.add_argument("--out", default="runs/ladder/{env}.json",
+                   help="the JSON file ({env}: the env id)")
+    p.add_argument("--plot", action="store_true", help="write the bar chart")
+    p.add_argument("--plot-path", default=None,
+                   help="default docs/img/ladder_<env>.png (ladder_all.png for --env all)")
+    p.add_argument("--variants", action="store_true",
+                   help="also run other oracle budgets and the sampling planner (slow)")
+    p.add_argument("--check", action="store_true",
+                   help="exit 1 if the means are not ordered random < constant < "
+                   "hand-written < oracle")
+    a = p.parse_args(argv)
+    envs = list(TASK_BASELINES) if a.env == "all" else [a.env]
+    for e in envs:
+        if e not in TASK_BASELINES:
+            p.error(f"--env: {e!r} has no baselines (known: {', '.join(TASK_BASELINES)})")
+    if a.seeds < 2:
+        p.error("--seeds: need at least 2 (a confidence interval)")
+    if a.search_seeds < 1:
+        p.error("--search-seeds: need at least 1")
+    if len(envs) > 1 and "{env}" not in a.out:
+        p.error("--out: with several envs the path must contain {env}")
+    eval_seeds = list(range(a.first_seed, a.first_seed + a.seeds))
+    search_seeds = list(range(a.search_seeds))
+    try:
+        check_disjoint(eval_seeds, search_seeds)
+    except ValueError as e:
+        p.error(str(e))
+    env_kwargs = dict(a.env_kwarg)
+    date = time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime())
+    cmd = "python benchmarks/ladder.py " + " ".join(sys.argv[1:] if argv is None else argv)
+    results, ok = [], True
+    for env_id in envs:
+        t0 = time.perf_counter()
+        res = run_task(env_id, eval_seeds, search_seeds, env_kwargs, a.replan_every,
+                       a.horizon, log=lambda s: print(s, file=sys.stderr, flush=True))
+        res.update(date=date, machine=machine(), versions=versions(), command=cmd,
+                   total_seconds=time.perf_counter() - t0)
+        res["table"] = table(res)
+        if a.variants:
+            res["oracle_variants"] = run_variants(
+                res, log=lambda s: print(s, file=sys.stderr, flush=True))
+            res["variants_table"] = variants_table(res)
+        out = Path(a.out.format(env=env_id))
+        out.parent.mkdir(parents=True, exist_ok=True)
+        out.write_text(json.dumps(res, indent=2) + "\n")
+        b = res["oracle_budget"]
+        print(f"\n## {env_id}\n\n{res['table']}\n")
+        order = " < ".join(LADDER)
+        print(f"ordered {order}: {'yes' if res['ordered'] else 'NO'}; separated by their "
+              f"CIs: {', '.join(s['step'] for s in res['ladder'] if s['separated']) or 'none'}")
+        print(f"oracle budget: {b['candidates_per_replan']:.1f} candidates per re-plan, every "
+              f"{b['replan_every']} steps, rollouts to {b['horizon']}: "
+              f"{b['simulated_steps_per_episode']:.0f} simulated env steps per episode "
+              f"({b['simulated_steps_per_env_step']:.0f} per step), "
+              f"{seconds(b['seconds_per_episode'])} per episode")
+        print(f"seeds {eval_seeds[0]}..{eval_seeds[-1]} (search {search_seeds[0]}.."
+              f"{search_seeds[-1]}), {date}, {res['machine']}, {res['total_seconds']:.0f} s; "
+              f"wrote {out}")
+        if a.variants:
+            print(f"\n{res['variants_table']}\n")
+        ok &= res["ordered"]
+        results.append(res)
+    if a.plot:
+        name = f"ladder_{envs[0]}.png" if len(envs) == 1 else "ladder_all.png"
+        path = Path(a.plot_path) if a.plot_path else ROOT / "docs" / "img" / name
+        print(f"wrote {plot(results, path)}")
+    return 1 if a.check and not ok else 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

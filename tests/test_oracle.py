@@ -1,0 +1,224 @@
+"""The rollout oracle (discgym.oracle) and the ladder's evaluation helpers (discgym.baselines):
+the oracle never does worse than its base policy (rollouts to the episode's end on exact
+copies), and the confidence-interval helpers on cases with known answers."""
+
+import copy
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+import discgym  # noqa: F401  (registers the env)
+from discgym.baselines import (
+    EVAL_SEEDS,
+    SEARCH_SEEDS,
+    TASK_BASELINES,
+    check_disjoint,
+    constant_factory,
+    iqm_ci,
+    mean_ci,
+    paired_difference,
+    random_factory,
+    reactor_heuristic,
+    reactor_oracle_candidates,
+    run_episodes,
+    search_constant,
+)
+from discgym.oracle import RolloutOracle, ShootingOracle, component_offsets, steps_left
+
+ENV = "DiscReactor-v0"
+TINY = dict(n_discs=80, episode_steps=10, max_episode_steps=10)
+SEEDS = [0, 1, 2, 3]
+
+
+class NoisyHeuristic:
+    """A base policy with internal state: the heuristic plus noise from its own generator
+    (the oracle must copy it into each rollout for its rollouts to be exact)."""
+
+    def __init__(self, env, seed):
+        self.h = reactor_heuristic(env)
+        self.rng = np.random.default_rng(seed)
+
+    def __call__(self, obs):
+        a = self.h(obs)
+        a[0] = np.clip(a[0] + self.rng.normal(0, 0.3), -1, 1)
+        return a.astype(np.float32)
+
+
+def oracle_factory(base_factory, **kw):
+    return lambda env: RolloutOracle(env, base_factory(env), reactor_oracle_candidates, **kw)
+
+
+@pytest.mark.parametrize("replan_every", [1, 3])
+def test_the_oracle_is_never_worse_than_its_base_policy(replan_every):
+    base = run_episodes(ENV, reactor_heuristic, SEEDS, TINY)
+    orc = run_episodes(ENV, oracle_factory(reactor_heuristic, replan_every=replan_every),
+                       SEEDS, TINY)
+    assert np.all(orc.returns >= base.returns), (orc.returns, base.returns)
+    assert np.any(orc.returns > base.returns)  # and it does improve on some seed
+    for st in orc.stats:
+        assert st["plan_mismatches"] == 0
+        assert st["decisions"] == 10 and st["replans"] == -(-10 // replan_every)
+        assert st["rollouts"] >= st["replans"] and st["copies"] == st["rollouts"]
+
+
+def test_the_oracle_improves_a_base_policy_with_internal_state():
+    base = run_episodes(ENV, lambda env: NoisyHeuristic(env, 5), SEEDS[:3], TINY)
+    orc = run_episodes(ENV, oracle_factory(lambda env: NoisyHeuristic(env, 5), replan_every=2),
+                       SEEDS[:3], TINY)
+    assert np.all(orc.returns >= base.returns)
+    assert all(st["plan_mismatches"] == 0 for st in orc.stats)
+
+
+def test_the_base_action_alone_reproduces_the_base_policy_bit_for_bit():
+    base = run_episodes(ENV, reactor_heuristic, SEEDS[:2], TINY)
+    orc = run_episodes(ENV, lambda env: RolloutOracle(env, reactor_heuristic(env)),
+                       SEEDS[:2], TINY)
+    assert orc.returns.tobytes() == base.returns.tobytes()
+    # one rollout per decision, each to the end: 10 + 9 + ... + 1 simulated steps
+    assert orc.stats[0]["simulated_steps"] == 55
+
+
+def test_the_time_limit_and_the_horizon_bound_the_rollouts():
+    # the env's own episode is 100 steps; the TimeLimit of gymnasium.make ends it at 6
+    kw = dict(n_discs=80, max_episode_steps=6)
+    env = gym.make(ENV, **kw)
+    env.reset(seed=0)
+    assert steps_left(env) == 6
+    env.step(env.action_space.sample())
+    assert steps_left(env) == 5
+    assert steps_left(env.unwrapped) is None
+    orc = run_episodes(ENV, lambda env: RolloutOracle(env, reactor_heuristic(env)), [0], kw)
+    assert orc.stats[0]["simulated_steps"] == 6 + 5 + 4 + 3 + 2 + 1
+    orc = run_episodes(ENV, lambda env: RolloutOracle(env, reactor_heuristic(env), horizon=2),
+                       [0], kw)
+    assert orc.stats[0]["simulated_steps"] == 2 * 5 + 1
+
+
+def test_candidates_and_arguments_are_checked():
+    env = gym.make(ENV, **TINY)
+    obs, _ = env.reset(seed=0)
+    h = reactor_heuristic(env)
+    a = h(obs)
+    cands = reactor_oracle_candidates(a, env)
+    assert cands[0].tobytes() == a.tobytes()
+    assert len({c.tobytes() for c in cands}) == len(cands) <= 11
+    assert np.all(np.abs(cands) <= 1.0)
+    wrong = RolloutOracle(env, h, lambda base, env: np.zeros((2, 4), np.float32) + 0.5)
+    with pytest.raises(ValueError, match="candidates"):
+        wrong(obs)
+    with pytest.raises(ValueError, match="replan_every"):
+        RolloutOracle(env, h, replan_every=0)
+    with pytest.raises(ValueError, match="horizon"):
+        RolloutOracle(env, h, horizon=0)
+    with pytest.raises(TypeError, match="base"):
+        RolloutOracle(env, None)
+    with pytest.raises(ValueError, match="offsets"):
+        component_offsets([(0.1,)] * 5)(a, env)
+
+
+def test_the_shooting_oracle_is_never_worse_than_its_base_policy():
+    """The CEM planner keeps the incumbent sequence (first: the base policy's own actions)
+    among its samples, so it too never falls below the base policy."""
+    base = run_episodes(ENV, reactor_heuristic, SEEDS[:3], TINY)
+    orc = run_episodes(ENV, lambda env: ShootingOracle(
+        env, reactor_heuristic(env), samples=4, iterations=2, segment=3, replan_every=4,
+        generator=0), SEEDS[:3], TINY)
+    assert np.all(orc.returns >= base.returns), (orc.returns, base.returns)
+    st = orc.stats[0]
+    assert st["decisions"] == 10 and st["replans"] == 3
+    assert st["rollouts"] == 3 * (1 + 2 * 4)
+    env = gym.make(ENV, **TINY)
+    h = reactor_heuristic(env)
+    with pytest.raises(ValueError, match="elite"):
+        ShootingOracle(env, h, samples=2, elite=3)
+    with pytest.raises(ValueError, match="sigma"):
+        ShootingOracle(env, h, sigma=-1.0)
+    with pytest.raises(ValueError, match="segment"):
+        ShootingOracle(env, h, segment=0)
+
+
+def test_the_oracle_leaves_the_real_env_alone():
+    """Planning only touches copies: the real env's state is the same before and after."""
+    env = gym.make(ENV, **TINY)
+    obs, _ = env.reset(seed=2)
+    before = copy.deepcopy(env.unwrapped.simulation.get_state())
+    RolloutOracle(env, reactor_heuristic(env), reactor_oracle_candidates)(obs)
+    after = env.unwrapped.simulation.get_state()
+    for k in before:
+        if isinstance(before[k], np.ndarray):
+            assert before[k].tobytes() == after[k].tobytes(), k
+        elif k != "bounds":
+            assert before[k] == after[k], k
+
+
+# ---------------------------------------------------------------- evaluation and CIs
+
+
+def test_run_episodes_and_the_constant_search():
+    r1 = run_episodes(ENV, random_factory, [5, 6], TINY)
+    r2 = run_episodes(ENV, random_factory, [5, 6], TINY)
+    assert r1.returns.tobytes() == r2.returns.tobytes()  # seeded action space
+    assert list(r1.steps) == [10, 10] and r1.seeds == (5, 6)
+    grid = np.array([[0.0, -1, 1, 1], [0.05, -1, 1, 1], [-1, 1, 0, 0]], np.float32)
+    best, means = search_constant(ENV, grid, seeds=[0, 1], env_kwargs=TINY)
+    assert means.shape == (3,) and best.tobytes() == grid[np.argmax(means)].tobytes()
+    # the search runs clones of the reset env: the same returns as fresh episodes
+    direct = run_episodes(ENV, constant_factory(grid[1]), [0, 1], TINY)
+    assert means[1] == pytest.approx(direct.returns.mean(), abs=1e-12)
+    with pytest.raises(ValueError, match="search_seeds"):
+        search_constant(ENV, grid, seeds=[0, 1], env_kwargs=TINY, avoid=[1, 7])
+    with pytest.raises(ValueError, match="seeds"):
+        run_episodes(ENV, random_factory, [1, 1], TINY)
+
+
+def test_default_seeds_are_disjoint():
+    check_disjoint(EVAL_SEEDS, SEARCH_SEEDS)
+    assert len(EVAL_SEEDS) >= 20
+    with pytest.raises(ValueError, match="search_seeds"):
+        check_disjoint(EVAL_SEEDS, [3, 1005])
+
+
+def test_constant_returns_give_a_zero_width_interval():
+    x = np.full(20, 0.75)
+    for s in (mean_ci(x), iqm_ci(x)):
+        assert s.value == s.low == s.high == 0.75 and s.method == "percentile"
+        assert s.separated()
+
+
+def test_a_policy_against_itself_differs_by_exactly_zero():
+    x = np.random.default_rng(0).normal(1.0, 0.1, 20)
+    d = paired_difference(x, x)
+    assert d.value == d.low == d.high == 0.0 and not d.separated()
+
+
+def test_the_intervals_on_known_cases():
+    x = np.random.default_rng(1).normal(2.0, 1.0, 400)
+    s = mean_ci(x)
+    half = 1.96 * x.std(ddof=1) / np.sqrt(len(x))  # the normal-theory interval
+    assert s.method == "BCa" and s.low < s.value < s.high
+    assert s.high - s.low == pytest.approx(2 * half, rel=0.1)
+    assert s.value == pytest.approx(x.mean())
+    assert mean_ci(x) == s  # reproducible: a fixed random_state
+    # a shift moves the interval by the shift; a paired shift is separated
+    t = mean_ci(x + 3.0)
+    assert t.low == pytest.approx(s.low + 3.0) and t.high == pytest.approx(s.high + 3.0)
+    d = paired_difference(x + 0.5 + 0.01 * np.sin(np.arange(400)), x)
+    assert d.separated() and d.low > 0.49 and d.high < 0.51
+    # the IQM: the mean of the middle half
+    y = np.array([0, 1, 2, 3, 4, 5, 6, 7, 100, -100], float)
+    assert iqm_ci(y).value == pytest.approx(np.mean([1, 2, 3, 4, 5, 6]))
+    with pytest.raises(ValueError, match="returns"):
+        mean_ci([1.0])
+    with pytest.raises(ValueError, match="a, b"):
+        paired_difference([1.0, 2.0], [1.0, 2.0, 3.0])
+
+
+def test_the_registry_has_the_default_task():
+    tb = TASK_BASELINES["DiscReactor-v0"]
+    env = gym.make(ENV, **TINY)
+    obs, _ = env.reset(seed=0)
+    assert tb.constant_grid(env).shape == (120, 4)
+    assert tb.controller(env)(obs).shape == (4,)
+    assert tb.controller.__doc__ and tb.oracle_horizon is None
+    assert isinstance(tb.oracle()(env), RolloutOracle)
