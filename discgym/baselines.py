@@ -483,3 +483,58 @@ TASK_BASELINES: dict[str, TaskBaselines] = {
         controller_name="scheduled heuristic",
     ),
 }
+
+
+# --------------------------------------------------------------------------------------------
+# the other tasks of the suite (discgym/tasks.py; their controllers: discgym/controllers.py)
+
+
+def _controller(env):
+    """The task's hand-written controller (:func:`discgym.controllers.controller_for`)."""
+    from .controllers import controller_for
+
+    return controller_for(env)
+
+
+def jacket_grid(env) -> np.ndarray:
+    """Constant actions of ``DiscJacket-v0``: the jacket's setpoint (an absolute temperature,
+    log-uniform over the range) x wall x each feed on or off."""
+    heat = [-1.0, -0.6, -0.3, -0.2, -0.1, 0.0, 0.1, 0.2, 0.3, 0.6]
+    wall = [-1.0, 0.0, 1.0]
+    feeds = list(itertools.product([0.0, 1.0], repeat=env.action_space.shape[0] - 2))
+    return np.array([[h, w, *f] for h, w, f in itertools.product(heat, wall, feeds)],
+                    dtype=np.float32)
+
+
+def flow_oracle_candidates(base: np.ndarray, env) -> np.ndarray:
+    """The oracle's first actions on ``DiscFlow-v0``: those of the reactor, with the wall
+    moved inward (-1, -2: the controller holds it wide open) instead of outward."""
+    from .oracle import component_offsets
+
+    n_feed = env.action_space.shape[0] - 2
+    offsets = [(-0.6, -0.3, -0.1, 0.1, 0.3, 0.6), (-1.0, -2.0)] + [(-1.0,)] * n_feed
+    return component_offsets(offsets)(base, env)
+
+
+TASK_BASELINES.update({
+    "DiscKinetics-v0": TaskBaselines(
+        controller=_controller, constant_grid=reactor_grid,
+        oracle_candidates=reactor_oracle_candidates,
+        controller_name="adaptive thermostat"),
+    "DiscSeries-v0": TaskBaselines(
+        controller=_controller, constant_grid=reactor_grid,
+        oracle_candidates=reactor_oracle_candidates,
+        controller_name="two-stage thermostat"),
+    "DiscEconomic-v0": TaskBaselines(
+        controller=_controller, constant_grid=reactor_grid,
+        oracle_candidates=reactor_oracle_candidates,
+        controller_name="band thermostat"),
+    "DiscJacket-v0": TaskBaselines(
+        controller=_controller, constant_grid=jacket_grid,
+        oracle_candidates=reactor_oracle_candidates,
+        controller_name="jacket thermostat"),
+    "DiscFlow-v0": TaskBaselines(
+        controller=_controller, constant_grid=reactor_grid,
+        oracle_candidates=flow_oracle_candidates,
+        controller_name="flow thermostat"),
+})

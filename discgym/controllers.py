@@ -14,7 +14,7 @@ import math
 
 import numpy as np
 
-__all__ = ["Thermostat", "AdaptiveThermostat", "TwoStageThermostat", "BandThermostat",
+__all__ = ["Thermostat", "AdaptiveThermostat", "ConversionThermostat", "BandThermostat",
            "JacketThermostat", "flow_thermostat", "controller_for"]
 
 
@@ -128,29 +128,35 @@ class AdaptiveThermostat:
         return a
 
 
-class TwoStageThermostat:
-    """For ``DiscSeries-v0``: a moderate setpoint while A is left, a hot one after.
+class ConversionThermostat:
+    """For ``DiscSeries-v0``: a setpoint that rises with the conversion of A.
 
-    Rule: hold kT at ``t_first`` while A's share of the discs is above ``a_left``, then at
-    ``t_second`` (I + B -> P needs the heat, and with A gone the side reaction I + A -> W
-    cannot fire); the wall at ``wall``, B fed at ``inject`` throughout (the second stage needs
-    B, and B present early turns I into P before it decays).
+    Why: while A is left, a hot reactor loses the intermediate I to I + A -> W (activation
+    7.5) and a cold one loses it to its decay I -> X; once A is used up, I + B -> P
+    (activation 6) wants all the heat it can get. So the setpoint follows the conversion
+    ``c = 1 - A / A_0`` (A's share of the discs against its share in the first observation):
+    ``t_low (t_high / t_low) ** (c ** power)``, from ``t_low`` with all of A left to
+    ``t_high`` with none. The wall at ``wall``, B fed at ``inject`` throughout (B present
+    early turns I into P before it decays). Keeps A_0 (:meth:`reset` forgets it).
     """
 
-    def __init__(self, env, *, t_first=1.7, t_second=3.5, a_left=0.05, wall=-1.0,
-                 inject=1.0):
+    def __init__(self, env, *, t_low=1.0, t_high=8.0, power=3.0, wall=0.0, inject=1.0):
         self.s = _Slots(env)
         self.i_a = self.s.index("fraction_A")
-        self.t_first, self.t_second, self.a_left = t_first, t_second, a_left
+        self.t_low, self.t_high, self.power = t_low, t_high, power
         self.wall, self.inject = wall, inject
+        self.reset()
 
     def reset(self) -> None:
-        pass
+        self.a0 = None
 
     def __call__(self, obs) -> np.ndarray:
         o = np.asarray(obs, dtype=np.float64)
         s = self.s
-        target = self.t_first if o[self.i_a] > self.a_left else self.t_second
+        if self.a0 is None:
+            self.a0 = max(float(o[self.i_a]), 1e-9)
+        c = min(max(1.0 - float(o[self.i_a]) / self.a0, 0.0), 1.0)
+        target = self.t_low * (self.t_high / self.t_low) ** (c ** self.power)
         a = np.empty(2 + s.n_feed, dtype=np.float32)
         a[0] = s.heat_toward(o, target)
         a[1] = self.wall
@@ -241,6 +247,6 @@ def controller_for(env, **kwargs):
     """The hand-written controller of the task ``env`` is (by its registered id)."""
     env_id = env.spec.id if getattr(env, "spec", None) is not None else "DiscReactor-v0"
     cls = {"DiscFlow-v0": flow_thermostat, "DiscReactor-v0": Thermostat, "DiscKinetics-v0": AdaptiveThermostat,
-           "DiscSeries-v0": TwoStageThermostat, "DiscEconomic-v0": BandThermostat,
+           "DiscSeries-v0": ConversionThermostat, "DiscEconomic-v0": BandThermostat,
            "DiscJacket-v0": JacketThermostat}[env_id]
     return cls(env, **kwargs)
