@@ -489,13 +489,6 @@ TASK_BASELINES: dict[str, TaskBaselines] = {
 # the other tasks of the suite (discgym/tasks.py; their controllers: discgym/controllers.py)
 
 
-def _controller(env):
-    """The task's hand-written controller (:func:`discgym.controllers.controller_for`)."""
-    from .controllers import controller_for
-
-    return controller_for(env)
-
-
 def jacket_grid(env) -> np.ndarray:
     """Constant actions of ``DiscJacket-v0``: the jacket's setpoint (an absolute temperature,
     log-uniform over the range) x wall x each feed on or off."""
@@ -516,25 +509,28 @@ def flow_oracle_candidates(base: np.ndarray, env) -> np.ndarray:
     return component_offsets(offsets)(base, env)
 
 
+from .controllers import (  # noqa: E402  (the suite's controllers; no import circle)
+    AdaptiveThermostat,
+    BandThermostat,
+    JacketThermostat,
+    flow_thermostat,
+)
+
 TASK_BASELINES.update({
     "DiscKinetics-v0": TaskBaselines(
-        controller=_controller, constant_grid=reactor_grid,
+        controller=AdaptiveThermostat, constant_grid=reactor_grid,
         oracle_candidates=reactor_oracle_candidates,
         controller_name="adaptive thermostat"),
-    "DiscSeries-v0": TaskBaselines(
-        controller=_controller, constant_grid=reactor_grid,
-        oracle_candidates=reactor_oracle_candidates,
-        controller_name="two-stage thermostat"),
     "DiscEconomic-v0": TaskBaselines(
-        controller=_controller, constant_grid=reactor_grid,
+        controller=BandThermostat, constant_grid=reactor_grid,
         oracle_candidates=reactor_oracle_candidates,
         controller_name="band thermostat"),
     "DiscJacket-v0": TaskBaselines(
-        controller=_controller, constant_grid=jacket_grid,
+        controller=JacketThermostat, constant_grid=jacket_grid,
         oracle_candidates=reactor_oracle_candidates,
         controller_name="jacket thermostat"),
     "DiscFlow-v0": TaskBaselines(
-        controller=_controller, constant_grid=reactor_grid,
+        controller=flow_thermostat, constant_grid=reactor_grid,
         oracle_candidates=flow_oracle_candidates,
         controller_name="flow thermostat"),
 })

@@ -14,7 +14,7 @@ import math
 
 import numpy as np
 
-__all__ = ["Thermostat", "AdaptiveThermostat", "ConversionThermostat", "BandThermostat",
+__all__ = ["Thermostat", "AdaptiveThermostat", "BandThermostat",
            "JacketThermostat", "flow_thermostat", "controller_for"]
 
 
@@ -128,42 +128,6 @@ class AdaptiveThermostat:
         return a
 
 
-class ConversionThermostat:
-    """For ``DiscSeries-v0``: a setpoint that rises with the conversion of A.
-
-    Why: while A is left, a hot reactor loses the intermediate I to I + A -> W (activation
-    7.5) and a cold one loses it to its decay I -> X; once A is used up, I + B -> P
-    (activation 6) wants all the heat it can get. So the setpoint follows the conversion
-    ``c = 1 - A / A_0`` (A's share of the discs against its share in the first observation):
-    ``t_low (t_high / t_low) ** (c ** power)``, from ``t_low`` with all of A left to
-    ``t_high`` with none. The wall at ``wall``, B fed at ``inject`` throughout (B present
-    early turns I into P before it decays). Keeps A_0 (:meth:`reset` forgets it).
-    """
-
-    def __init__(self, env, *, t_low=1.0, t_high=8.0, power=3.0, wall=0.0, inject=1.0):
-        self.s = _Slots(env)
-        self.i_a = self.s.index("fraction_A")
-        self.t_low, self.t_high, self.power = t_low, t_high, power
-        self.wall, self.inject = wall, inject
-        self.reset()
-
-    def reset(self) -> None:
-        self.a0 = None
-
-    def __call__(self, obs) -> np.ndarray:
-        o = np.asarray(obs, dtype=np.float64)
-        s = self.s
-        if self.a0 is None:
-            self.a0 = max(float(o[self.i_a]), 1e-9)
-        c = min(max(1.0 - float(o[self.i_a]) / self.a0, 0.0), 1.0)
-        target = self.t_low * (self.t_high / self.t_low) ** (c ** self.power)
-        a = np.empty(2 + s.n_feed, dtype=np.float32)
-        a[0] = s.heat_toward(o, target)
-        a[1] = self.wall
-        a[2:] = self.inject
-        return a
-
-
 class BandThermostat:
     """For ``DiscEconomic-v0``: heat and cool only when the reactor leaves a band, and feed
     only while a fed disc still has time to react.
@@ -199,33 +163,39 @@ class BandThermostat:
 
 
 class JacketThermostat:
-    """For ``DiscJacket-v0``: a proportional controller of the jacket, with a schedule.
+    """For ``DiscJacket-v0``: a proportional-derivative controller of the jacket, with a
+    schedule.
 
     Rule: the target kT is ``t_hot`` until the yield reaches ``switch_yield``, then
     ``t_cold`` (``DiscReactor-v0``'s schedule). The jacket is set to
-    ``target + gain x (target - kT)``: above the target while the reactor is colder (it heats
-    faster than a jacket at the target would), below it while the reaction heat pushes the
-    reactor over (it cools before the exotherm runs away). The wall at ``wall``, feed at
-    ``inject``.
+    ``target + gain x (target - kT) - damping x (kT - kT_before)``: above the target while
+    the reactor is colder (it heats faster than a jacket at the target would), below it as
+    the reaction heat pushes the reactor over, and lower still while the reactor is warming
+    fast (cooling before the exotherm runs away: the wall acts with a lag). The wall at
+    ``wall``, feed at ``inject``. Keeps the last kT (:meth:`reset` forgets it).
     """
 
-    def __init__(self, env, *, t_hot=1.6, t_cold=1.4, switch_yield=0.2, gain=4.0, wall=-1.0,
-                 inject=1.0):
+    def __init__(self, env, *, t_hot=1.6, t_cold=1.4, switch_yield=0.2, gain=4.0,
+                 damping=0.0, wall=-1.0, inject=1.0):
         self.s = _Slots(env)
         u = getattr(env, "unwrapped", env)
         self.t_min, self.t_max = u.config.t_min, u.config.t_max
         self.t_hot, self.t_cold, self.switch_yield = t_hot, t_cold, switch_yield
-        self.gain, self.wall, self.inject = gain, wall, inject
+        self.gain, self.damping, self.wall, self.inject = gain, damping, wall, inject
+        self.reset()
 
     def reset(self) -> None:
-        pass
+        self.last = None
 
     def __call__(self, obs) -> np.ndarray:
         o = np.asarray(obs, dtype=np.float64)
         s = self.s
         target = self.t_cold if o[s.i_yield] >= self.switch_yield else self.t_hot
         T = s.temperature(o)
-        jacket = min(max(target + self.gain * (target - T), self.t_min), self.t_max)
+        rise = 0.0 if self.last is None else T - self.last
+        self.last = T
+        jacket = target + self.gain * (target - T) - self.damping * rise
+        jacket = min(max(jacket, self.t_min), self.t_max)
         a = np.empty(2 + s.n_feed, dtype=np.float32)
         a[0] = 2.0 * math.log(jacket / self.t_min) / math.log(self.t_max / self.t_min) - 1.0
         a[1] = self.wall
@@ -247,6 +217,6 @@ def controller_for(env, **kwargs):
     """The hand-written controller of the task ``env`` is (by its registered id)."""
     env_id = env.spec.id if getattr(env, "spec", None) is not None else "DiscReactor-v0"
     cls = {"DiscFlow-v0": flow_thermostat, "DiscReactor-v0": Thermostat, "DiscKinetics-v0": AdaptiveThermostat,
-           "DiscSeries-v0": ConversionThermostat, "DiscEconomic-v0": BandThermostat,
+           "DiscEconomic-v0": BandThermostat,
            "DiscJacket-v0": JacketThermostat}[env_id]
     return cls(env, **kwargs)

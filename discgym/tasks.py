@@ -11,8 +11,7 @@ the single env).
 >>> import gymnasium as gym
 >>> import discgym
 >>> sorted(discgym.tasks.TASKS)  # doctest: +NORMALIZE_WHITESPACE
-['DiscEconomic-v0', 'DiscFlow-v0', 'DiscJacket-v0', 'DiscKinetics-v0', 'DiscReactor-v0',
- 'DiscSeries-v0']
+['DiscEconomic-v0', 'DiscFlow-v0', 'DiscJacket-v0', 'DiscKinetics-v0', 'DiscReactor-v0']
 >>> gym.make("DiscKinetics-v0").observation_space.shape
 (34,)
 """
@@ -28,8 +27,6 @@ __all__ = [
     "TASKS",
     "DiscKineticsEnv",
     "DiscKineticsVectorEnv",
-    "DiscSeriesEnv",
-    "DiscSeriesVectorEnv",
     "DiscEconomicEnv",
     "DiscEconomicVectorEnv",
     "DiscJacketEnv",
@@ -90,57 +87,6 @@ class DiscKineticsEnv(DiscReactorEnv):
 
     defaults = dict(DEFAULTS, activation_jitter=0.5, reverse_jitter=0.5, formation_jitter=0.3,
                     energy_bins=3, observe_reactions=True)
-
-
-class DiscSeriesEnv(DiscReactorEnv):
-    """``DiscSeries-v0``: consecutive reactions, where the temperature must follow the
-    chemistry through two stages.
-
-    ## Description
-    The built-in scene ``series`` (``discgym/scenes/series.toml``): ~120 A and ~120 B in a
-    30 x 30 box, cold (kT ~0.6). The product P is made in two steps through an intermediate I:
-
-    - A + B -> I (activation energy 3), then I + B -> P (activation energy 6);
-    - I decays into X (chance 0.02 per unit time), so an intermediate left waiting is lost;
-    - the side reaction I + A -> W (activation energy 7.5) destroys I while A is left and the
-      reactor runs hot.
-
-    The first stage wants a moderate temperature and A used up, the second a hotter reactor and
-    enough B: a fixed setpoint is either too slow for the second stage (I decays) or too hot for
-    the first (I + A -> W). The agent heats or cools, moves a wall and feeds B (a budget of
-    120 discs, as many as at the start: converting every A to P takes two B).
-
-    ## Action Space
-    ``Box(-1, 1, (3,), float32)``: heat, wall, inject B (as in ``DiscReactor-v0``).
-
-    ## Observation Space
-    ``Box(low, high, (30,), float32)``: the slots of ``DiscReactor-v0`` for the six species
-    (fractions, kT and internal energy per species, energy per disc, discs, yield of P, size,
-    time left, B's feed left: 24), then the reactions fired in the last step per channel /
-    the limiting reactant at reset (6 channels: A + B -> I and its reverse, I + B -> P and
-    its reverse, I + A -> W, the decay I -> X). Names in ``env.unwrapped.observation_names``.
-
-    ## Rewards
-    The gain in P per unit of B at reset (the feed species): the return is P's yield (at
-    most about 0.5 from the initial contents, which hold one B per A; up to about 1 with the
-    fed B).
-
-    ## Starting State
-    Counts x U[0.9, 1.1], kT 0.6 x U[0.6, 1.4], positions uniform without overlap.
-
-    ## Episode End
-    Never terminated; truncated after 100 steps (50 units of time).
-
-    ## Arguments
-    Those of ``DiscReactor-v0`` with the defaults ``scene="series"``, ``product="P"``,
-    ``feed=["B"]``, ``feed_budget=120``, ``observe_reactions=True``.
-
-    ## Version History
-    - v0: first version.
-    """
-
-    defaults = dict(DEFAULTS, scene="series", product="P", feed=("B",), feed_budget=120,
-                    observe_reactions=True)
 
 
 class DiscEconomicEnv(DiscReactorEnv):
@@ -292,7 +238,6 @@ def _vector(env_cls: type, name: str) -> type:
 
 
 DiscKineticsVectorEnv = _vector(DiscKineticsEnv, "DiscKineticsVectorEnv")
-DiscSeriesVectorEnv = _vector(DiscSeriesEnv, "DiscSeriesVectorEnv")
 DiscEconomicVectorEnv = _vector(DiscEconomicEnv, "DiscEconomicVectorEnv")
 DiscJacketVectorEnv = _vector(DiscJacketEnv, "DiscJacketVectorEnv")
 DiscFlowVectorEnv = _vector(DiscFlowEnv, "DiscFlowVectorEnv")
@@ -301,7 +246,6 @@ DiscFlowVectorEnv = _vector(DiscFlowEnv, "DiscFlowVectorEnv")
 TASKS = {
     ENV_ID: (DiscReactorEnv, DiscReactorVectorEnv),
     "DiscKinetics-v0": (DiscKineticsEnv, DiscKineticsVectorEnv),
-    "DiscSeries-v0": (DiscSeriesEnv, DiscSeriesVectorEnv),
     "DiscEconomic-v0": (DiscEconomicEnv, DiscEconomicVectorEnv),
     "DiscJacket-v0": (DiscJacketEnv, DiscJacketVectorEnv),
     "DiscFlow-v0": (DiscFlowEnv, DiscFlowVectorEnv),

@@ -201,10 +201,11 @@ def test_kinetics_are_drawn_per_episode_within_their_ranges_and_from_the_seed():
 
 
 def test_unknown_keywords_of_a_task_get_pythons_wording():
-    with pytest.raises(TypeError, match=r"DiscSeriesEnv.__init__\(\) got an unexpected "
+    with pytest.raises(TypeError, match=r"DiscFlowEnv.__init__\(\) got an unexpected "
                                         r"keyword argument 'frameskip'"):
-        gym.make("DiscSeries-v0", frameskip=1)
-    assert set(TASKS["DiscSeries-v0"][0].defaults) == set(DEFAULTS)
+        gym.make("DiscFlow-v0", frameskip=1)
+    for env_cls, _ in TASKS.values():
+        assert set(env_cls.defaults) == set(DEFAULTS)
 
 
 @pytest.mark.parametrize("env_id", IDS)
