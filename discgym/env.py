@@ -364,24 +364,26 @@ class ReactorConfig:
     # ---------------------------------------------------------------- info
     @cached_property
     def info_types(self) -> dict:
-        """``{key: type}`` of ``info``, in order: the same flat keys at reset and at every
-        step, each one number (``int``, ``float`` or ``bool``), so that every RL library's
-        info reader takes them (TorchRL's, RLlib's ``DictInfoToList``, SB3's; Gymnasium's
-        vector envs batch them as arrays). Per-species keys are named after the species:
+        """``{key: dtype}`` of ``info``, in order: the same flat keys at reset and at every
+        step, each one number with a numpy dtype (TorchRL's info reader needs a ``dtype``):
+        an ``np.int64`` or ``np.float64`` scalar, or for ``np.bool_`` a 0-d bool array
+        (Gymnasium's ``SyncVectorEnv`` batches a numpy bool scalar as an object array, a 0-d
+        array as a bool array), so that every RL library's info reader takes them (TorchRL's,
+        RLlib's ``DictInfoToList``, SB3's; Gymnasium's vector envs batch them as arrays of
+        that dtype). Per-species keys are named after the species:
         ``count_<species>`` (discs after the step), ``injected_<feed species>`` and
         ``inject_refused_<feed species>`` (discs placed / not placed this step). A new task
         adds its keys here and in :meth:`info_values`."""
         names = self.species_names
         fed = [names[f] for f in self.feed]
+        i, f, b = np.int64, np.float64, np.bool_
         return dict(
-            [(f"count_{nm}", int) for nm in names]
-            + [("product", int), ("yield", float), ("reward_product", float),
-               ("cost_heat", float), ("cost_feed", float), ("heat_energy", float),
-               ("temperature", float), ("size", float)]
-            + [(f"injected_{nm}", int) for nm in fed]
-            + [(f"inject_refused_{nm}", int) for nm in fed]
-            + [("wall_blocked", bool), ("invalid_action", int), ("time", float),
-               ("n_ref", float)])
+            [(f"count_{nm}", i) for nm in names]
+            + [("product", i), ("yield", f), ("reward_product", f), ("cost_heat", f),
+               ("cost_feed", f), ("heat_energy", f), ("temperature", f), ("size", f)]
+            + [(f"injected_{nm}", i) for nm in fed]
+            + [(f"inject_refused_{nm}", i) for nm in fed]
+            + [("wall_blocked", b), ("invalid_action", i), ("time", f), ("n_ref", f)])
 
     @property
     def info_keys(self) -> tuple:
@@ -390,14 +392,20 @@ class ReactorConfig:
 
     def info_values(self, counts, product, yield_, reward_product, cost_heat, cost_feed,
                     heat_energy, temperature, size, injected, refused, wall_blocked,
-                    invalid_action, time, n_ref) -> dict:
-        """``info`` from its values, in the order of :attr:`info_types`: scalars for the
-        single env, arrays (one entry per reactor) for the vector env; ``counts`` one value
-        per species, ``injected`` and ``refused`` one per feed species."""
+                    invalid_action, time, n_ref, *, batch: bool = False) -> dict:
+        """``info`` from its values, in the order of :attr:`info_types`, each converted to
+        its dtype: numbers for the single env, or (``batch``) fresh arrays of one entry per
+        reactor for the vector env; ``counts`` one value per species, ``injected`` and
+        ``refused`` one per feed species."""
         values = [*counts, product, yield_, reward_product, cost_heat, cost_feed,
                   heat_energy, temperature, size, *injected, *refused, wall_blocked,
                   invalid_action, time, n_ref]
-        return dict(zip(self.info_types, values, strict=True))
+        types = self.info_types
+        if batch:
+            return {k: np.array(v, dtype=types[k])
+                    for k, v in zip(types, values, strict=True)}
+        return {k: np.array(v, dtype=np.bool_) if types[k] is np.bool_ else types[k](v)
+                for k, v in zip(types, values, strict=True)}
 
     def size_of(self, bounds) -> float:
         ref = self.scene.bounds
@@ -490,7 +498,9 @@ def _feed_budget(scene: Scene, o: dict, feed: tuple, template: np.ndarray,
 
 
 def _observation_slots(names, feed: tuple, size_min: float, size_max: float) -> tuple:
-    """``(names, low, high)`` of the observation's slots (see :func:`observe`)."""
+    """``(names, low, high)`` of the observation's slots (see :func:`observe`). Every slot's
+    range contains 0: TorchRL fills the final observation of a vector env's reactors that did
+    not finish with zeros and checks them against the space."""
     obs_names, lo, hi = [], [], []
 
     def slot(name, low, high):
@@ -507,7 +517,9 @@ def _observation_slots(names, feed: tuple, size_min: float, size_max: float) -> 
     slot("energy_per_disc", -OBS_ENERGY_MAX, OBS_ENERGY_MAX)
     slot("discs", 0.0, OBS_DISCS_MAX)
     slot("yield", 0.0, OBS_YIELD_MAX)
-    slot("size", size_min, size_max)
+    # (the size never goes below size_min; a low of 0 clips to the same float32 values:
+    # rounding to float32 is monotone and float32(size_min) is the rounded size_min)
+    slot("size", 0.0, size_max)
     slot("time_left", 0.0, 1.0)
     for f in feed:
         slot(f"feed_left_{names[f]}", 0.0, 1.0)
