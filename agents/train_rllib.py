@@ -160,7 +160,28 @@ def train(args) -> list[dict]:
                       f"{row['wall_s']:.0f} s", flush=True)
         if args.checkpoint:
             print("checkpoint:", algo.save(str(Path(args.out).resolve() / "checkpoint")))
+    if args.plot:
+        plot(rows, Path(args.out) / "learning_curve.png")
     return rows
+
+
+def plot(rows: list[dict], path: Path) -> None:
+    """The learning curve: mean episode return (= product yield) of each iteration's finished
+    episodes against environment steps."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(6, 3.5))
+    ax.plot([r["env_steps"] for r in rows], [r["episode_return_mean"] for r in rows])
+    ax.set_xlabel("environment steps")
+    ax.set_ylabel("mean episode return (yield)")
+    ax.set_title("RLlib PPO on DiscReactor-v0")
+    ax.grid(alpha=0.3)
+    fig.tight_layout()
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
 
 
 @contextlib.contextmanager
@@ -215,6 +236,8 @@ def parse(argv=None):
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--out", default="runs/rllib")
     p.add_argument("--checkpoint", action="store_true", help="save the algorithm at the end")
+    p.add_argument("--plot", action="store_true",
+                   help="save <out>/learning_curve.png (needs matplotlib)")
     return p.parse_args(argv)
 
 
