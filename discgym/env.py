@@ -34,6 +34,7 @@ import copy
 import math
 import numbers
 import os
+from collections.abc import Mapping
 from dataclasses import dataclass, replace
 from functools import cached_property, partial
 
@@ -494,6 +495,52 @@ class ReactorConfig:
         """The normaliser of the reward: the initial count of the limiting feed species."""
         return float(max(min(int(counts[f]) for f in self.feed), 1))
 
+    # ---------------------------------------------------------------- info
+    @cached_property
+    def info_types(self) -> dict:
+        """``{key: dtype}`` of ``info``, in order: the same flat keys at reset and at every
+        step, each one number with a numpy dtype (TorchRL's info reader needs a ``dtype``):
+        an ``np.int64`` or ``np.float64`` scalar, or for ``np.bool_`` a 0-d bool array
+        (Gymnasium's ``SyncVectorEnv`` batches a numpy bool scalar as an object array, a 0-d
+        array as a bool array), so that every RL library's info reader takes them (TorchRL's,
+        RLlib's ``DictInfoToList``, SB3's; Gymnasium's vector envs batch them as arrays of
+        that dtype). Per-species keys are named after the species:
+        ``count_<species>`` (discs after the step), ``injected_<feed species>`` and
+        ``inject_refused_<feed species>`` (discs placed / not placed this step). A new task
+        adds its keys here and in :meth:`info_values`."""
+        names = self.species_names
+        fed = [names[f] for f in self.feed]
+        i, f, b = np.int64, np.float64, np.bool_
+        return dict(
+            [(f"count_{nm}", i) for nm in names]
+            + [("product", i), ("yield", f), ("reward_product", f), ("cost_heat", f),
+               ("cost_feed", f), ("heat_energy", f), ("temperature", f), ("size", f)]
+            + [(f"injected_{nm}", i) for nm in fed]
+            + [(f"inject_refused_{nm}", i) for nm in fed]
+            + [("wall_blocked", b), ("invalid_action", i), ("time", f), ("n_ref", f)])
+
+    @property
+    def info_keys(self) -> tuple:
+        """The keys of ``info`` (see :attr:`info_types`)."""
+        return tuple(self.info_types)
+
+    def info_values(self, counts, product, yield_, reward_product, cost_heat, cost_feed,
+                    heat_energy, temperature, size, injected, refused, wall_blocked,
+                    invalid_action, time, n_ref, *, batch: bool = False) -> dict:
+        """``info`` from its values, in the order of :attr:`info_types`, each converted to
+        its dtype: numbers for the single env, or (``batch``) fresh arrays of one entry per
+        reactor for the vector env; ``counts`` one value per species, ``injected`` and
+        ``refused`` one per feed species."""
+        values = [*counts, product, yield_, reward_product, cost_heat, cost_feed,
+                  heat_energy, temperature, size, *injected, *refused, wall_blocked,
+                  invalid_action, time, n_ref]
+        types = self.info_types
+        if batch:
+            return {k: np.array(v, dtype=types[k])
+                    for k, v in zip(types, values, strict=True)}
+        return {k: np.array(v, dtype=np.bool_) if types[k] is np.bool_ else types[k](v)
+                for k, v in zip(types, values, strict=True)}
+
     def size_of(self, bounds) -> float:
         ref = self.scene.bounds
         if isinstance(ref, Box):
@@ -585,7 +632,9 @@ def _feed_budget(scene: Scene, o: dict, feed: tuple, template: np.ndarray,
 
 
 def _observation_slots(names, feed: tuple, size_min: float, size_max: float) -> tuple:
-    """``(names, low, high)`` of the observation's slots (see :func:`observe`)."""
+    """``(names, low, high)`` of the observation's slots (see :func:`observe`). Every slot's
+    range contains 0: TorchRL fills the final observation of a vector env's reactors that did
+    not finish with zeros and checks them against the space."""
     obs_names, lo, hi = [], [], []
 
     def slot(name, low, high):
@@ -602,7 +651,9 @@ def _observation_slots(names, feed: tuple, size_min: float, size_max: float) -> 
     slot("energy_per_disc", -OBS_ENERGY_MAX, OBS_ENERGY_MAX)
     slot("discs", 0.0, OBS_DISCS_MAX)
     slot("yield", 0.0, OBS_YIELD_MAX)
-    slot("size", size_min, size_max)
+    # (the size never goes below size_min; a low of 0 clips to the same float32 values:
+    # rounding to float32 is monotone and float32(size_min) is the rounded size_min)
+    slot("size", 0.0, size_max)
     slot("time_left", 0.0, 1.0)
     for f in feed:
         slot(f"feed_left_{names[f]}", 0.0, 1.0)
@@ -680,6 +731,28 @@ def _flag(v, name: str) -> bool:
 def _most_discs(mass: float, lightest: float) -> int:
     """The most discs a total ``mass`` can be split into (discs of mass ``lightest``)."""
     return int(math.floor(mass / lightest * (1.0 + 1e-12)))
+
+
+def with_config(owner: str, config, kwargs: dict) -> dict:
+    """The keyword arguments of a constructor called as ``Env(config, **kwargs)``: the
+    mapping ``config`` (RLlib passes its ``EnvContext``, a dict, as the only positional
+    argument) merged with ``kwargs``; a key in both raises Python's own ``TypeError``."""
+    if config is None:
+        return kwargs
+    if not isinstance(config, Mapping):
+        raise TypeError(f"config: {owner}() takes keyword arguments, or a mapping of them "
+                        f"(e.g. RLlib's EnvContext) as its only positional argument, got "
+                        f"{config!r} ({type(config).__name__})")
+    merged = {}
+    for k, v in config.items():
+        if not isinstance(k, str):
+            raise TypeError(f"config: keys must be argument names (str), got {k!r}")
+        merged[k] = v
+    for k, v in kwargs.items():
+        if k in merged:
+            raise TypeError(f"{owner}() got multiple values for argument {k!r}")
+        merged[k] = v
+    return merged
 
 
 def check_keywords(owner: str, kw, allowed) -> None:
@@ -949,7 +1022,8 @@ class DiscReactorEnv(gym.Env):
     ## Rewards
     ``(C_now - C_before) / n_ref - heat_cost |heat energy| / n_ref - feed_cost injected /
     n_ref``, n_ref the initial count of the limiting feed species, so an episode's return is
-    the product yield. ``info`` carries the breakdown and the raw counts.
+    the product yield. ``info`` carries the breakdown and the raw counts, flat, with the
+    same keys at reset and at each step (:attr:`ReactorConfig.info_types`).
 
     ## Starting State
     Counts x U[1 - count_jitter, 1 + count_jitter], kT x U[1 - temperature_jitter,
@@ -964,10 +1038,12 @@ class DiscReactorEnv(gym.Env):
     :data:`DEFAULTS`). Each is checked at construction: a wrong type raises ``TypeError``, a
     value out of its range ``ValueError``, both naming the argument; an unknown keyword
     raises Python's own ``TypeError: DiscReactorEnv.__init__() got an unexpected keyword
-    argument 'x'``. Numbers may be Python or numpy scalars (``np.int64``, ``np.float32``:
-    taken as the numbers they are); bools are refused where a number is expected; whole
-    numbers may be given as integral floats (``40.0``); pairs and lists may be lists, tuples
-    or 1-d arrays. The ranges:
+    argument 'x'``. They may also come as one mapping, the only positional argument
+    (``DiscReactorEnv({"episode_steps": 50})``: RLlib passes its ``EnvContext``), alone or
+    with keywords (a key in both raises ``TypeError``). Numbers may be Python or numpy
+    scalars (``np.int64``, ``np.float32``: taken as the numbers they are); bools are refused
+    where a number is expected; whole numbers may be given as integral floats (``40.0``);
+    pairs and lists may be lists, tuples or 1-d arrays. The ranges:
 
     - ``scene``: a built-in name, a TOML path (``str`` or ``os.PathLike``) or a
       :class:`~discgym.Scene` with initial ``counts``.
@@ -1016,7 +1092,11 @@ class DiscReactorEnv(gym.Env):
     #: the keyword arguments and their defaults (a task of :mod:`discgym.tasks` sets its own)
     defaults = DEFAULTS
 
-    def __init__(self, render_mode: str | None = None, render_size: int = 400, **kwargs):
+    def __init__(self, config: Mapping | None = None, /, **kwargs):
+        kwargs = with_config(f"{type(self).__name__}.__init__", config, kwargs)
+        self._construct(**kwargs)
+
+    def _construct(self, render_mode: str | None = None, render_size: int = 400, **kwargs):
         check_keywords(f"{type(self).__name__}.__init__", kwargs, self.defaults)
         check_render_mode(render_mode, self.metadata["render_modes"])
         self.render_size = _whole(render_size, "render_size", 1, MAX_RENDER_SIZE)
@@ -1061,7 +1141,6 @@ class DiscReactorEnv(gym.Env):
                             self._iout, self._sp_form, self._ch_rate, self._ch_energy,
                             self._ch_last, self._out_last, self._feed_kT,
                             self._feed_kT_next, self._feed_switch)
-        self._feed_names = [cfg.species_names[f] for f in cfg.feed]
         self._ashape = (2 + F,)
         self._n_feed = F
         self._n_species = S
@@ -1091,8 +1170,15 @@ class DiscReactorEnv(gym.Env):
         self._size_now = float(self._size[0])
         obs = self._observe()
         self._product = float(self._stats[0, cfg.product])
-        info = {"counts": sim.counts(), "temperature": self._temperature,
-                "n_ref": float(self._n_ref[0])}
+        # the keys of a step's info; what only a step does (reward, costs, heat, injections,
+        # a blocked wall, invalid components) is 0 / False
+        counts = counts.tolist()
+        product = counts[cfg.product]
+        n_ref = self._n_ref_now
+        none = [0] * self._n_feed
+        info = cfg.info_values(counts, product, product / n_ref, 0.0, 0.0, 0.0, 0.0,
+                               self._temperature, self._size_now, none, none, False, 0,
+                               sim.time, n_ref)
         if self.render_mode == "human":
             self.render()
         return obs, info
@@ -1146,23 +1232,9 @@ class DiscReactorEnv(gym.Env):
         reward = gain - cost_heat - cost_feed
         self._product = product
         truncated = self._steps.item() >= cfg.episode_steps
-        feed_names = self._feed_names
-        info = {
-            "counts": {nm: int(c) for nm, c in zip(cfg.species_names, counts)},
-            "product": int(product),
-            "yield": product / n_ref,
-            "reward_product": gain,
-            "cost_heat": cost_heat,
-            "cost_feed": cost_feed,
-            "heat_energy": heat,
-            "temperature": temperature,
-            "size": size,
-            "injected": dict(zip(feed_names, injected)),
-            "inject_refused": dict(zip(feed_names, io[3 + F:])),
-            "wall_blocked": io[O_BLOCKED] != 0,
-            "invalid_action": io[O_INVALID],
-            "time": sim.time,
-        }
+        info = cfg.info_values([int(c) for c in counts], int(product), product / n_ref, gain,
+                               cost_heat, cost_feed, heat, temperature, size, injected,
+                               io[3 + F:], io[O_BLOCKED] != 0, io[O_INVALID], sim.time, n_ref)
         if self.render_mode == "human":
             self.render()
         return self._obs[0].copy(), reward, False, truncated, info

@@ -55,6 +55,7 @@ class DiscReactorSB3VecEnv(VecEnv):
                                          **kwargs)
         self.render_mode = self.venv.render_mode
         n = self.venv.num_envs  # (validated: a Python int)
+        self._reactors = [Reactor(self.venv, i) for i in range(n)]  # (SB3's __init__ reads)
         super().__init__(n, self.venv.single_observation_space, self.venv.single_action_space)
         # the batch's metadata (render_fps: VecVideoRecorder reads it from here)
         self.metadata = dict(self.venv.metadata)
@@ -66,7 +67,7 @@ class DiscReactorSB3VecEnv(VecEnv):
         seeds = list(self._seeds)
         seed = None if all(s is None for s in seeds) else seeds
         obs, info = self.venv.reset(seed=seed)
-        self.reset_infos = [{"n_ref": float(info["n_ref"][i])} for i in range(self.num_envs)]
+        self.reset_infos = [_row(info, i) for i in range(self.num_envs)]
         self._reset_seeds()
         self._reset_options()
         return obs
@@ -94,23 +95,37 @@ class DiscReactorSB3VecEnv(VecEnv):
         self.venv.close()
 
     # ------------------------------------------------------------------ attributes
+    # SB3's DummyVecEnv looks attributes and methods up on each env; here each reactor is a
+    # Reactor view (below) of the batch.
     def _targets(self, indices):
         return list(self._get_indices(indices))
 
     def get_attr(self, attr_name: str, indices=None) -> list[Any]:
-        if attr_name == "render_mode":
-            return [self.venv.render_mode for _ in self._targets(indices)]
-        value = getattr(self.venv, attr_name)
-        return [value for _ in self._targets(indices)]
+        """``attr_name`` of each reactor in ``indices`` (see :class:`Reactor`)."""
+        return [getattr(self._reactors[i], attr_name) for i in self._targets(indices)]
 
     def set_attr(self, attr_name: str, value: Any, indices=None) -> None:
-        setattr(self.venv, attr_name, value)
+        """Set ``attr_name`` on each reactor in ``indices``. A setting of the whole batch
+        (an attribute of the vector env, e.g. ``render_mode``, ``threads``) must be set for
+        every reactor at once (``ValueError`` otherwise); any other name is kept per reactor,
+        as DummyVecEnv keeps it on each env."""
+        targets = self._targets(indices)
+        if _is_batch_setting(self.venv, attr_name):
+            if sorted(set(targets)) != list(range(self.num_envs)):
+                raise ValueError(
+                    f"attr_name: {attr_name!r} is one setting of the whole batch of reactors; "
+                    f"set it for all of them (indices=None), got indices {targets}")
+            setattr(self.venv, attr_name, value)
+            if attr_name == "render_mode":
+                self.render_mode = value
+            return
+        for i in targets:
+            setattr(self._reactors[i], attr_name, value)
 
     def env_method(self, method_name: str, *method_args, indices=None, **method_kwargs):
-        if method_name == "render":
-            frames = self.venv.render() or (None,) * self.num_envs
-            return [frames[i] for i in self._targets(indices)]
-        raise AttributeError(f"DiscReactorSB3VecEnv has no per-reactor method {method_name!r}")
+        """Call ``method_name`` of each reactor in ``indices`` (see :class:`Reactor`)."""
+        return [getattr(self._reactors[i], method_name)(*method_args, **method_kwargs)
+                for i in self._targets(indices)]
 
     def env_is_wrapped(self, wrapper_class, indices=None) -> list[bool]:
         return [False for _ in self._targets(indices)]
@@ -121,13 +136,80 @@ class DiscReactorSB3VecEnv(VecEnv):
         return list(self.venv.render())
 
 
+class Reactor:
+    """Reactor ``index`` of a :class:`~discgym.vector.DiscReactorVectorEnv`, with the
+    attributes and methods of a lone :class:`~discgym.env.DiscReactorEnv` that
+    ``get_attr``, ``set_attr`` and ``env_method`` of the SB3 adapter reach:
+    ``simulation`` (its :class:`~discgym.Simulation`), ``np_random`` (the generator its
+    resets draw from), ``observation_space`` and ``action_space`` (one reactor's),
+    ``render()`` (its frame, in render mode "rgb_array"), ``unwrapped`` (itself); any
+    other name is the batch's (``config``, ``render_mode``, ``metadata``,
+    ``observation_names``, ...), the same for every reactor, unless set on this reactor."""
+
+    def __init__(self, venv: DiscReactorVectorEnv, index: int):
+        self.__dict__["_venv"] = venv
+        self.__dict__["index"] = index
+
+    @property
+    def simulation(self):
+        return self._venv.simulations[self.index]
+
+    @property
+    def np_random(self):
+        return self._venv._np_randoms[self.index]
+
+    @property
+    def observation_space(self):
+        return self._venv.single_observation_space
+
+    @property
+    def action_space(self):
+        return self._venv.single_action_space
+
+    @property
+    def unwrapped(self):
+        return self
+
+    def render(self):
+        venv = self._venv
+        if venv.render_mode is None:
+            return venv.render()  # (warns, returns None)
+        from .render import render_frame
+
+        return render_frame(self.simulation, size=venv.render_size)
+
+    def __getattr__(self, name: str):
+        # (reached only for names that are neither set on this reactor nor defined above)
+        if name.startswith("_") or name in _PER_BATCH_ONLY:
+            raise AttributeError(f"reactor {self.index} of the batch has no attribute "
+                                 f"{name!r}")
+        return getattr(self._venv, name)
+
+    def __setattr__(self, name: str, value) -> None:
+        if name in _READ_ONLY:
+            raise AttributeError(f"attr_name: {name!r} of a reactor cannot be set")
+        self.__dict__[name] = value
+
+    def __repr__(self) -> str:
+        return f"Reactor({self.index} of {self._venv.num_envs})"
+
+
+# batch-shaped attributes of the vector env, which a single reactor does not have
+_PER_BATCH_ONLY = frozenset({"num_envs", "single_observation_space", "single_action_space",
+                             "simulations", "step", "reset", "close"})
+_READ_ONLY = frozenset({"simulation", "np_random", "observation_space", "action_space",
+                        "unwrapped", "index", "render"})
+
+
+def _is_batch_setting(venv: DiscReactorVectorEnv, name: str) -> bool:
+    return not name.startswith("_") and name not in _READ_ONLY and hasattr(venv, name)
+
+
 def _row(info: dict, i: int) -> dict:
+    """Reactor ``i``'s entries of the vector env's info (flat arrays), as Python numbers."""
     out = {}
     for k, v in info.items():
         if k.startswith("_") or k in ("final_obs", "final_info"):
             continue
-        if isinstance(v, dict):
-            out[k] = _row(v, i)
-        else:
-            out[k] = v[i].item() if isinstance(v, np.ndarray) and v.dtype != object else v[i]
+        out[k] = v[i].item() if isinstance(v, np.ndarray) and v.dtype != object else v[i]
     return out

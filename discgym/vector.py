@@ -32,6 +32,7 @@ with ``reset(options={"reset_mask": mask})``); declared in ``metadata["autoreset
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from functools import partial
 
 import numba
@@ -54,6 +55,7 @@ from .env import (
     check_render_mode,
     check_status,
     observe,
+    with_config,
 )
 from .kernels import step as _step
 from .kernels.batch import (
@@ -95,9 +97,10 @@ class DiscReactorVectorEnv(VectorEnv):
     - ``threads``: None (numba's current setting) or whole, >= 1; more than numba's
       ``NUMBA_NUM_THREADS`` uses all of them.
 
-    Each is checked at construction (``TypeError`` for a wrong type, ``ValueError`` out of
-    range, naming it); an unknown keyword raises ``TypeError:
-    DiscReactorVectorEnv.__init__() got an unexpected keyword argument 'x'``.
+    They may also come as one mapping, the only positional argument (RLlib's
+    ``EnvContext``), alone or with keywords. Each is checked at construction (``TypeError``
+    for a wrong type, ``ValueError`` out of range, naming it); an unknown keyword raises
+    ``TypeError: DiscReactorVectorEnv.__init__() got an unexpected keyword argument 'x'``.
 
     ``step(actions)`` takes exactly (``num_envs``, 2 + F): an array, or a list of
     ``num_envs`` per-reactor actions, of real numbers (bool, integer or float dtypes). Any
@@ -113,7 +116,11 @@ class DiscReactorVectorEnv(VectorEnv):
     #: the keyword arguments of a reactor and their defaults (a task sets its own)
     defaults = DEFAULTS
 
-    def __init__(self, num_envs: int = 1, *, max_episode_steps: int | None = None,
+    def __init__(self, config: Mapping | None = None, /, **kwargs):
+        kwargs = with_config(f"{type(self).__name__}.__init__", config, kwargs)
+        self._construct(**kwargs)
+
+    def _construct(self, num_envs: int = 1, *, max_episode_steps: int | None = None,
                  autoreset_mode=AutoresetMode.NEXT_STEP, threads: int | None = None,
                  render_mode: str | None = None, render_size: int = 200, **kwargs):
         check_keywords(f"{type(self).__name__}.__init__", kwargs, self.defaults)
@@ -175,11 +182,8 @@ class DiscReactorVectorEnv(VectorEnv):
         self._stats = np.zeros((R, 3 * S + 1), dtype=FLOAT)
         # one persistent generator per reactor, reseeded at each reset (see env.new_simulation)
         self._gens = [np.random.Generator(np.random.PCG64(0)) for _ in range(R)]
-        self._rngs = typed.List(self._gens)
         self._np_randoms: list = [None] * R
         self.simulations: list = [None] * R
-        self._views = [(self._pos[r], self._vel[r], self._species[r], self._internal_energy[r],
-                        self._ids[r], self._idctr[r]) for r in range(R)]
         # per-reactor episode state
         self._steps = np.zeros(R, dtype=np.int64)
         self._size = np.ones(R, dtype=FLOAT)
@@ -191,6 +195,17 @@ class DiscReactorVectorEnv(VectorEnv):
         self._obs = np.zeros((R, len(cfg.obs_names)), dtype=np.float32)
         self._temps = np.zeros(R, dtype=FLOAT)
         self._kin = np.zeros(R, dtype=FLOAT)
+        self._started = False
+        self._link()
+
+    def _link(self) -> None:
+        """The objects that only refer to the batch's arrays: the per-reactor row views, the
+        kernels' structs and the typed list of generators (a numba object that does not
+        pickle); rebuilt after unpickling."""
+        R = self.num_envs
+        self._rngs = typed.List(self._gens)
+        self._views = [(self._pos[r], self._vel[r], self._species[r], self._internal_energy[r],
+                        self._ids[r], self._idctr[r]) for r in range(R)]
         self._rx = Reactors(self._pos, self._vel, self._species, self._internal_energy,
                             self._ids, self._idctr, self._n, self._ksteps, self._bounds_kind,
                             self._bounds_params, self._icnt, self._fsum, self._ch_count,
@@ -210,9 +225,36 @@ class DiscReactorVectorEnv(VectorEnv):
                             self._ch_energy, self._ch_last, self._out_last, self._feed_kT,
                             self._feed_kT_next, self._feed_switch)
         # (the structs as plain tuples of their fields: see kernels.batch.env_step)
+        cfg = self.config
         self._fields = (tuple(self._rx), tuple(self._ep), tuple(cfg.tables),
                         tuple(cfg.consts))
-        self._started = False
+
+    # ------------------------------------------------------------------ pickle, deepcopy
+    def __getstate__(self):
+        d = self.__dict__.copy()
+        for k in ("_rngs", "_views", "_rx", "_ep", "_fields"):
+            del d[k]
+        # each Simulation's state lives in row r of the batch's arrays (views, which pickle
+        # as copies) and its generator is self._gens[r]: rebuilt from these in __setstate__
+        d["simulations"] = [None if s is None else s.__getstate__() for s in self.simulations]
+        return d
+
+    def __setstate__(self, d):
+        from .simulation import Simulation
+
+        self.__dict__.update(d)
+        self._link()
+        sims = []
+        for r, st in enumerate(d["simulations"]):
+            if st is None:
+                sims.append(None)
+                continue
+            sim = Simulation.__new__(Simulation)
+            sim.__setstate__(st)
+            sim._set_rng(self._gens[r])  # (the same state: pickled together)
+            sim.move_into(*self._views[r], self._icnt[r], self._fsum[r], self._ch_count[r])
+            sims.append(sim)
+        self.simulations = sims
 
     # ------------------------------------------------------------------ reset
     def reset(self, *, seed=None, options: dict | None = None):
@@ -243,8 +285,16 @@ class DiscReactorVectorEnv(VectorEnv):
         self._started = True
         self._autoreset[idx] = False
         self._observe_all()
-        info = {"n_ref": self._n_ref.copy(), "_n_ref": mask.copy()}
-        return self._obs.copy(), info
+        return self._obs.copy(), self._reset_infos(mask)
+
+    def _reset_infos(self, mask: np.ndarray) -> dict:
+        """The info of a reset: the keys of a step's info, for the reactors in ``mask``
+        (Gymnasium's ``_key`` masks); what only a step does is 0 / False."""
+        R = self.num_envs
+        zero = np.zeros(R, dtype=FLOAT)
+        none = np.zeros((R, len(self.config.feed)), dtype=np.int64)
+        return self._infos(zero, zero, zero, zero, none, none, np.zeros(R, dtype=bool),
+                           np.zeros(R, dtype=np.int64), mask)
 
     def _reset_one(self, r: int) -> None:
         cfg = self.config
@@ -318,55 +368,54 @@ class DiscReactorVectorEnv(VectorEnv):
         rew = gain - cost_heat - cost_feed
         if any_reset:
             rew[resetting] = 0.0
+            gain[resetting] = 0.0
         self._product = product
         terminated = np.zeros(R, dtype=bool)
         truncated = active & (self._steps >= self.limit)
+        # every reactor reports, as in Gymnasium's SyncVectorEnv: a reactor reset by this
+        # step (NextStep) its reset's info (the step-only entries 0 / False)
+        everyone = np.ones(R, dtype=bool)
         infos = self._infos(gain, cost_heat, cost_feed, heat, injected, refused, blocked,
-                            invalid, active)
+                            invalid, everyone)
         obs = self._obs.copy()
         done = terminated | truncated
         if self.autoreset_mode == AutoresetMode.SAME_STEP and done.any():
             final_obs = np.full(R, None, dtype=object)
             for r in np.flatnonzero(done).tolist():
                 final_obs[r] = obs[r].copy()
+            final_info = _masked({k: v for k, v in infos.items() if not k.startswith("_")},
+                                 done)
             infos["final_obs"] = final_obs
             infos["_final_obs"] = done.copy()
-            infos["final_info"] = _masked(
-                {k: v for k, v in infos.items() if not k.startswith("_")}, done)
+            infos["final_info"] = final_info
             infos["_final_info"] = done.copy()
             for r in np.flatnonzero(done).tolist():
                 self._reset_one(r)
             self._observe_all()
             obs = self._obs.copy()
             self._product = self._stats[:, cfg.product].copy()
+            # the finished reactors report their reset's info (as SyncVectorEnv does)
+            fresh = self._reset_infos(everyone)
+            for k, v in fresh.items():
+                if not k.startswith("_"):
+                    infos[k][done] = v[done]
             done = np.zeros(R, dtype=bool)
         self._autoreset = done
         return obs, rew, terminated, truncated, infos
 
     def _infos(self, gain, cost_heat, cost_feed, heat, injected, refused, blocked, invalid,
                active) -> dict:
-        """The step's info as arrays (R,) with Gymnasium's ``_key`` masks (False for the
-        reactors reset by this step); per-species entries are nested dicts."""
+        """The info as arrays (R,) with Gymnasium's ``_key`` masks (``active``: False for the
+        reactors reset by this step, or not reset by ``reset``): the keys of the single env's
+        info (:attr:`ReactorConfig.info_types`), each an array of its type."""
         cfg = self.config
-        names = cfg.species_names
         counts = self._stats[:, :cfg.n_species].astype(np.int64)
         product = counts[:, cfg.product]
-        infos = {
-            "counts": {nm: counts[:, k] for k, nm in enumerate(names)},
-            "product": product,
-            "yield": product / self._n_ref,
-            "reward_product": gain,
-            "cost_heat": cost_heat,
-            "cost_feed": cost_feed,
-            "heat_energy": heat,
-            "temperature": self._temps.copy(),
-            "size": self._size.copy(),
-            "injected": {names[f]: injected[:, k] for k, f in enumerate(cfg.feed)},
-            "inject_refused": {names[f]: refused[:, k] for k, f in enumerate(cfg.feed)},
-            "wall_blocked": blocked,
-            "invalid_action": invalid.astype(np.int64),
-            "time": np.array([s.time for s in self.simulations], dtype=FLOAT),
-        }
+        infos = cfg.info_values(
+            list(counts.T), product, product / self._n_ref, gain, cost_heat, cost_feed, heat,
+            self._temps.copy(), self._size.copy(), list(injected.T), list(refused.T),
+            blocked, invalid.astype(np.int64),
+            np.array([s.time for s in self.simulations], dtype=FLOAT), self._n_ref.copy())
         return _masked(infos, active)
 
     def _advance(self, active: np.ndarray, act: np.ndarray) -> None:
@@ -468,9 +517,10 @@ def _autoreset_mode(mode) -> AutoresetMode:
 
 
 def _masked(infos: dict, mask: np.ndarray) -> dict:
-    """Add Gymnasium's ``_key`` masks (``mask``) to every entry, recursively."""
+    """Add Gymnasium's ``_key`` masks (``mask``) to every entry, and make every entry a
+    fresh contiguous array (a column of a 2-d array is a strided view)."""
     out = {}
     for k, v in infos.items():
-        out[k] = _masked(v, mask) if isinstance(v, dict) else v
+        out[k] = np.array(v)
         out[f"_{k}"] = mask.copy()
     return out

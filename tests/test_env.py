@@ -21,6 +21,12 @@ from discgym.env import DEFAULTS, DiscReactorEnv
 SHORT = dict(n_discs=80, episode_steps=12)  # small and short: fast tests
 
 
+
+def _discs(info) -> int:
+    """The discs in the reactor, from a (flat) info's ``count_<species>`` entries."""
+    return sum(v for k, v in info.items() if k.startswith("count_"))
+
+
 def run(env, actions, seed):
     obs, info = env.reset(seed=seed)
     out = [(obs, None, False, False, info)]
@@ -170,14 +176,13 @@ def test_reset_draws_contents_within_ranges():
     seen = set()
     for seed in range(8):
         _, info = env.reset(seed=seed)
-        c = info["counts"]
         for nm, t in zip(env.config.scene.species_names, cfg.template):
             lo, hi = t * (1 - cfg.count_jitter), t * (1 + cfg.count_jitter)
-            assert lo - 1 <= c[nm] <= hi + 1
+            assert lo - 1 <= info[f"count_{nm}"] <= hi + 1
         T0 = cfg.scene.temperature
         assert T0 * (1 - cfg.temperature_jitter) * 0.999 <= info["temperature"] \
             <= T0 * (1 + cfg.temperature_jitter) * 1.001
-        seen.add((c["A"], c["B"]))
+        seen.add((info["count_A"], info["count_B"]))
     assert len(seen) > 4
 
 
@@ -220,7 +225,7 @@ def test_nan_and_inf_actions_are_ignored_and_reported():
                                                   np.float32))
     assert info["invalid_action"] == 4
     assert info["heat_energy"] == 0.0 and info["size"] == size0
-    assert sum(info["injected"].values()) == 0
+    assert info["injected_A"] + info["injected_B"] == 0
     sim = env.simulation
     assert np.isfinite(sim.positions).all() and np.isfinite(sim.velocities).all()
     assert sim.overlaps() == 0 and sim.outside() == 0
@@ -292,14 +297,14 @@ def test_wall_refused_when_the_discs_do_not_fit():
 def test_injection_rate_budget_and_report():
     env = DiscReactorEnv(**SHORT, inject_max=3, feed_budget=[5, 0])
     _, info0 = env.reset(seed=0)
-    n0 = sum(info0["counts"].values())
+    n0 = _discs(info0)
     *_, info = env.step(np.array([0, 0, 1, 1], np.float32))
-    assert info["injected"] == {"A": 3, "B": 0}
-    assert info["inject_refused"] == {"A": 0, "B": 3}
+    assert (info["injected_A"], info["injected_B"]) == (3, 0)
+    assert (info["inject_refused_A"], info["inject_refused_B"]) == (0, 3)
     *_, info = env.step(np.array([0, 0, 1, 0], np.float32))
-    assert info["injected"]["A"] == 2  # the budget of 5 is spent
+    assert info["injected_A"] == 2  # the budget of 5 is spent
     *_, info = env.step(np.array([0, 0, 0.1, 0], np.float32))  # round(0.3) = 0
-    assert info["injected"]["A"] == 0 and info["inject_refused"]["A"] == 0
+    assert info["injected_A"] == 0 and info["inject_refused_A"] == 0
     assert len(env.simulation) <= n0 + 5
 
 
@@ -350,7 +355,7 @@ def _compare_with_the_simulation_methods(seed, copy):
         for j, f in enumerate(cfg.feed):
             want = int(round(max(x[2 + j], 0.0) * cfg.inject_max))
             if want:
-                assert twin.inject(f, want) == info["injected"][cfg.species_names[f]]
+                assert twin.inject(f, want) == info[f"injected_{cfg.species_names[f]}"]
         twin.step(cfg.steps_per_action)
         _same_state(sim, twin)
         assert sim.bounds == twin.bounds and sim.time == twin.time
@@ -414,8 +419,8 @@ def test_injections_that_would_pass_the_speed_limit_are_refused():
             expect = 4
         e0 = sim.total_energy()
         *_, info = env.step(np.array([0, 0, 1], np.float32))
-        assert info["inject_refused"]["A"] == expect
-        assert info["injected"]["A"] == 4 - expect
+        assert info["inject_refused_A"] == expect
+        assert info["injected_A"] == 4 - expect
         if expect:  # refused: nothing was added
             assert sim.energy_input == 0.0 and len(sim) == 2
             assert sim.total_energy() == pytest.approx(e0, rel=1e-9)
@@ -434,7 +439,7 @@ def test_discs_added_from_outside_get_room_in_the_arrays():
     assert len(sim._species) == cap  # (no reallocation by inject itself)
     for _ in range(5):
         *_, info = env.step(np.zeros(4, np.float32))
-    assert sum(info["counts"].values()) == len(sim)
+    assert _discs(info) == len(sim)
     assert sim.overlaps() == 0 and abs(sim.energy_balance()) < 1e-9 * abs(sim.total_energy())
 
 
@@ -448,7 +453,7 @@ def test_the_simulation_may_be_changed_between_steps():
     assert sim.inject("A", 7) == 7
     n = len(sim)
     *_, info = env.step(np.zeros(4, np.float32))
-    assert sum(info["counts"].values()) == n == len(sim)
+    assert _discs(info) == n == len(sim)
     sim.resize(dg.Box(28.0, 30.0))
     env.step(np.zeros(4, np.float32))
     assert sim.bounds == dg.Box(28.0, 30.0) and sim.outside() == 0 and sim.overlaps() == 0
@@ -457,7 +462,7 @@ def test_the_simulation_may_be_changed_between_steps():
         st[key] = st[key][:20]
     sim.set_state(st)
     *_, info = env.step(np.zeros(4, np.float32))
-    assert sum(info["counts"].values()) == len(sim) <= 20
+    assert _discs(info) == len(sim) <= 20
     assert sim.overlaps() == 0 and sim.outside() == 0
 
 
@@ -496,7 +501,7 @@ def test_observations_are_clipped_to_the_bounds():
 def test_rewards_add_up_to_the_yield_and_costs_are_booked():
     env = DiscReactorEnv(**SHORT, heat_cost=0.01, feed_cost=0.5)
     _, info0 = env.reset(seed=2)
-    p0 = info0["counts"]["C"]
+    p0 = info0["count_C"]
     total = 0.0
     rng = np.random.default_rng(0)
     for _ in range(SHORT["episode_steps"]):
@@ -504,11 +509,11 @@ def test_rewards_add_up_to_the_yield_and_costs_are_booked():
         assert isinstance(r, float)
         assert r == pytest.approx(info["reward_product"] - info["cost_heat"] - info["cost_feed"])
         assert info["cost_heat"] == pytest.approx(0.01 * abs(info["heat_energy"]) / info0["n_ref"])
-        assert info["cost_feed"] == pytest.approx(0.5 * sum(info["injected"].values())
+        assert info["cost_feed"] == pytest.approx(0.5 * (info["injected_A"] + info["injected_B"])
                                                   / info0["n_ref"])
         total += info["reward_product"]
-    assert total == pytest.approx((info["counts"]["C"] - p0) / info0["n_ref"])
-    assert info["yield"] == pytest.approx(info["counts"]["C"] / info0["n_ref"])
+    assert total == pytest.approx((info["count_C"] - p0) / info0["n_ref"])
+    assert info["yield"] == pytest.approx(info["count_C"] / info0["n_ref"])
 
 
 # ------------------------------------------------------------------ rendering

@@ -388,7 +388,7 @@ def test_env_random_actions_keep_every_invariant(scene, n_discs, seed, bad_rate,
     the reward is a finite Python float; ``info["invalid_action"]`` counts the non-finite
     components; the counts in ``info`` are the simulation's; and the simulation keeps every
     invariant of the module docstring (counts and mass through reactions and
-    ``info["injected"]``). ENV_STEPS steps per example (resets at the episode end)."""
+    ``info["injected_<species>"]``). ENV_STEPS steps per example (resets at the episode end)."""
     dt = dg.scenes.load(scene).dt  # one kernel step per env step
     env = gym.make("DiscReactor-v0", scene=scene, n_discs=n_discs, step_time=dt,
                    episode_steps=250, wall_speed=wall_speed, size_range=(0.5, 1.4),
@@ -411,9 +411,9 @@ def test_env_random_actions_keep_every_invariant(scene, n_discs, seed, bad_rate,
         assert isinstance(r, float) and math.isfinite(r)
         assert not term
         assert info["invalid_action"] == int((~np.isfinite(a.astype(np.float32))).sum())
-        assert info["counts"] == sim.counts()
+        assert {nm: info[f"count_{nm}"] for nm in sim.counts()} == sim.counts()
         for sp in feed:
-            book.injected(sp, info["injected"][sp])
+            book.injected(sp, info[f"injected_{sp}"])
         book.check(sim, f"env step {a}")
         if trunc:
             obs, info = env.reset()

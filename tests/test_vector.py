@@ -26,19 +26,24 @@ def test_each_reactor_follows_the_single_env_bit_for_bit_across_autoresets():
     acts = actions(n, R)
     venv = DiscReactorVectorEnv(num_envs=R, **KW)
     assert venv.metadata["autoreset_mode"] == AutoresetMode.NEXT_STEP
-    vo, _ = venv.reset(seed=10)
+    vo, vinfo0 = venv.reset(seed=10)
     traj = [venv.step(acts[k]) for k in range(n)]
     for i in range(R):
         env = DiscReactorEnv(**KW)
-        o, _ = env.reset(seed=10 + i)
+        o, info0 = env.reset(seed=10 + i)
         assert np.array_equal(o, vo[i])
+        # reset: the step's keys too, as arrays with masks (as SyncVectorEnv gives them)
+        assert set(vinfo0) == {k for key in info0 for k in (key, f"_{key}")}
+        assert all(v == vinfo0[key][i] and vinfo0[f"_{key}"][i] for key, v in info0.items())
         done = False
         for k in range(n):
             vobs, vrew, vterm, vtrunc, vinfo = traj[k]
             if done:  # NextStep: this step resets the reactor, its action is ignored
-                o, _ = env.reset()
+                o, info = env.reset()
                 assert np.array_equal(o, vobs[i]) and vrew[i] == 0.0
-                assert not vinfo["_counts"][i]
+                # its reset's info (as Gymnasium's SyncVectorEnv reports it)
+                assert all(v == vinfo[key][i] and vinfo[f"_{key}"][i]
+                           for key, v in info.items())
                 done = False
                 continue
             o, r, term, trunc, info = env.step(acts[k, i])
@@ -46,8 +51,11 @@ def test_each_reactor_follows_the_single_env_bit_for_bit_across_autoresets():
             assert r == vrew[i] and term == vterm[i] and trunc == vtrunc[i]
             assert info["invalid_action"] == vinfo["invalid_action"][i]
             assert info["temperature"] == vinfo["temperature"][i]
-            assert info["counts"] == {s: int(v[i]) for s, v in vinfo["counts"].items()
-                                      if not s.startswith("_")}
+            # the same flat keys, each the reactor's entry of the batch's array
+            assert set(vinfo) == {k for key in info for k in (key, f"_{key}")}
+            for key, value in info.items():
+                assert type(value) is type(vinfo[key][i].item()), key
+                assert value == vinfo[key][i], key
             assert info["time"] == vinfo["time"][i]
             done = term or trunc
         # the reactor's Simulation is the same state as the single env's
@@ -99,7 +107,7 @@ def test_same_step_autoreset_gives_final_obs():
     for i in range(R):
         assert np.array_equal(info["final_obs"][i], tobs[i])
     assert np.array_equal(rew, trew)
-    assert info["final_info"]["_counts"].all()
+    assert info["final_info"]["_count_A"].all()
     # the observation returned is the first of the next episode
     obs_reset, _ = twin.reset(options={"reset_mask": np.ones(R, bool)})
     assert np.array_equal(obs, obs_reset)
@@ -140,7 +148,7 @@ def test_a_decomposing_scene_grows_within_the_planned_capacity():
     a = np.tile(np.array([1.0, 0.0, 1.0], np.float32), (2, 1))
     for _ in range(30):
         obs, rew, term, trunc, info = venv.step(a)
-    assert (info["counts"]["A"] > 60).all()  # most AB decomposed (and the fed AB too)
+    assert (info["count_A"] > 60).all()  # most AB decomposed (and the fed AB too)
     env = DiscReactorEnv(**kw)
     env.reset(seed=0)
     for _ in range(30):
@@ -191,7 +199,7 @@ def test_sb3_vec_env_terminal_observation_and_truncation():
     for i, info in enumerate(infos):
         assert np.array_equal(info["terminal_observation"], tobs[i])
         assert info["TimeLimit.truncated"] is True
-        assert isinstance(info["counts"]["A"], int)
+        assert isinstance(info["count_A"], int)
     assert (obs[:, twin.observation_names.index("time_left")] == 1.0).all()
 
 
@@ -268,8 +276,8 @@ def test_reactors_changed_through_their_simulations_are_followed_or_refused():
     n = len(sim)
     sim.resize(dg.Box(27.0, 30.0))
     _, _, _, _, info = venv.step(zeros)
-    assert info["counts"]["A"][1] + info["counts"]["B"][1] + info["counts"]["C"][1] \
-        + info["counts"]["W"][1] == len(sim) == n
+    assert info["count_A"][1] + info["count_B"][1] + info["count_C"][1] \
+        + info["count_W"][1] == len(sim) == n
     assert sim.outside() == 0 and sim.overlaps() == 0
     assert abs(sim.energy_balance()) < 1e-9 * abs(sim.total_energy())
     # beyond the capacity plan: refused with a clear error, not lost
@@ -284,7 +292,7 @@ def test_reactors_changed_through_their_simulations_are_followed_or_refused():
         st[key] = st[key][:30]
     sim.set_state(st)  # (in place: the batch follows)
     _, _, _, _, info = venv.step(zeros)
-    assert sum(info["counts"][k][2] for k in "ABCW") == len(sim) <= 30
+    assert sum(info[f"count_{k}"][2] for k in "ABCW") == len(sim) <= 30
     sim._pos = sim._pos.copy()  # arrays replaced: the batch cannot follow
     with pytest.raises(RuntimeError, match="replaced from outside"):
         venv.step(zeros)

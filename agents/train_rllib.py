@@ -1,0 +1,249 @@
+"""PPO with Ray RLlib: the scale-out path, from one machine to a Ray cluster of several.
+
+Each RLlib env runner builds the native vector env (``gym_env_vectorize_mode=
+"vector_entry_point"``: ``num_envs_per_env_runner`` reactors stepped in one compiled call),
+so an env runner costs one process whatever its number of reactors; the learner runs in the
+driver. On one machine::
+
+    pip install torch==2.13.0 && pip install -e ".[agents,rllib]"
+    python agents/train_rllib.py --env-runners 2 --iterations 50
+
+On a cluster (docs/ecosystem.md, "RLlib on several machines"): install the same clone on
+every machine, ``ray start --head --node-ip-address=IP`` on one, ``ray start --address=IP:6379``
+on the others, then run this script on the head with ``--address auto`` and
+``--env-runners`` up to the cluster's CPUs minus one (the learner's). Before training, the
+script compiles discgym's numba kernels once on every node (one cache per node, next to the
+sources, so the env runners of a node load it rather than all compile at once), and each env
+runner steps its reactors on ``--cpus-per-runner`` numba threads (``NUMBA_NUM_THREADS`` and
+the env's ``threads``), as many as Ray reserves for it.
+
+Writes ``<out>/progress.csv`` (one row per iteration: env steps, episodes, mean episode return
+= mean product yield, wall time) and prints the same; ``--checkpoint`` saves the algorithm.
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import csv
+import json
+import os
+import time
+from pathlib import Path
+
+ENV_ID = "discgym:DiscReactor-v0"  # ("module:id": each env runner imports discgym itself)
+
+
+def warm_kernels(threads: int = 1) -> str:
+    """Compile (or load from the cache) discgym's kernels on this machine: one short
+    episode of the native vector env. Returns the host name."""
+    os.environ.setdefault("NUMBA_NUM_THREADS", str(max(threads, 1)))
+    import socket
+
+    import gymnasium as gym
+    import numpy as np
+
+    import discgym  # noqa: F401
+
+    env = gym.make_vec("DiscReactor-v0", num_envs=2, vectorization_mode="vector_entry_point",
+                       threads=max(threads, 1), n_discs=40, episode_steps=2)
+    env.reset(seed=0)
+    for _ in range(3):
+        env.step(np.zeros(env.action_space.shape, np.float32))
+    env.close()
+    return socket.gethostname()
+
+
+def warm_every_node(threads: int) -> list[str]:
+    """Run :func:`warm_kernels` once on every node of the Ray cluster (pinned to it), so that
+    the env runners of a node find the kernels compiled."""
+    import sys
+
+    import ray
+    from ray import cloudpickle
+    from ray.util.scheduling_strategies import NodeAffinitySchedulingStrategy
+
+    if __name__ != "__main__":  # (imported: Ray's workers cannot import this script)
+        cloudpickle.register_pickle_by_value(sys.modules[__name__])
+    task = ray.remote(num_cpus=1)(warm_kernels)
+    refs = [task.options(scheduling_strategy=NodeAffinitySchedulingStrategy(
+        node["NodeID"], soft=False)).remote(threads)
+        for node in ray.nodes() if node["Alive"] and node["Resources"].get("CPU", 0) >= 1]
+    return ray.get(refs)
+
+
+def build_config(args, env_config: dict):
+    from ray.rllib.algorithms.ppo import PPOConfig
+    from ray.rllib.connectors.env_to_module import MeanStdFilter
+    from ray.rllib.core.rl_module.default_model_config import DefaultModelConfig
+
+    return (
+        PPOConfig()
+        .environment(ENV_ID, env_config=env_config)
+        .env_runners(
+            num_env_runners=args.env_runners,
+            num_envs_per_env_runner=args.envs_per_runner,
+            num_cpus_per_env_runner=args.cpus_per_runner,
+            gym_env_vectorize_mode="vector_entry_point",
+            rollout_fragment_length=args.rollout,
+            # observation normalisation (SB3's VecNormalize(norm_reward=False) in
+            # agents/train_ppo.py)
+            env_to_module_connector=lambda env, spaces, device: MeanStdFilter(),
+        )
+        .learners(num_learners=0)  # (the learner runs in the driver)
+        .training(
+            lr=3e-4, gamma=0.99, lambda_=0.95, clip_param=0.2, entropy_coeff=0.0,
+            vf_loss_coeff=0.5, grad_clip=0.5,
+            train_batch_size_per_learner=args.rollout * args.envs_per_runner
+            * max(args.env_runners, 1),
+            minibatch_size=args.minibatch, num_epochs=args.epochs,
+        )
+        .rl_module(model_config=DefaultModelConfig(fcnet_hiddens=[64, 64],
+                                                   fcnet_activation="tanh",
+                                                   vf_share_layers=False))
+        .debugging(seed=args.seed)
+    )
+
+
+def train(args) -> list[dict]:
+    import ray
+    from ray.rllib.utils.metrics import (
+        ENV_RUNNER_RESULTS,
+        EPISODE_RETURN_MEAN,
+        NUM_ENV_STEPS_SAMPLED_LIFETIME,
+        NUM_EPISODES_LIFETIME,
+    )
+
+    threads = args.cpus_per_runner
+    env_vars = {"NUMBA_NUM_THREADS": str(threads)}
+    rows: list[dict] = []
+    algo = None
+    with contextlib.ExitStack() as stack:
+        if ray.is_initialized():  # (a caller's Ray: used, left running)
+            pass
+        elif args.address:
+            ray.init(address=args.address, runtime_env={"env_vars": env_vars},
+                     include_dashboard=False)
+            stack.callback(ray.shutdown)
+        else:
+            stack.enter_context(local_ray(args.num_cpus, env_vars))
+        stack.callback(lambda: algo is not None and algo.stop())
+        t0 = time.perf_counter()
+        hosts = warm_every_node(threads)
+        print(f"numba kernels ready on {len(hosts)} node(s) {sorted(set(hosts))} "
+              f"({time.perf_counter() - t0:.1f} s)", flush=True)
+        env_config = dict(json.loads(args.env_config), threads=threads)
+        algo = build_config(args, env_config).build_algo()
+        out = Path(args.out)
+        out.mkdir(parents=True, exist_ok=True)
+        start = time.perf_counter()
+        with open(out / "progress.csv", "w", newline="") as f:
+            w = None
+            for it in range(1, args.iterations + 1):
+                r = algo.train()
+                er = r.get(ENV_RUNNER_RESULTS, {})
+                row = {
+                    "iteration": it,
+                    "env_steps": int(er.get(NUM_ENV_STEPS_SAMPLED_LIFETIME, 0)),
+                    "episodes": int(er.get(NUM_EPISODES_LIFETIME, 0)),
+                    "episode_return_mean": float(er.get(EPISODE_RETURN_MEAN, float("nan"))),
+                    "wall_s": round(time.perf_counter() - start, 2),
+                }
+                rows.append(row)
+                if w is None:
+                    w = csv.DictWriter(f, fieldnames=list(row))
+                    w.writeheader()
+                w.writerow(row)
+                f.flush()
+                print(f"iter {it:4d}  env steps {row['env_steps']:8d}  episodes "
+                      f"{row['episodes']:5d}  return {row['episode_return_mean']:.3f}  "
+                      f"{row['wall_s']:.0f} s", flush=True)
+        if args.checkpoint:
+            print("checkpoint:", algo.save(str(Path(args.out).resolve() / "checkpoint")))
+    if args.plot:
+        plot(rows, Path(args.out) / "learning_curve.png")
+    return rows
+
+
+def plot(rows: list[dict], path: Path) -> None:
+    """The learning curve: mean episode return (= product yield) of each iteration's finished
+    episodes against environment steps."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(6, 3.5))
+    ax.plot([r["env_steps"] for r in rows], [r["episode_return_mean"] for r in rows])
+    ax.set_xlabel("environment steps")
+    ax.set_ylabel("mean episode return (yield)")
+    ax.set_title("RLlib PPO on DiscReactor-v0")
+    ax.grid(alpha=0.3)
+    fig.tight_layout()
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+
+
+@contextlib.contextmanager
+def local_ray(num_cpus: int | None = None, env_vars: dict | None = None):
+    """A local Ray on this machine, listening on 127.0.0.1 only (no dashboard), shut down
+    on exit.
+
+    Ray replaces a loopback ``_node_ip_address`` by the machine's reachable address unless
+    clusters are off (``RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER=0``, its switch for machines that
+    must not form clusters): set here for Ray's processes (the environment they inherit) and
+    for this one (the constant Ray read at import)."""
+    import ray
+    from ray._private import ray_constants
+
+    var = ray_constants.ENABLE_RAY_CLUSTERS_ENV_VAR
+    old_env, old_flag = os.environ.get(var), ray_constants.ENABLE_RAY_CLUSTER
+    os.environ[var] = "0"
+    ray_constants.ENABLE_RAY_CLUSTER = False
+    try:
+        ray.init(num_cpus=num_cpus, include_dashboard=False, _node_ip_address="127.0.0.1",
+                 runtime_env={"env_vars": env_vars or {}}, configure_logging=False)
+        yield ray
+    finally:
+        ray.shutdown()
+        ray_constants.ENABLE_RAY_CLUSTER = old_flag
+        if old_env is None:
+            os.environ.pop(var, None)
+        else:
+            os.environ[var] = old_env
+
+
+def parse(argv=None):
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    p.add_argument("--iterations", type=int, default=50, help="training iterations")
+    p.add_argument("--env-runners", type=int, default=1,
+                   help="RLlib env runners (processes); 0 samples in the driver")
+    p.add_argument("--envs-per-runner", type=int, default=16,
+                   help="reactors in each env runner's native vector env")
+    p.add_argument("--cpus-per-runner", type=int, default=1,
+                   help="CPUs Ray reserves per env runner = numba threads of its vector env")
+    p.add_argument("--rollout", type=int, default=128,
+                   help="steps per reactor per iteration (rollout_fragment_length)")
+    p.add_argument("--minibatch", type=int, default=64)
+    p.add_argument("--epochs", type=int, default=10)
+    p.add_argument("--env-config", default="{}",
+                   help='JSON keyword arguments of the env, e.g. \'{"n_discs": 120}\'')
+    p.add_argument("--address", default=None,
+                   help="a running Ray cluster ('auto' or HEAD_IP:6379); default: a local Ray "
+                        "on 127.0.0.1")
+    p.add_argument("--num-cpus", type=int, default=None,
+                   help="CPUs of the local Ray (default: all of this machine's)")
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--out", default="runs/rllib")
+    p.add_argument("--checkpoint", action="store_true", help="save the algorithm at the end")
+    p.add_argument("--plot", action="store_true",
+                   help="save <out>/learning_curve.png (needs matplotlib)")
+    return p.parse_args(argv)
+
+
+def main(argv=None) -> list[dict]:
+    return train(parse(argv))
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,79 @@
+"""Training throughput: RLlib PPO with 1 and 2 env runners against SB3 PPO, in env steps per
+second of wall time, on this machine.
+
+    python benchmarks/bench_rllib.py                # the table of docs/ecosystem.md
+    python benchmarks/bench_rllib.py --iterations 3 # shorter
+
+Every path trains PPO with the same batch: 16 reactors of DiscReactor-v0 per sampler
+(the native vector env: RLlib's ``gym_env_vectorize_mode="vector_entry_point"`` in each env
+runner; SB3 through ``discgym.sb3.DiscReactorSB3VecEnv``), 128 steps per reactor per
+iteration, 10 epochs of minibatches of 64, a 64x64 MLP, one numba thread per sampler. The
+clock runs over whole training iterations (sampling + learning) after a first, untimed one
+(compilation, Ray's start-up). RLlib's 2 runners sample twice the steps per iteration. RLlib
+runs in a local Ray on 127.0.0.1 with one logical CPU per env runner and one for the
+driver (which learns).
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import time
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "agents"))
+
+ENVS, ROLLOUT, MINIBATCH, EPOCHS = 16, 128, 64, 10
+
+
+def bench_sb3(iterations: int) -> tuple[float, int]:
+    import torch
+    from stable_baselines3 import PPO
+
+    from discgym.sb3 import DiscReactorSB3VecEnv
+
+    torch.set_num_threads(1)
+    venv = DiscReactorSB3VecEnv(num_envs=ENVS, threads=1)
+    model = PPO("MlpPolicy", venv, n_steps=ROLLOUT, batch_size=MINIBATCH, n_epochs=EPOCHS,
+                learning_rate=3e-4, gamma=0.99, gae_lambda=0.95, seed=0, device="cpu",
+                policy_kwargs={"net_arch": [64, 64]})
+    model.learn(ENVS * ROLLOUT)  # (untimed: compilation)
+    t = time.perf_counter()
+    model.learn(iterations * ENVS * ROLLOUT, reset_num_timesteps=False)
+    dt = time.perf_counter() - t
+    steps = iterations * ENVS * ROLLOUT
+    venv.close()
+    return steps / dt, steps
+
+
+def bench_rllib(runners: int, iterations: int) -> tuple[float, int]:
+    import train_rllib
+
+    args = train_rllib.parse([
+        "--iterations", str(iterations + 1), "--env-runners", str(runners),
+        "--envs-per-runner", str(ENVS), "--rollout", str(ROLLOUT),
+        "--minibatch", str(MINIBATCH), "--epochs", str(EPOCHS),
+        "--num-cpus", str(runners + 1), "--out", "runs/bench_rllib"])
+    rows = train_rllib.train(args)
+    first, last = rows[0], rows[-1]
+    steps = last["env_steps"] - first["env_steps"]
+    return steps / (last["wall_s"] - first["wall_s"]), steps
+
+
+def main(argv=None):
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    p.add_argument("--iterations", type=int, default=6, help="timed iterations per path")
+    args = p.parse_args(argv)
+    os.environ.setdefault("RAY_USAGE_STATS_ENABLED", "0")
+    rows = [("SB3 PPO, DiscReactorSB3VecEnv (16 reactors)", *bench_sb3(args.iterations))]
+    for runners in (1, 2):
+        rows.append((f"RLlib PPO, {runners} env runner(s) x 16 reactors",
+                     *bench_rllib(runners, args.iterations)))
+    print("\n| path | env steps timed | env steps/s |\n|---|---|---|")
+    for name, rate, steps in rows:
+        print(f"| {name} | {steps} | {rate:.0f} |")
+
+
+if __name__ == "__main__":
+    main()
