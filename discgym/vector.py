@@ -195,6 +195,16 @@ class DiscReactorVectorEnv(VectorEnv):
         self._obs = np.zeros((R, len(cfg.obs_names)), dtype=np.float32)
         self._temps = np.zeros(R, dtype=FLOAT)
         self._kin = np.zeros(R, dtype=FLOAT)
+        # each reactor's kinetics, last step's reactions and outflow, inlet temperatures
+        K = len(cfg.compiled.labels)
+        self._sp_form = np.zeros((R, S), dtype=FLOAT)
+        self._ch_rate = np.zeros((R, K), dtype=FLOAT)
+        self._ch_energy = np.zeros((R, K), dtype=FLOAT)
+        self._ch_last = np.zeros((R, K), dtype=np.int64)
+        self._out_last = np.zeros((R, S), dtype=np.int64)
+        self._feed_kT = np.full(R, np.nan, dtype=FLOAT)
+        self._feed_kT_next = np.full(R, np.nan, dtype=FLOAT)
+        self._feed_switch = np.full(R, -1, dtype=np.int64)
         self._started = False
         self._link()
 
@@ -210,15 +220,6 @@ class DiscReactorVectorEnv(VectorEnv):
                             self._ids, self._idctr, self._n, self._ksteps, self._bounds_kind,
                             self._bounds_params, self._icnt, self._fsum, self._ch_count,
                             self._outflow, self._walls)
-        K = len(cfg.compiled.labels)
-        self._sp_form = np.zeros((R, S), dtype=FLOAT)
-        self._ch_rate = np.zeros((R, K), dtype=FLOAT)
-        self._ch_energy = np.zeros((R, K), dtype=FLOAT)
-        self._ch_last = np.zeros((R, K), dtype=np.int64)
-        self._out_last = np.zeros((R, S), dtype=np.int64)
-        self._feed_kT = np.full(R, np.nan, dtype=FLOAT)
-        self._feed_kT_next = np.full(R, np.nan, dtype=FLOAT)
-        self._feed_switch = np.full(R, -1, dtype=np.int64)
         self._ep = Episodes(self._size, self._feed_left, self._steps, self._n_init,
                             self._n_ref, self._temps, self._kin, self._stats, self._obs,
                             self._fout, self._iout, self._sp_form, self._ch_rate,
