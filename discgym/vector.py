@@ -253,7 +253,8 @@ class DiscReactorVectorEnv(VectorEnv):
             sim = Simulation.__new__(Simulation)
             sim.__setstate__(st)
             sim._set_rng(self._gens[r])  # (the same state: pickled together)
-            sim.move_into(*self._views[r], self._icnt[r], self._fsum[r], self._ch_count[r])
+            sim.move_into(*self._views[r], self._icnt[r], self._fsum[r], self._ch_count[r],
+                          self._outflow[r], self._walls[r])
             sims.append(sim)
         self.simulations = sims
 

@@ -50,7 +50,7 @@ def test_a_lone_env_step_is_the_simulation_bit_for_bit():
         for j, f in enumerate(cfg.feed):
             want = int(round(max(x[2 + j], 0.0) * cfg.inject_max))
             if want:
-                assert twin.inject(f, want) == info["injected"][cfg.species_names[f]]
+                assert twin.inject(f, want) == info[f"injected_{cfg.species_names[f]}"]
         twin.step(cfg.steps_per_action)
         _same(sim, twin)
     assert sum(sim.outflow().values()) > 0 and sim.wall_heat != 0.0
@@ -62,7 +62,7 @@ def test_a_batch_reactor_keeps_its_walls_and_outflow_in_the_batch_rows():
     """set_wall_temperature on ``env.simulations[r]`` writes the batch's row (the Simulation
     uses it as its own array after ``move_into``); the batch's reactors follow the lone
     env's trajectory bit for bit, outflow counts and wall heat included."""
-    venv = DiscReactorVectorEnv(2, scene=scene(), episode_steps=20)
+    venv = DiscReactorVectorEnv(num_envs=2, scene=scene(), episode_steps=20)
     venv.reset(seed=7)
     lone = DiscReactorEnv(scene=scene(), episode_steps=20)
     lone.reset(seed=8)  # reactor 1 of the batch was seeded with seed + 1

@@ -265,8 +265,7 @@ def test_flow_reward_is_the_product_leaving_and_the_inlet_temperature_switches()
         sim = u.simulation
         out1 = sim.outflow()
         left = {s: out1[s] - out0.get(s, 0) for s in out1}
-        injected = sum(info["injected"].values()) if isinstance(info.get("injected"), dict) \
-            else sum(v for key, v in info.items() if key.startswith("injected_"))
+        injected = sum(v for key, v in info.items() if key.startswith("injected_"))
         want = left["C"] / n_ref - cfg.heat_cost * abs(info["heat_energy"]) / n_ref - \
             cfg.feed_cost * injected / n_ref
         assert r == pytest.approx(want, rel=1e-12, abs=1e-15)
