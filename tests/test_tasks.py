@@ -67,9 +67,12 @@ def test_a_task_reactor_in_the_vector_env_is_the_single_env_bit_for_bit(env_id):
                 assert np.array_equal(o, vobs[i]) and vrew[i] == 0.0
                 done = False
                 continue
-            o, r, term, trunc, _ = env.step(acts[k, i])
+            o, r, term, trunc, info = env.step(acts[k, i])
             assert np.array_equal(o, vobs[i]), (i, k)
             assert r == vrew[i] and trunc == vtrunc[i]
+            vinfo = traj[k][4]
+            for key, value in info.items():  # flat infos: the same values, reactor by reactor
+                assert vinfo[f"_{key}"][i] and value == vinfo[key][i], (key, i, k)
             done = term or trunc
         sim, vsim = env.simulation, venv.simulations[i]
         assert np.array_equal(sim.positions, vsim.positions)
