@@ -10,8 +10,10 @@ Wraps :class:`discgym.vector.DiscReactorVectorEnv` (all reactors in one compiled
 ``(obs, rewards float32, dones, infos)`` with one ``info`` dict per reactor; a finished
 reactor's info carries ``terminal_observation`` (its last observation; the returned
 observation is already the first of its next episode) and ``TimeLimit.truncated``.
-``seed(s)`` seeds reactor i with ``s + i`` at the next ``reset()``, like SB3's own VecEnvs.
-Wrap it in ``VecMonitor`` for episode statistics.
+``seed(s)`` seeds reactor i with ``s + i`` at the next ``reset()``, like SB3's own VecEnvs;
+``reset_infos`` holds each reactor's last reset info (autoresets too). ``get_attr``,
+``set_attr`` and ``env_method`` work per reactor, on a :class:`Reactor` view of each, as
+``DummyVecEnv`` does per env. Wrap it in ``VecMonitor`` for episode statistics.
 
 stable-baselines3 (and torch) are needed only by this module, which the rest of discgym never
 imports: ``pip install torch==2.13.0 'discgym[agents]'``.
@@ -88,6 +90,8 @@ class DiscReactorSB3VecEnv(VecEnv):
             d["TimeLimit.truncated"] = bool(truncated[i] and not terminated[i])
             if dones[i]:
                 d["terminal_observation"] = info["final_obs"][i]
+                # (the top level of a finished reactor's info is its reset's, SameStep)
+                self.reset_infos[i] = _row(info, i)
             infos.append(d)
         return obs, rew.astype(np.float32), dones, infos
 

@@ -417,7 +417,8 @@ class DiscReactorVectorEnv(VectorEnv):
             list(counts.T), product, product / self._n_ref, gain, cost_heat, cost_feed, heat,
             self._temps.copy(), self._size.copy(), list(injected.T), list(refused.T),
             blocked, invalid.astype(np.int64),
-            np.array([s.time for s in self.simulations], dtype=FLOAT), self._n_ref.copy())
+            np.array([s.time for s in self.simulations], dtype=FLOAT), self._n_ref.copy(),
+            batch=True)
         return _masked(infos, active)
 
     def _advance(self, active: np.ndarray, act: np.ndarray) -> None:
@@ -519,10 +520,9 @@ def _autoreset_mode(mode) -> AutoresetMode:
 
 
 def _masked(infos: dict, mask: np.ndarray) -> dict:
-    """Add Gymnasium's ``_key`` masks (``mask``) to every entry, and make every entry a
-    fresh contiguous array (a column of a 2-d array is a strided view)."""
+    """Add Gymnasium's ``_key`` masks (``mask``) to every entry (fresh arrays)."""
     out = {}
     for k, v in infos.items():
-        out[k] = np.array(v)
+        out[k] = v.copy()
         out[f"_{k}"] = mask.copy()
     return out

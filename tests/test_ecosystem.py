@@ -18,7 +18,6 @@ from discgym.env import DiscReactorEnv, ReactorConfig
 from discgym.vector import DiscReactorVectorEnv
 
 KW = dict(n_discs=60, episode_steps=5)
-SCALARS = (int, float, bool)
 
 
 # ------------------------------------------------------------------ constructors
@@ -69,7 +68,11 @@ def test_an_unknown_keyword_gets_pythons_own_wording(make):
 def _check_flat(info: dict, cfg: ReactorConfig):
     assert list(info) == list(cfg.info_keys)
     for k, v in info.items():
-        assert type(v) is cfg.info_types[k], (k, v)
+        t = cfg.info_types[k]
+        if t is np.bool_:  # (a 0-d array: see ReactorConfig.info_types)
+            assert type(v) is np.ndarray and v.shape == () and v.dtype == np.bool_, (k, v)
+        else:
+            assert type(v) is t, (k, v)
 
 
 @pytest.mark.parametrize("kw", [dict(KW), dict(scene="exchange", episode_steps=3),
@@ -238,3 +241,17 @@ def test_sb3_adapter_attributes_and_methods_per_reactor_like_dummy_vec_env():
     assert ours.env_method("double", 4, indices=[0]) == [8]
     # the metadata stays the batch's (VecVideoRecorder reads render_fps)
     assert ours.metadata["render_fps"] == 10
+    # an episode end: the same steps, terminal observations and autoreset infos
+    a = np.tile(np.array([0.3, -0.2, 1.0, 0.5], np.float32), (3, 1))
+    for _ in range(KW["episode_steps"]):
+        o1, r1, d1, i1 = ours.step(a)
+        o2, r2, d2, i2 = ref.step(a)
+        assert np.array_equal(o1, o2) and np.allclose(r1, r2) and np.array_equal(d1, d2)
+    assert d1.all()
+    for x, y in zip(i1, i2):
+        assert np.array_equal(x["terminal_observation"], y["terminal_observation"])
+        assert x["TimeLimit.truncated"] == y["TimeLimit.truncated"]
+        assert all(x[k] == y[k] for k in y if k not in ("terminal_observation",
+                                                        "TimeLimit.truncated"))
+    assert ours.reset_infos == ref.reset_infos
+    assert ours.reset_infos[0]["time"] == 0.0
