@@ -70,9 +70,7 @@ def test_the_draw_on_a_circle_points_inward():
     tangential one along the wall: at the contact point (0, 5) of the circle of radius 5 about
     the origin the inward normal is -y; the same moments as on a box wall."""
     kT, m, n = 1.0, 1.0, 100_000
-    out = np.empty((n, 2))
-    rng = np.random.default_rng(7)
-    out = _draws_circle(n, kT, m, rng)
+    out = _draws_circle(n, kT, m, np.random.default_rng(7))
     vn = -out[:, 1]
     assert (vn > 0).all()
     assert abs(vn.mean() - math.sqrt(math.pi / 2)) < 5 * math.sqrt(2 - math.pi / 2) / \
