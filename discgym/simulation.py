@@ -1034,6 +1034,11 @@ class Simulation:
             k = out[0]
             raise _state_error("positions", f"has disc {k} (radius {r[k]}) at {pos[k]}, not "
                                f"inside state['bounds'] = {bounds}")
+        if integrator == "event" and (self.scene.thermal_walls or self.scene.outlets):
+            try:
+                _event_fit(integrator, self.scene, bounds)
+            except ValueError as exc:
+                raise _state_error("integrator", f"is 'event': {exc}") from None
         try:
             _event_fit(integrator, self.scene, bounds)
         except ValueError as exc:
