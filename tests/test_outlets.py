@@ -156,10 +156,18 @@ def test_outflow_of_reaction_products_is_counted_per_species():
 
 
 def test_the_event_integrator_refuses_outlets():
+    """Clearly, wherever an event integrator could meet them: the constructor,
+    from_arrays, and set_state of an event state (naming state['integrator'])."""
     sc = dg.Scene(bounds=dg.Box(5.0, 5.0), species=[A], counts={"A": 5},
                   outlets=[dg.Outlet("left", 0.0, 1.0)])
-    with pytest.raises(ValueError, match="outlets"):
+    with pytest.raises(ValueError, match="integrator='event': the scene has outlets"):
         dg.Simulation(sc, integrator="event")
+    sim = dg.Simulation(sc, seed=0)
+    with pytest.raises(ValueError, match="outlets"):
+        dg.Simulation.from_arrays(sc, sim.positions, sim.velocities, sim.species,
+                                  integrator="event")
+    with pytest.raises(ValueError, match=r"state\['integrator'\].*outlets"):
+        sim.set_state(dict(sim.get_state(), integrator="event"))
 
 
 def test_outflow_state_round_trip_and_refusals():

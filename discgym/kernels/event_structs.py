@@ -123,3 +123,5 @@ class Run(NamedTuple):
     b1: float
     b2: float
     b3: float
+    thermal: bool  #: the scene has thermal walls (their kT per side: walls, NaN: specular)
+    walls: np.ndarray
