@@ -1034,11 +1034,6 @@ class Simulation:
             k = out[0]
             raise _state_error("positions", f"has disc {k} (radius {r[k]}) at {pos[k]}, not "
                                f"inside state['bounds'] = {bounds}")
-        if integrator == "event" and self.scene.outlets:
-            try:
-                _event_fit(integrator, self.scene, bounds)
-            except ValueError as exc:
-                raise _state_error("integrator", f"is 'event': {exc}") from None
         try:
             _event_fit(integrator, self.scene, bounds)
         except ValueError as exc:
@@ -1362,11 +1357,6 @@ def _event_fit(integrator: str, scene: Scene, bounds) -> str:
     them every g / |v| (5e7 wall hits per unit time at g = 1e-8 radii), work without a
     practical bound. (The time-stepped integrator holds an exactly fitting disc in place.)"""
     if integrator == "event":
-        if scene.outlets:
-            raise ValueError(
-                "integrator='event': the scene has outlets, which the event-driven "
-                "integrator does not do (thermal walls it does); use the time-stepped "
-                "integrator (the default)")
         for s in scene.species:
             if isinstance(bounds, Circle):
                 gaps = [bounds.radius - s.radius]

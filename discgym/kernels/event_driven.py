@@ -131,6 +131,7 @@ from .reactions import (
 from .step import (
     EVENTS_PER_DISC,
     FS_DISSIPATED,
+    FS_OUTFLOW,
     FS_WALL_HEAT,
     FS_WALL_MOMENTUM,
     IC_COLLISIONS,
@@ -148,6 +149,7 @@ from .structs import (
     COUNT,
     F_BI,
     F_COLLISIONS,
+    F_OUTLETS,
     F_THERMAL,
     F_UNI,
     FLOAT,
@@ -168,6 +170,7 @@ from .walls import (
     circle_next,
     graze_floor,
     inside,
+    on_outlet,
     reflected,
     side_of,
     thermal_velocity,
@@ -615,6 +618,26 @@ def _crossing(d, cells, queue, stats):
 
 
 @njit(cache=True, inline="always")
+def _leaves(d, fl, queue, run, tables, counters):
+    """Does disc d, at the wall contact of its event, meet an outlet? If so it leaves: its
+    energy (kinetic + internal + formation) booked in FS_OUTFLOW, counted in
+    ``counters.outflow``, species -1 (the caller removes it from the cells and the queue;
+    the run's end compacts it away, as a disc consumed by a combination)."""
+    W = fl.path
+    side, frac = side_of(W[d, PX], W[d, PY], int(queue.event[d, NEXT_AUX]), W[d, PVX],
+                         W[d, PVY], run.bounds_kind, run.bounds_params)
+    if not on_outlet(side, frac, tables.outlets):
+        return False
+    s = fl.species[d]
+    counters.fsum[FS_OUTFLOW] += 0.5 * W[d, PM] * (W[d, PVX] * W[d, PVX] +
+                                                   W[d, PVY] * W[d, PVY]) + \
+        fl.internal_energy[d] + tables.sp_form[s]
+    counters.outflow[s] += 1
+    fl.species[d] = -1
+    return True
+
+
+@njit(cache=True, inline="always")
 def _wall_hit(d, fl, queue, run, counters, rng):
     """Disc d reflects off the wall of its event; off a thermal side (``run.thermal``,
     ``run.walls``) it leaves with a velocity drawn from the wall
@@ -832,7 +855,7 @@ def _run_constants(n, n_steps, step_dt, vel, species, tables, params, flags, bou
                step_dt / ksub, n_steps * FO_EXACT, tc, e_rest, params[P_RELAX], params[P_RMAX],
                flags[F_COLLISIONS] != 0, flags[F_UNI] != 0, flags[F_BI] != 0, bounds.kind,
                bounds.params, bounds_params[0], bounds_params[1], bounds_params[2],
-               bounds_params[3], flags[F_THERMAL] != 0, bounds.walls)
+               bounds_params[3], flags[F_THERMAL] != 0, bounds.walls, flags[F_OUTLETS] != 0)
 
 
 @njit(cache=True)
@@ -949,7 +972,12 @@ def _events(n, state, fl, cells, queue, run, tables, rng, counters):
         elif code == EV_CELL:
             entered = _crossing(d, cells, queue, stats)
         elif code == EV_WALL:
-            _wall_hit(d, fl, queue, run, counters, rng)
+            if run.outlets and _leaves(d, fl, queue, run, tables, counters):
+                _remove(d, fl, cells, queue)
+                fl.stamp[d] += 1
+                p0 = -1
+            else:
+                _wall_hit(d, fl, queue, run, counters, rng)
         elif code == EV_REACT:
             # a fission needs a free slot: make one before drawing anything
             if n >= cap and _may_split(fl.species[d], tables):

@@ -125,3 +125,4 @@ class Run(NamedTuple):
     b3: float
     thermal: bool  #: the scene has thermal walls (their kT per side: walls, NaN: specular)
     walls: np.ndarray
+    outlets: bool  #: the scene has outlets (tables.outlets)
