@@ -44,7 +44,7 @@ from dataclasses import asdict, dataclass, field
 import numba
 import numpy as np
 
-from .scene import Box, Circle, Exchange, Scene, Species, Transformation
+from .scene import Box, Circle, Exchange, Outlet, Scene, Species, ThermalWall, Transformation
 from .simulation import Simulation
 
 __all__ = [
@@ -381,6 +381,12 @@ def effect_scenes(n: int) -> list[tuple[str, Scene, bool]]:
         ("+ absent bimolecular Z + Z -> Y + Y (no Z)",
          bench_scene(n, extra_species=[Z, Y], reactions=[Exchange("Z", "Z", "Y", "Y")]),
          False),
+        ("+ thermal walls (all four sides at kT = 1)",
+         bench_scene(n).replace(thermal_walls=tuple(ThermalWall(sd, KT) for sd in
+                                                    ("left", "right", "bottom", "top"))),
+         False),
+        ("+ outlet (0.1 % of one side: ~1 disc leaves per 800 steps)",
+         bench_scene(n).replace(outlets=(Outlet("right", 0.4995, 0.5005),)), False),
         ("elastic discs (reference, again)", bench_scene(n), False),
     ]
 

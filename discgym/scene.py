@@ -477,7 +477,8 @@ class Scene:
         reactions: any of :class:`Transformation`, :class:`Decomposition`,
             :class:`Combination`, :class:`Exchange`.
         restitution: coefficient of restitution e in [0, 1] of disc-disc collisions (walls are
-            always elastic). The kinetic energy lost is counted (``Simulation.dissipated_energy``).
+            elastic, except thermal walls). The kinetic energy lost is counted
+            (``Simulation.dissipated_energy``).
         dt: time step of the time-stepped integrator.
         internal_relaxation: fraction kappa in [0, 1] of the colliding discs' internal energy
             released into their relative motion at each non-reactive collision.

@@ -1357,12 +1357,6 @@ def _event_fit(integrator: str, scene: Scene, bounds) -> str:
     them every g / |v| (5e7 wall hits per unit time at g = 1e-8 radii), work without a
     practical bound. (The time-stepped integrator holds an exactly fitting disc in place.)"""
     if integrator == "event":
-        for key in ("thermal_walls", "outlets"):
-            if getattr(scene, key):
-                raise ValueError(
-                    f"integrator='event': the scene has {key}, which the event-driven "
-                    "integrator does not do (thermal walls draw velocities, outlets remove "
-                    "discs); use the time-stepped integrator (the default)")
         for s in scene.species:
             if isinstance(bounds, Circle):
                 gaps = [bounds.radius - s.radius]

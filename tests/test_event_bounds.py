@@ -255,8 +255,8 @@ def test_a_step_past_the_event_bound_is_finished_by_the_time_stepped_integrator(
     pos, vel, spc = sim.positions, sim.velocities, sim.species
     icnt = np.zeros_like(sim._icnt)
     discs = Discs(pos, vel, spc, np.zeros(2), np.arange(2), np.array([2]))
-    _, n = ev.run_steps(discs, 2, 1, sc.dt, Bounds(*kernel_bounds(sim.bounds), sim._walls), cs.tables,
-                        cs.params, cs.flags, np.random.default_rng(0),
+    _, n = ev.run_steps(discs, 2, 1, sc.dt, Bounds(*kernel_bounds(sim.bounds), sim._walls),
+                        cs.tables, cs.params, cs.flags, np.random.default_rng(0),
                         ev.Counters(icnt, np.zeros_like(sim._fsum),
                                     np.zeros_like(sim._ch_count), stats,
                                     np.zeros_like(sim._outflow)), ev.CELLS_PER_DISC)

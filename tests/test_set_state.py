@@ -77,8 +77,8 @@ def buffers(sim) -> tuple:
     """The simulation's whole storage (capacity included) and its generator object."""
     return tuple(getattr(sim, nm).tobytes() for nm in
                  ("_pos", "_vel", "_species", "_internal_energy", "_ids", "_idctr", "_icnt",
-                  "_fsum", "_ch_count", "_outflow", "_walls")) + (id(sim._rng), sim._n, sim._bounds_kind,
-                                            sim._bounds_params.tobytes())
+                  "_fsum", "_ch_count", "_outflow", "_walls")) + \
+        (id(sim._rng), sim._n, sim._bounds_kind, sim._bounds_params.tobytes())
 
 
 def assert_refused(sim, bad, key) -> str:

@@ -70,9 +70,7 @@ def test_the_draw_on_a_circle_points_inward():
     tangential one along the wall: at the contact point (0, 5) of the circle of radius 5 about
     the origin the inward normal is -y; the same moments as on a box wall."""
     kT, m, n = 1.0, 1.0, 100_000
-    out = np.empty((n, 2))
-    rng = np.random.default_rng(7)
-    out = _draws_circle(n, kT, m, rng)
+    out = _draws_circle(n, kT, m, np.random.default_rng(7))
     vn = -out[:, 1]
     assert (vn > 0).all()
     assert abs(vn.mean() - math.sqrt(math.pi / 2)) < 5 * math.sqrt(2 - math.pi / 2) / \
@@ -91,7 +89,8 @@ def _draws_circle(n, kT, m, rng):
     return out
 
 
-def test_a_gas_relaxes_to_the_wall_temperature():
+@pytest.mark.parametrize("integrator", ["step", "event"])
+def test_a_gas_relaxes_to_the_wall_temperature(integrator):
     """100 colliding discs (packing 0.03) started at kT = 0.5 between four walls at kT_w = 2
     relax to kT_w: after t = 100 (the energy relaxation time is ~ the time between a disc's
     wall hits, L / <|v_x|> ~ 10), the temperature sampled every 2 for t = 400 averages kT_w
@@ -100,7 +99,7 @@ def test_a_gas_relaxes_to_the_wall_temperature():
     batch means of 20 time units (longer than the correlation time), and must itself be
     small (< 3 % of kT_w) so that the test could fail. The energy ledger stays exact."""
     sc = box({s: 2.0 for s in SIDES}, counts={"A": 100}, temperature=0.5)
-    sim = dg.Simulation(sc, seed=3)
+    sim = dg.Simulation(sc, seed=3, integrator=integrator)
     sim.advance(100.0)
     temps = []
     for _ in range(200):
@@ -116,7 +115,8 @@ def test_a_gas_relaxes_to_the_wall_temperature():
     assert sim.overlaps() == 0 and sim.outside() == 0
 
 
-def test_heat_flows_from_the_hot_wall_to_the_cold_one_at_the_knudsen_rate():
+@pytest.mark.parametrize("integrator", ["step", "event"])
+def test_heat_flows_from_the_hot_wall_to_the_cold_one_at_the_knudsen_rate(integrator):
     """A collisionless gas (N = 400, Knudsen limit) between a hot left wall (kT_h = 2) and a
     cold right wall (kT_c = 0.5), specular top and bottom: each disc shuttles between them,
     its normal speed Rayleigh with s_h = sqrt(kT_h / m) after a hot hit and s_c after a cold
@@ -130,7 +130,7 @@ def test_heat_flows_from_the_hot_wall_to_the_cold_one_at_the_knudsen_rate():
     ``wall_heat_by_side``."""
     kh, kc, N = 2.0, 0.5, 400
     sc = box({"left": kh, "right": kc}, counts={"A": N}, temperature=1.0, collisions=False)
-    sim = dg.Simulation(sc, seed=11)
+    sim = dg.Simulation(sc, seed=11, integrator=integrator)
     sim.advance(60.0)
     d = 10.0 - 2 * A.radius
     cycle = d * math.sqrt(math.pi / 2) * (1 / math.sqrt(kh) + 1 / math.sqrt(kc))
@@ -228,10 +228,11 @@ def test_inelastic_gas_between_thermal_walls_reaches_a_steady_state(e):
     assert sim.outside(1e-9) == 0 and sim.overlaps(1e-6) == 0
 
 
-def test_a_circle_with_a_thermal_wall_relaxes_and_keeps_its_discs():
+@pytest.mark.parametrize("integrator", ["step", "event"])
+def test_a_circle_with_a_thermal_wall_relaxes_and_keeps_its_discs(integrator):
     sc = dg.Scene(bounds=dg.Circle(5.0), species=[A], dt=0.02, counts={"A": 200},
                   temperature=0.3, thermal_walls=[dg.ThermalWall("wall", 1.5)])
-    sim = dg.Simulation(sc, seed=8)
+    sim = dg.Simulation(sc, seed=8, integrator=integrator)
     sim.advance(80.0)
     temps = []
     for _ in range(40):
@@ -243,18 +244,24 @@ def test_a_circle_with_a_thermal_wall_relaxes_and_keeps_its_discs():
     assert abs(sim.energy_balance()) < 1e-11 * sim.total_energy()
 
 
-def test_the_event_integrator_refuses_thermal_walls():
-    sc = box({"left": 1.0}, counts={"A": 10})
-    with pytest.raises(ValueError, match="thermal_walls"):
-        dg.Simulation(sc, integrator="event")
-    plain = dg.Simulation(sc.replace(thermal_walls=()), seed=0, integrator="event")
-    with pytest.raises(ValueError, match="thermal_walls"):
-        dg.Simulation.from_arrays(sc, plain.positions, plain.velocities, plain.species,
-                                  integrator="event")
-    sim = dg.Simulation(sc, seed=0)
-    st = dict(sim.get_state(), integrator="event")
-    with pytest.raises(ValueError, match="thermal_walls"):
-        sim.set_state(st)
+def test_the_event_integrator_does_thermal_walls_and_continues_bit_for_bit():
+    """The event-driven integrator draws at the exact wall contact (a thermal hit on a circle
+    keeps the integrator's grazing floor, walls.graze_floor); the ledger stays exact, the
+    state and a pickle continue bit for bit, and a state moves between the integrators."""
+    sc = box({"left": 3.0, "bottom": 0.5}, counts={"A": 120})
+    sim = dg.Simulation(sc, seed=0, integrator="event")
+    sim.advance(5.0)
+    assert sim.wall_heat_by_side()["left"] > 0 > sim.wall_heat_by_side()["bottom"]
+    assert abs(sim.energy_balance()) < 1e-11 * sim.total_energy()
+    twin = pickle.loads(pickle.dumps(sim))
+    sim.advance(3.0)
+    twin.advance(3.0)
+    assert np.array_equal(sim.positions, twin.positions) and sim.wall_heat == twin.wall_heat
+    stepped = dg.Simulation(sc, seed=1)
+    stepped.set_state(dict(sim.get_state(), integrator="step"))
+    stepped.advance(2.0)
+    assert abs(stepped.energy_balance()) < 1e-11 * stepped.total_energy()
+    assert sim.overlaps() == 0 and sim.outside() == 0
 
 
 def test_state_pickle_and_copy_continue_bit_for_bit():

@@ -131,6 +131,8 @@ from .reactions import (
 from .step import (
     EVENTS_PER_DISC,
     FS_DISSIPATED,
+    FS_OUTFLOW,
+    FS_WALL_HEAT,
     FS_WALL_MOMENTUM,
     IC_COLLISIONS,
     IC_EVENTS_CAPPED,
@@ -147,6 +149,8 @@ from .structs import (
     COUNT,
     F_BI,
     F_COLLISIONS,
+    F_OUTLETS,
+    F_THERMAL,
     F_UNI,
     FLOAT,
     INDEX,
@@ -161,7 +165,16 @@ from .structs import (
     fields,
 )
 from .structs import Counters as StepCounters
-from .walls import box_next, circle_next, graze_floor, inside, reflected
+from .walls import (
+    box_next,
+    circle_next,
+    graze_floor,
+    inside,
+    on_outlet,
+    reflected,
+    side_of,
+    thermal_velocity,
+)
 
 INF = math.inf
 
@@ -605,14 +618,61 @@ def _crossing(d, cells, queue, stats):
 
 
 @njit(cache=True, inline="always")
-def _wall_hit(d, fl, queue, run, counters):
-    """Disc d reflects off the wall of its event."""
+def _leaves(d, fl, queue, run, tables, counters):
+    """Does disc d, at the wall contact of its event, meet an outlet? If so it leaves: its
+    energy (kinetic + internal + formation) booked in FS_OUTFLOW, counted in
+    ``counters.outflow``, species -1 (the caller removes it from the cells and the queue;
+    the run's end compacts it away, as a disc consumed by a combination)."""
+    W = fl.path
+    side, frac = side_of(W[d, PX], W[d, PY], int(queue.event[d, NEXT_AUX]), W[d, PVX],
+                         W[d, PVY], run.bounds_kind, run.bounds_params)
+    if not on_outlet(side, frac, tables.outlets):
+        return False
+    s = fl.species[d]
+    counters.fsum[FS_OUTFLOW] += 0.5 * W[d, PM] * (W[d, PVX] * W[d, PVX] +
+                                                   W[d, PVY] * W[d, PVY]) + \
+        fl.internal_energy[d] + tables.sp_form[s]
+    counters.outflow[s] += 1
+    fl.species[d] = -1
+    return True
+
+
+@njit(cache=True, inline="always")
+def _wall_hit(d, fl, queue, run, counters, rng):
+    """Disc d reflects off the wall of its event; off a thermal side (``run.thermal``,
+    ``run.walls``) it leaves with a velocity drawn from the wall
+    (:func:`~discgym.kernels.walls.thermal_velocity`, the energy exchanged booked in
+    FS_WALL_HEAT + side)."""
     W = fl.path
     b0, b1 = run.b0, run.b1
     vx0 = W[d, PVX]
     vy0 = W[d, PVY]
-    vx, vy, vn = reflected(W[d, PX], W[d, PY], vx0, vy0, int(queue.event[d, NEXT_AUX]),
-                           run.bounds_kind, b0, b1)
+    axis = int(queue.event[d, NEXT_AUX])
+    if run.thermal:
+        side, _f = side_of(W[d, PX], W[d, PY], axis, vx0, vy0, run.bounds_kind,
+                           run.bounds_params)
+        kT = run.walls[side]
+        if kT == kT:  # (NaN: a specular side)
+            m = W[d, PM]
+            vx, vy, vn_in, vn_out = thermal_velocity(W[d, PX], W[d, PY], vx0, vy0, side, kT,
+                                                     m, run.bounds_kind, run.bounds_params,
+                                                     rng)
+            if run.bounds_kind == 1:  # (as after a reflection: see walls.graze_floor)
+                vx, vy = graze_floor(W[d, PX], W[d, PY], vx, vy, b0, b1)
+                nx = b0 - W[d, PX]
+                ny = b1 - W[d, PY]
+                nr = math.sqrt(nx * nx + ny * ny)
+                if nr > 0.0:
+                    vn_out = (vx * nx + vy * ny) / nr
+            W[d, PVX] = vx
+            W[d, PVY] = vy
+            counters.fsum[FS_WALL_MOMENTUM] += m * (vn_in + vn_out)
+            counters.fsum[FS_WALL_HEAT + side] += 0.5 * m * ((vx * vx + vy * vy)
+                                                             - (vx0 * vx0 + vy0 * vy0))
+            counters.icnt[IC_WALL_HITS] += 1
+            fl.stamp[d] += 1
+            return
+    vx, vy, vn = reflected(W[d, PX], W[d, PY], vx0, vy0, axis, run.bounds_kind, b0, b1)
     if run.bounds_kind == 1:  # never tangent to the curved wall (see walls.graze_floor)
         vx, vy = graze_floor(W[d, PX], W[d, PY], vx, vy, b0, b1)
         nx = W[d, PX] - b0
@@ -795,7 +855,7 @@ def _run_constants(n, n_steps, step_dt, vel, species, tables, params, flags, bou
                step_dt / ksub, n_steps * FO_EXACT, tc, e_rest, params[P_RELAX], params[P_RMAX],
                flags[F_COLLISIONS] != 0, flags[F_UNI] != 0, flags[F_BI] != 0, bounds.kind,
                bounds.params, bounds_params[0], bounds_params[1], bounds_params[2],
-               bounds_params[3])
+               bounds_params[3], flags[F_THERMAL] != 0, bounds.walls, flags[F_OUTLETS] != 0)
 
 
 @njit(cache=True)
@@ -912,7 +972,12 @@ def _events(n, state, fl, cells, queue, run, tables, rng, counters):
         elif code == EV_CELL:
             entered = _crossing(d, cells, queue, stats)
         elif code == EV_WALL:
-            _wall_hit(d, fl, queue, run, counters)
+            if run.outlets and _leaves(d, fl, queue, run, tables, counters):
+                _remove(d, fl, cells, queue)
+                fl.stamp[d] += 1
+                p0 = -1
+            else:
+                _wall_hit(d, fl, queue, run, counters, rng)
         elif code == EV_REACT:
             # a fission needs a free slot: make one before drawing anything
             if n >= cap and _may_split(fl.species[d], tables):

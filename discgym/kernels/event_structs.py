@@ -123,3 +123,6 @@ class Run(NamedTuple):
     b1: float
     b2: float
     b3: float
+    thermal: bool  #: the scene has thermal walls (their kT per side: walls, NaN: specular)
+    walls: np.ndarray
+    outlets: bool  #: the scene has outlets (tables.outlets)

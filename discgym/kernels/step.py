@@ -75,17 +75,17 @@ from .structs import (
 )
 from .walls import (
     GLIDE_CHORDS,
-    on_outlet,
-    side_of,
-    thermal_velocity,
     box_contact,
     circle_chord,
     circle_contact,
     circle_glide,
     contact,
+    on_outlet,
     push_inside,
     reflect,
     settle_after_reflection,
+    side_of,
+    thermal_velocity,
 )
 
 # Integer counters (icnt)
@@ -490,10 +490,11 @@ def _wall_event(i, discs, tables, bounds, sc, cnt, rc, grid, H, size, nbin, n, r
     (``reach``: the search radius for them; ``vfast``: the fastest speed in the substep).
     Where the scene has them (``rc.outlets``, ``rc.thermal``): a contact point on an outlet
     removes the disc (species -1, its energy booked in FS_OUTFLOW, counted in
-    ``cnt.outflow``); a thermal side draws its velocity from ``rng`` (walls.thermal_velocity,
-    the energy exchanged booked in FS_WALL_HEAT + side); neither glides (a glide is a sequence of
-    specular reflections). Returns ``(what, t_glide)``: W_NONE (it does not meet the wall),
-    W_REFLECTED, W_THERMAL or W_LEFT, and the latest time a glide took a disc to."""
+    ``cnt.outflow``); a thermal side draws its velocity from ``rng``
+    (walls.thermal_velocity, the energy exchanged booked in FS_WALL_HEAT + side); neither
+    glides (a glide is a sequence of specular reflections). Returns ``(what, t_glide)``:
+    W_NONE (it does not meet the wall), W_REFLECTED, W_THERMAL or W_LEFT, and the latest
+    time a glide took a disc to."""
     pos, vel, species = discs.pos, discs.vel, discs.species
     sp_radius, sp_mass = tables.sp_radius, tables.sp_mass
     bounds_kind, bounds_params = bounds.kind, bounds.params
@@ -579,13 +580,13 @@ def _events(n, H, size, tables, discs, sc, bounds, grid, cnt, rc, sub_id, h, vfa
 
     Energy released inside the substep: ``vrel`` is the largest speed a reactive collision,
     a collision releasing internal energy (``kappa``) or a thermal wall (its draws from
-    ``rng``) left a disc with (0 if none). When such
-    a disc would move more than ``maxdisp`` in what is left of the substep (-t), and -t >
-    ``cut_after`` (inf: no cut), processing stops at that contact: ``t_cut`` = t (else 0),
-    every disc has its latest event at or before t and the caller ends the substep there
-    (:func:`_rewind`). Queued later events are dropped; they lie after the new end and are
-    found again by the next substep. A disc glided past t (``_glide`` jumps ahead in time)
-    could not be rewound: no cut is made while one has (``t_glide``).
+    ``rng``) left a disc with (0 if none). When such a disc would move more than
+    ``maxdisp`` in what is left of the substep (-t), and -t > ``cut_after`` (inf: no cut),
+    processing stops at that contact: ``t_cut`` = t (else 0), every disc has its latest
+    event at or before t and the caller ends the substep there (:func:`_rewind`). Queued
+    later events are dropped; they lie after the new end and are found again by the next
+    substep. A disc glided past t (``_glide`` jumps ahead in time) could not be rewound: no
+    cut is made while one has (``t_glide``).
 
     ``h`` is the substep and ``vfast`` the largest speed at its start: a disc is within
     ``delta + h * vfast`` of where it was binned at any time of the substep (``vfast`` is
