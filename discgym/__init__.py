@@ -5,7 +5,10 @@ gymnasium nor any renderer; the environment lives in ``discgym.env``, its batche
 ``discgym.vector`` and the baseline policies in ``discgym.baselines`` (imported on demand).
 """
 
-from . import scenes
+from . import (
+    scenes,
+    tasks,  # noqa: E402  (the task suite: env classes and their registrations)
+)
 from .env import register_envs
 from .scene import (
     Box,
@@ -21,8 +24,6 @@ from .scene import (
     Transformation,
 )
 from .simulation import PlacementError, Simulation
-
-from . import tasks  # noqa: E402  (the task suite: env classes and their registrations)
 
 register_envs()  # DiscReactor-v0 (discgym.env imports gymnasium, never torch or SB3)
 tasks.register_tasks()  # the rest of the suite (discgym/tasks.py)

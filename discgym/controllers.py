@@ -216,7 +216,7 @@ def flow_thermostat(env, **kwargs) -> Thermostat:
 def controller_for(env, **kwargs):
     """The hand-written controller of the task ``env`` is (by its registered id)."""
     env_id = env.spec.id if getattr(env, "spec", None) is not None else "DiscReactor-v0"
-    cls = {"DiscFlow-v0": flow_thermostat, "DiscReactor-v0": Thermostat, "DiscKinetics-v0": AdaptiveThermostat,
-           "DiscEconomic-v0": BandThermostat,
-           "DiscJacket-v0": JacketThermostat}[env_id]
+    cls = {"DiscReactor-v0": Thermostat, "DiscKinetics-v0": AdaptiveThermostat,
+           "DiscEconomic-v0": BandThermostat, "DiscJacket-v0": JacketThermostat,
+           "DiscFlow-v0": flow_thermostat}[env_id]
     return cls(env, **kwargs)

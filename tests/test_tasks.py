@@ -272,7 +272,7 @@ def test_flow_reward_is_the_product_leaving_and_the_inlet_temperature_switches()
         want = left["C"] / n_ref - cfg.heat_cost * abs(info["heat_energy"]) / n_ref - \
             cfg.feed_cost * injected / n_ref
         assert r == pytest.approx(want, rel=1e-12, abs=1e-15)
-        for s, nm in enumerate(cfg.species_names):
+        for nm in cfg.species_names:
             assert obs[names.index(f"outflow_{nm}")] == np.float32(min(left[nm] / n_ref, 4.0))
         kT = kT1 if k + 1 > switch else kT0  # (the change applies from step `switch` on)
         assert obs[names.index("feed_kT")] == np.float32(kT), k
