@@ -1080,6 +1080,12 @@ class DiscReactorEnv(gym.Env):
     - ``activation_jitter``: finite, 0 <= x < 1; ``reverse_jitter``: finite, 0 <= y <= 3;
       ``formation_jitter``: finite, 0 <= z <= 1000 (kinetics drawn per episode, see
       :meth:`ReactorConfig.draw_kinetics`).
+    - ``heating``: "scale" (the heat action rescales velocities) or "jacket" (it sets the
+      thermal walls' kT; the scene must have some, and ``temperature_range``'s high end must
+      not pass ``Scene.max_wall_temperature()``); ``reward``: "product" or "outflow" (the
+      product leaving through the scene's outlets, which it must have); ``observe_outflow``:
+      a bool; ``feed_temperature``: None or a (low, high) pair, 0 < low <= high <= the
+      scene's hottest wall temperature (see :meth:`ReactorConfig.draw_feed`).
     - ``render_mode``: None, "rgb_array" or "human"; ``render_size``: whole pixels,
       1 <= ``render_size`` <= 4096.
 
