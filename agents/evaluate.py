@@ -33,6 +33,7 @@ from discgym.baselines import (
     random_policy,
     reactor_constant_grid,
 )
+from discgym.bench import machine_info
 from discgym.env import ReactorConfig
 
 
@@ -159,16 +160,6 @@ def animate(run: Path, path: Path, seed: int = 0, env_kwargs=None, every: int = 
     return path
 
 
-def _cpu_name() -> str:
-    try:
-        for line in open("/proc/cpuinfo"):
-            if line.startswith("model name"):
-                return line.split(":", 1)[1].strip()
-    except OSError:
-        pass
-    return platform.processor() or "unknown CPU"
-
-
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--run", type=Path, required=True, help="folder written by train_ppo.py")
@@ -192,7 +183,8 @@ def main(argv=None) -> int:
     res = compare(a.run, episodes=a.episodes, seed=a.seed, env_kwargs=env_kwargs,
                   threads=a.threads, search_episodes=a.search_episodes)
     res["_meta"]["date"] = time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime())
-    res["_meta"]["machine"] = f"{platform.machine()}, {os.cpu_count()} CPUs, {_cpu_name()}"
+    res["_meta"]["machine"] = (f"{platform.machine()}, {os.cpu_count()} CPUs, "
+                               f"{machine_info()['cpu']}")
     summary = a.run / "train_summary.json"
     if summary.exists():
         res["_meta"]["train"] = json.loads(summary.read_text())

@@ -46,23 +46,14 @@ from discgym.baselines import (
     run_episodes,
     search_constant,
 )
+from discgym.bench import machine_info
 
 ROOT = Path(__file__).resolve().parent.parent
 LADDER = ("random", "best constant", "hand-written", "oracle")
 
 
-def _cpu_name() -> str:
-    try:
-        for line in open("/proc/cpuinfo"):
-            if line.startswith("model name"):
-                return line.split(":", 1)[1].strip()
-    except OSError:
-        pass
-    return platform.processor() or "unknown CPU"
-
-
 def machine() -> str:
-    return f"{platform.machine()}, {os.cpu_count()} CPUs, {_cpu_name()}"
+    return f"{platform.machine()}, {os.cpu_count()} CPUs, {machine_info()['cpu']}"
 
 
 def versions() -> dict:
