@@ -612,9 +612,7 @@ class Scene:
             where = f"thermal_walls[{k}]"
             if not isinstance(w, ThermalWall):
                 raise SceneError(where, f"expected ThermalWall, got {w!r}")
-            if w.side not in sides:
-                raise SceneError(f"{where}.side", f"{w.side!r} is not a side of a "
-                                 f"{self.bounds.kind} (its sides: {list(sides)})")
+            _check_side(where, w.side, sides, self.bounds.kind)
             if w.side in seen:
                 raise SceneError(f"{where}.side", f"{w.side!r} is already thermal_walls"
                                  f"[{seen[w.side]}]")
@@ -626,9 +624,7 @@ class Scene:
             where = f"outlets[{k}]"
             if not isinstance(o, Outlet):
                 raise SceneError(where, f"expected Outlet, got {o!r}")
-            if o.side not in sides:
-                raise SceneError(f"{where}.side", f"{o.side!r} is not a side of a "
-                                 f"{self.bounds.kind} (its sides: {list(sides)})")
+            _check_side(where, o.side, sides, self.bounds.kind)
             for q, (a, b) in spans.get(o.side, {}).items():
                 if o.start < b and a < o.end:
                     raise SceneError(f"{where}.start", f"[{o.start}, {o.end}] overlaps outlets"
@@ -780,6 +776,13 @@ def too_hot_for_walls(kT: float, t_max: float) -> str:
     return (f"{kT} is above {t_max:.4g}: a thermal wall this hot could draw a speed beyond "
             f"the speed limit ({THERMAL_SPEED_MARGIN:g} sqrt(kT / m) of the lightest species "
             "must stay within it); lower the temperature or dt")
+
+
+def _check_side(where: str, side: str, sides, kind: str) -> None:
+    """A thermal wall's or outlet's side must be one the bounds have."""
+    if side not in sides:
+        raise SceneError(f"{where}.side", f"{side!r} is not a side of a {kind} (its sides: "
+                         f"{list(sides)})")
 
 
 def validated_counts(bounds, species_by_name: Mapping[str, Species], counts) -> dict:
