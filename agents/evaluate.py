@@ -1,115 +1,337 @@
-"""Evaluate a trained PPO policy against the baselines, and animate one episode.
+"""Evaluate trained agents on their task against the task's baselines: the task's whole table.
 
-    python agents/evaluate.py --run runs/ppo            # after agents/train_ppo.py
+    python agents/evaluate.py --run runs/DiscFlow-v0_ppo               # after train_ppo.py
+    python agents/evaluate.py --run runs/DiscFlow-v0_ppo runs/DiscFlow-v0_sac
 
-Baselines, all on the same seeds as the policy (seed, seed + 1, ...):
-- random: uniform actions in [-1, 1];
-- best constant: the best of a grid of constant actions, chosen on *other* seeds (so the
-  selection does not flatter it);
-- heuristic: the scheduled thermostat of ``discgym.baselines.HeuristicPolicy`` (hot until the
-  product builds up, then cool).
+Every policy plays one episode on each evaluation seed (1000-1019 by default; training used
+other seeds, see train_ppo.py), on a fresh ``gymnasium.make(env_id)``:
+- random: ``env.action_space.sample()``;
+- best constant: the best of the task's grid of constant actions, searched on seeds 0-9;
+- hand-written: the task's controller (``discgym.baselines.TASK_BASELINES``);
+- each trained agent, with deterministic actions (its best validation checkpoint by default);
+- oracle: rollout MPC on clones of the true env (``discgym.oracle.RolloutOracle``).
+The table gives the mean and the interquartile mean with 95% BCa bootstrap intervals
+(``scipy.stats.bootstrap`` through ``discgym.baselines``) and each policy's paired difference
+to the hand-written controller over the same seeds (separated: its interval excludes 0).
 
-Writes into the run folder: ``evaluation.json`` (every return), ``evaluation.md`` (the table),
-and ``episode.gif`` (the trained policy's episode on the first seed, discs beside the species
-counts).
+Writes into the first run's folder: ``evaluation.json`` (every return, the table, date,
+machine, versions), ``evaluation.md`` (the table), ``learning_curve.png`` (each agent's
+validation return over training, with the baselines as horizontal lines) and ``episode.gif``
+(the first agent's episode on the first seed). The episodes run in ``--workers`` processes;
+the returns do not depend on how many.
 """
 
 from __future__ import annotations
 
-import argparse
 import json
 import os
 import platform
+import sys
 import time
+from concurrent.futures import ProcessPoolExecutor
+from dataclasses import dataclass, field
+from multiprocessing import get_context
 from pathlib import Path
+from typing import Literal
 
 import numpy as np
 
-from discgym.baselines import (
-    HeuristicPolicy,
-    best_constant_action,
-    constant_policy,
-    evaluate,
-    random_policy,
-    reactor_constant_grid,
-)
-from discgym.bench import machine_info
-from discgym.env import ReactorConfig
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from train_ppo import algo_class  # noqa: E402
+
+LADDER = ("random", "best constant", "hand-written", "oracle")
 
 
-def load_policy(run: Path):
-    """The trained policy as a function (R, D) observations -> (R, A) actions."""
-    from stable_baselines3 import PPO
+@dataclass
+class Args:
+    """Evaluation arguments; each is also a flag."""
 
-    model = PPO.load(run / "model.zip", device="cpu")
-    stats = None
-    if (run / "vecnormalize.pkl").exists():
-        import pickle
-
-        with open(run / "vecnormalize.pkl", "rb") as fh:
-            vn = pickle.load(fh)
-        stats = (vn.obs_rms.mean, np.sqrt(vn.obs_rms.var + vn.epsilon), vn.clip_obs)
-
-    def policy(obs):
-        o = np.asarray(obs, dtype=np.float64)
-        if stats is not None:
-            mean, std, clip = stats
-            o = np.clip((o - mean) / std, -clip, clip)
-        act, _ = model.predict(o.astype(np.float32), deterministic=True)
-        return act
-
-    return policy
-
-
-def constant_grid(n_actions: int) -> np.ndarray:
-    """Candidate constant actions: :func:`discgym.baselines.reactor_constant_grid` (heat x
-    wall x each feed on or off, 120 for the default env, heat levels dense near 0)."""
-    return reactor_constant_grid(n_actions)
+    run: list[Path] = field(default_factory=list)
+    """folders written by train_ppo.py, all on the same task"""
+    seeds: int = 20
+    """evaluation seeds, from --first-seed"""
+    first_seed: int = 1000
+    search_seeds: int = 10
+    """the best constant action is searched on seeds 0 .. search_seeds - 1"""
+    checkpoint: Literal["best", "final"] = "best"
+    """the checkpoint that did best on the validation seeds during training, or the last"""
+    oracle: bool = True
+    """run the oracle (about 5-7 s per episode)"""
+    workers: int = os.cpu_count() or 1
+    """processes the episodes are spread over"""
+    gif: bool = True
+    """animate the first agent's episode on the first seed"""
+    out: Path | None = None
+    """folder for the results (default: the first run's)"""
 
 
-def compare(run: Path | None, episodes: int = 10, seed: int = 0, env_kwargs=None,
-            threads=None, search_episodes: int = 6, grid=None) -> dict:
-    """Mean, std and all returns of every policy on seeds ``seed .. seed + episodes - 1``.
-
-    The best constant action is searched over ``grid`` (default :func:`constant_grid`) on
-    ``search_episodes`` other seeds."""
-    env_kwargs = dict(env_kwargs or {})
-    cfg = ReactorConfig.from_kwargs(**env_kwargs)
-    n_act = len(cfg.action_names)
-    grid = constant_grid(n_act) if grid is None else np.asarray(grid, dtype=np.float32)
-    best, means = best_constant_action(grid, episodes=search_episodes, seed=seed + 10_000,
-                                       threads=threads, **env_kwargs)
-    policies = {
-        "random": random_policy(n_act, seed=seed),
-        "best constant": constant_policy(best),
-        "heuristic": HeuristicPolicy(cfg.obs_names),
-    }
-    if run is not None:
-        policies["PPO"] = load_policy(run)
-    results = {}
-    for name, pol in policies.items():
-        r = evaluate(pol, episodes=episodes, seed=seed, threads=threads, **env_kwargs)
-        results[name] = {"mean": float(r.mean()), "std": float(r.std(ddof=1)),
-                         "returns": [float(x) for x in r]}
-    results["best constant"]["action"] = [float(x) for x in best]
-    results["_meta"] = {"episodes": episodes, "seeds": [seed, seed + episodes - 1],
-                        "constant_grid_size": len(grid), "action_names": list(cfg.action_names),
-                        "env_kwargs": env_kwargs}
-    return results
+# ------------------------------------------------------------------------------ the agents
 
 
-def table(results: dict) -> str:
-    lines = ["| policy | yield (mean +- std) |", "|---|---|"]
-    for name, r in results.items():
-        if name.startswith("_"):
-            continue
-        lines.append(f"| {name} | {r['mean']:.3f} +- {r['std']:.3f} |")
+def run_info(run: Path) -> dict:
+    """The training arguments and summary of a run folder."""
+    run = Path(run)
+    if not (run / "args.json").exists():
+        raise FileNotFoundError(f"run: {run} has no args.json (not a train_ppo.py folder)")
+    info = json.loads((run / "args.json").read_text())
+    summary = run / "train_summary.json"
+    info["summary"] = json.loads(summary.read_text()) if summary.exists() else None
+    return info
+
+
+def env_kwargs_of(run: Path) -> dict:
+    info = run_info(run)
+    return {k: info[k] for k in ("scene", "episode_steps") if info.get(k) is not None}
+
+
+def agent_factory(run: Path, checkpoint: str = "best"):
+    """``env -> policy`` of a trained agent: deterministic actions, its VecNormalize
+    statistics (``VecNormalize.load``) applied to the observations, an LSTM's state reset at
+    each episode (a factory is called once per episode)."""
+    import gymnasium as gym
+    import torch
+    from stable_baselines3.common.vec_env import DummyVecEnv, VecNormalize
+
+    import discgym  # noqa: F401  (registers the tasks)
+
+    torch.set_num_threads(1)
+    run = Path(run)
+    info = run_info(run)
+    prefix = "best_" if checkpoint == "best" and (run / "best_model.zip").exists() else ""
+    model = algo_class(info["algo"]).load(run / f"{prefix}model.zip", device="cpu")
+    vn = None
+    if (run / f"{prefix}vecnormalize.pkl").exists():
+        dummy = DummyVecEnv([lambda: gym.make(info["env_id"], **env_kwargs_of(run))])
+        vn = VecNormalize.load(str(run / f"{prefix}vecnormalize.pkl"), dummy)
+        vn.training, vn.norm_reward = False, False
+
+    def factory(env):
+        state, start = None, np.ones(1, dtype=bool)
+
+        def policy(obs):
+            nonlocal state, start
+            o = np.asarray(obs, dtype=np.float32)[None]
+            if vn is not None:
+                o = vn.normalize_obs(o)
+            act, state = model.predict(o, state=state, episode_start=start,
+                                       deterministic=True)
+            start = np.zeros(1, dtype=bool)
+            return act[0]
+
+        return policy
+
+    factory.checkpoint = f"{prefix}model.zip"
+    return factory
+
+
+# --------------------------------------------------------------- episodes in worker processes
+
+
+def _factory(env_id: str, kind: str, payload):
+    from discgym.baselines import TASK_BASELINES, constant_factory, random_factory
+
+    tb = TASK_BASELINES[env_id]
+    if kind == "random":
+        return random_factory
+    if kind == "best constant":
+        return constant_factory(payload)
+    if kind == "hand-written":
+        return tb.controller
+    if kind == "oracle":
+        return tb.oracle()
+    if kind == "agent":
+        return agent_factory(*payload)
+    raise ValueError(f"kind: unknown policy {kind!r}")
+
+
+def _episodes(env_id: str, kind: str, payload, seeds: list, env_kwargs: dict):
+    """One worker's share: the returns and wall times of ``kind`` on ``seeds``."""
+    from discgym.baselines import run_episodes
+
+    r = run_episodes(env_id, _factory(env_id, kind, payload), seeds, env_kwargs)
+    return list(r.returns), list(r.seconds)
+
+
+def _search(env_id: str, grid, seeds: list, env_kwargs: dict, avoid: list):
+    from discgym.baselines import search_constant
+
+    _, means = search_constant(env_id, grid, seeds=seeds, env_kwargs=env_kwargs, avoid=avoid)
+    return list(means)
+
+
+class _InProcess:
+    """The executor of ``workers=1``: runs each job at once, in this process."""
+
+    class _Done:
+        def __init__(self, value):
+            self.value = value
+
+        def result(self):
+            return self.value
+
+    def submit(self, fn, *args):
+        return self._Done(fn(*args))
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        return False
+
+
+def _chunks(seeds: list, n: int) -> list:
+    n = max(1, min(n, len(seeds)))
+    return [list(c) for c in np.array_split(np.array(seeds), n) if len(c)]
+
+
+def evaluate_task(env_id: str, runs: list, seeds: list, search_seeds: list,
+                  env_kwargs: dict | None = None, checkpoint: str = "best",
+                  oracle: bool = True, workers: int = 1, log=print) -> dict:
+    """Every policy's per-seed returns on ``seeds`` and the table's statistics."""
+    from discgym.baselines import (
+        TASK_BASELINES,
+        check_disjoint,
+        iqm_ci,
+        mean_ci,
+        paired_difference,
+    )
+
+    if env_id not in TASK_BASELINES:
+        raise ValueError(f"env_id: {env_id!r} has no baselines (known: "
+                         f"{', '.join(TASK_BASELINES)})")
+    check_disjoint(seeds, search_seeds)
+    tb = TASK_BASELINES[env_id]
+    kw = {**dict(tb.env_kwargs), **(env_kwargs or {})}
+    if workers > 1:
+        ctx = get_context("spawn")  # (no fork after torch and numba have started threads)
+        pool = ProcessPoolExecutor(max_workers=workers, mp_context=ctx)
+    else:
+        pool = _InProcess()
+    with pool:
+        t0 = time.perf_counter()
+        grid = tb.constant_grid
+        parts = [pool.submit(_search, env_id, grid, c, kw, seeds)
+                 for c in _chunks(search_seeds, workers)]
+        sizes = [len(c) for c in _chunks(search_seeds, workers)]
+        means = sum(np.array(p.result()) * n for p, n in zip(parts, sizes)) / sum(sizes)
+        import gymnasium as gym
+
+        probe = gym.make(env_id, **kw)
+        probe.reset(seed=search_seeds[0])
+        cand = np.asarray(grid(probe) if callable(grid) else grid, dtype=np.float32)
+        probe.close()
+        best = cand[int(np.argmax(means))]
+        log(f"{env_id}: best constant {np.round(best.astype(float), 3).tolist()} of {len(cand)} on seeds "
+            f"{search_seeds[0]}..{search_seeds[-1]} ({time.perf_counter() - t0:.0f} s)")
+        jobs = {"random": None, "best constant": best, "hand-written": None}
+        names = {"random": "random", "best constant":
+                 f"best constant {np.round(best.astype(float), 3).tolist()}",
+                 "hand-written": tb.controller_name}
+        for run in runs:
+            info = run_info(run)
+            label = f"{info['algo']} ({Path(run).name})"
+            jobs[label] = (str(run), checkpoint)
+            names[label] = label
+        if oracle:
+            jobs["oracle"], names["oracle"] = None, f"oracle (rollout MPC on the {tb.controller_name})"
+        futures = {}
+        for name, payload in jobs.items():
+            kind = "agent" if name not in LADDER else name
+            # the slow policies get one chunk per worker, the fast ones a single job
+            n = workers if kind in ("oracle", "agent") else 1
+            futures[name] = [pool.submit(_episodes, env_id, kind, payload, c, kw)
+                             for c in _chunks(seeds, n)]
+        runs_out = {}
+        for name, fs in futures.items():
+            t = time.perf_counter()
+            rets, secs = [], []
+            for f in fs:
+                r, s = f.result()
+                rets += r
+                secs += s
+            runs_out[name] = (np.array(rets), np.array(secs))
+            log(f"{env_id}: {name} done (waited {time.perf_counter() - t:.0f} s)")
+    ref = runs_out["hand-written"][0]
+    rows = {}
+    for name, (r, s) in runs_out.items():
+        row = {"label": names[name], "mean": mean_ci(r).as_dict(), "iqm": iqm_ci(r).as_dict(),
+               "seconds_per_episode": float(s.mean()), "returns": [float(x) for x in r]}
+        if name != "hand-written":
+            row["minus_hand_written"] = paired_difference(r, ref).as_dict()
+        if name not in LADDER:
+            info = run_info(jobs[name][0])
+            row["run"] = jobs[name][0]
+            row["algo"] = info["algo"]
+            row["train"] = info["summary"]
+        rows[name] = row
+    return {"env_id": env_id, "env_kwargs": kw, "eval_seeds": list(seeds),
+            "search_seeds": list(search_seeds), "checkpoint": checkpoint,
+            "best_constant": [float(x) for x in best], "policies": rows}
+
+
+# ------------------------------------------------------------------------ table and figures
+
+
+def _ci(d: dict) -> str:
+    return f"{d['value']:.3f} [{d['low']:.3f}, {d['high']:.3f}]"
+
+
+def table(res: dict) -> str:
+    n = len(res["eval_seeds"])
+    lines = [f"| policy ({n} seeds) | mean [95% CI] | IQM [95% CI] | minus hand-written "
+             "[95% CI] | training |", "|---|---|---|---|---|"]
+    order = [k for k in LADDER[:-1]] + [k for k in res["policies"] if k not in LADDER]
+    order += ["oracle"] if "oracle" in res["policies"] else []
+    for k in order:
+        r = res["policies"][k]
+        diff = r.get("minus_hand_written")
+        d = "" if diff is None else _ci(diff) + (" **separated**" if diff["low"] > 0 else "")
+        train = ""
+        if r.get("train"):
+            t = r["train"]
+            train = f"{t['timesteps']:,} steps, {t['wall_seconds']:.0f} s"
+        label = f"**{r['label']}**" if "train" in r else r["label"]
+        lines.append(f"| {label} | {_ci(r['mean'])} | {_ci(r['iqm'])} | {d} | {train} |")
     return "\n".join(lines)
 
 
-def animate(run: Path, path: Path, seed: int = 0, env_kwargs=None, every: int = 2,
+def plot_curves(res: dict, path: Path) -> Path:
+    """Each agent's mean validation return (EvalCallback's evaluations.npz) against training
+    steps, with the baselines' evaluation means as horizontal lines."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(6.4, 3.8), dpi=120)
+    styles = {"random": ("0.6", ":"), "best constant": ("0.4", "--"),
+              "hand-written": ("tab:blue", "--"), "oracle": ("tab:green", "-.")}
+    for k, (color, ls) in styles.items():
+        if k in res["policies"]:
+            ax.axhline(res["policies"][k]["mean"]["value"], color=color, ls=ls, lw=1.2,
+                       label=res["policies"][k]["label"].split(" [")[0])
+    for k, r in res["policies"].items():
+        if "run" not in r:
+            continue
+        npz = Path(r["run"]) / "evaluations.npz"
+        if npz.exists():
+            d = np.load(npz)
+            ax.plot(d["timesteps"], d["results"].mean(axis=1), marker="o", ms=3,
+                    label=f"{r['label']} (validation seeds)")
+    ax.set_xlabel("environment steps")
+    ax.set_ylabel("episode return")
+    ax.set_title(res["env_id"])
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7, loc="lower right")
+    fig.tight_layout()
+    fig.savefig(path)
+    plt.close(fig)
+    return path
+
+
+def animate(env_id: str, factory, path: Path, seed: int, env_kwargs=None, every: int = 2,
             size: int = 320) -> Path:
-    """A GIF of one episode of the trained policy: the reactor beside its species counts."""
+    """A GIF of one episode: the reactor beside its species counts."""
     import gymnasium as gym
     import matplotlib
 
@@ -117,27 +339,20 @@ def animate(run: Path, path: Path, seed: int = 0, env_kwargs=None, every: int = 
     import matplotlib.pyplot as plt
     from PIL import Image
 
-    import discgym  # noqa: F401  (registers the env)
-
-    policy = load_policy(run)
-    env = gym.make("DiscReactor-v0", render_mode="rgb_array", render_size=size,
-                   **(env_kwargs or {}))
+    env = gym.make(env_id, render_mode="rgb_array", render_size=size, **(env_kwargs or {}))
+    policy = factory(env)
     obs, _ = env.reset(seed=seed)
-    sim = env.unwrapped.simulation
-    names = sim.scene.species_names
-    history = [list(sim.counts().values())]
-    frames = []
-    done = False
-    t = 0
+    names = env.unwrapped.simulation.scene.species_names
+    history = [list(env.unwrapped.simulation.counts().values())]
+    frames, done, t = [], False, 0
     while not done:
-        obs, _, term, trunc, _ = env.step(policy(obs[None])[0])
+        obs, _, term, trunc, _ = env.step(policy(obs))
         done = term or trunc
         history.append(list(env.unwrapped.simulation.counts().values()))
         if t % every == 0 or done:
             frames.append((env.render(), np.array(history)))
         t += 1
     env.close()
-    total = len(history)
     ymax = 1.05 * max(1, int(np.max(history)))
     images = []
     fig, ax = plt.subplots(figsize=(size / 100, size / 100), dpi=100)
@@ -145,10 +360,10 @@ def animate(run: Path, path: Path, seed: int = 0, env_kwargs=None, every: int = 
         ax.clear()
         for k, nm in enumerate(names):
             ax.plot(np.arange(len(hist)), hist[:, k], label=nm)
-        ax.set_xlim(0, total)
+        ax.set_xlim(0, len(history))
         ax.set_ylim(0, ymax)
         ax.set_xlabel("env step")
-        ax.set_ylabel("discs")
+        ax.set_ylabel("discs in the reactor")
         ax.legend(loc="upper right", fontsize=7)
         fig.tight_layout()
         fig.canvas.draw()
@@ -161,40 +376,49 @@ def animate(run: Path, path: Path, seed: int = 0, env_kwargs=None, every: int = 
 
 
 def main(argv=None) -> int:
-    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    p.add_argument("--run", type=Path, required=True, help="folder written by train_ppo.py")
-    p.add_argument("--episodes", type=int, default=10, help="evaluation seeds (>= 10)")
-    p.add_argument("--seed", type=int, default=0, help="first evaluation seed")
-    p.add_argument("--no-gif", action="store_true", help="skip the animation")
-    p.add_argument("--threads", type=int, default=None)
-    p.add_argument("--search-episodes", type=int, default=6,
-                   help="seeds (other than the evaluation's) for the constant-action search")
-    a = p.parse_args(argv)
-    args_file = a.run / "args.json"
-    env_kwargs = {}
-    if args_file.exists():
-        saved = json.loads(args_file.read_text())
-        env_kwargs = {"scene": saved.get("scene", "reactor")}
-        for k in ("product", "episode_steps"):
-            if saved.get(k) is not None:
-                env_kwargs[k] = saved[k]
-        if env_kwargs == {"scene": "reactor"}:
-            env_kwargs = {}
-    res = compare(a.run, episodes=a.episodes, seed=a.seed, env_kwargs=env_kwargs,
-                  threads=a.threads, search_episodes=a.search_episodes)
-    res["_meta"]["date"] = time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime())
-    res["_meta"]["machine"] = (f"{platform.machine()}, {os.cpu_count()} CPUs, "
-                               f"{machine_info()['cpu']}")
-    summary = a.run / "train_summary.json"
-    if summary.exists():
-        res["_meta"]["train"] = json.loads(summary.read_text())
-    (a.run / "evaluation.json").write_text(json.dumps(res, indent=2))
-    md = table(res) + f"\n\n{res['_meta']['episodes']} episodes (seeds {a.seed}.." \
-        f"{a.seed + a.episodes - 1}), {res['_meta']['date']}, {res['_meta']['machine']}"
-    (a.run / "evaluation.md").write_text(md + "\n")
+    import tyro
+
+    from discgym.bench import machine_info
+
+    a = tyro.cli(Args, args=argv, description=__doc__.split("\n\n")[0])
+    if not a.run:
+        raise SystemExit("--run: name at least one folder written by train_ppo.py")
+    if a.seeds < 2:
+        raise SystemExit("--seeds: need at least 2 (a confidence interval)")
+    envs = {run_info(r)["env_id"] for r in a.run}
+    kws = [env_kwargs_of(r) for r in a.run]
+    if len(envs) != 1 or any(k != kws[0] for k in kws):
+        raise SystemExit(f"--run: the runs must share a task and its arguments, got {envs}")
+    env_id = envs.pop()
+    seeds = list(range(a.first_seed, a.first_seed + a.seeds))
+    t0 = time.perf_counter()
+    res = evaluate_task(env_id, a.run, seeds, list(range(a.search_seeds)), kws[0],
+                        a.checkpoint, a.oracle, a.workers,
+                        log=lambda s: print(s, file=sys.stderr, flush=True))
+    import gymnasium
+    import numba
+    import stable_baselines3
+    import torch
+
+    res.update(date=time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()),
+               machine=f"{platform.machine()}, {os.cpu_count()} CPUs, {machine_info()['cpu']}",
+               versions={"python": platform.python_version(), "numpy": np.__version__,
+                         "numba": numba.__version__, "gymnasium": gymnasium.__version__,
+                         "torch": torch.__version__,
+                         "stable_baselines3": stable_baselines3.__version__},
+               evaluation_seconds=time.perf_counter() - t0)
+    out = Path(a.out or a.run[0])
+    out.mkdir(parents=True, exist_ok=True)
+    res["table"] = table(res)
+    md = (f"{env_id}, seeds {seeds[0]}-{seeds[-1]} (deterministic actions, the {a.checkpoint} "
+          f"checkpoint), {res['date']}, {res['machine']}\n\n{res['table']}")
+    (out / "evaluation.json").write_text(json.dumps(res, indent=2) + "\n")
+    (out / "evaluation.md").write_text(md + "\n")
     print(md)
-    if not a.no_gif:
-        gif = animate(a.run, a.run / "episode.gif", seed=a.seed, env_kwargs=env_kwargs)
+    print(f"wrote {out / 'evaluation.md'}, {plot_curves(res, out / 'learning_curve.png')}")
+    if a.gif:
+        gif = animate(env_id, agent_factory(a.run[0], a.checkpoint), out / "episode.gif",
+                      seed=seeds[0], env_kwargs=kws[0])
         print(f"wrote {gif}")
     return 0
 

@@ -1,182 +1,208 @@
-"""Train Stable-Baselines3 PPO on DiscReactor-v0 through the batched vector env.
+"""Train a Stable-Baselines3 agent on a task of discgym's suite, through the batched vector env.
 
-One readable script in the spirit of CleanRL: the arguments are a documented dataclass, the
-logic lives in functions a test can call, and ``__main__`` only parses arguments.
+One readable script in the spirit of CleanRL's: the arguments are a documented dataclass
+(parsed by tyro, so every field is a flag), the hyperparameters of each task live in RL Zoo
+style files (``hyperparams/<algo>.yml``, one entry per env id), and the rest is SB3's own
+machinery: ``VecMonitor`` (episode statistics, ``monitor.csv``), ``VecNormalize`` (saved and
+loaded with its statistics), ``EvalCallback`` on validation seeds (``evaluations.npz``, the
+best checkpoint) and SB3's logger (``progress.csv``).
 
-    python agents/train_ppo.py                         # the README's main demo (~4 min)
-    python agents/train_ppo.py --total-timesteps 1000000 --out runs/ppo_long
-    python agents/train_ppo.py --scene path/to/my_scene.toml --product C
+    python agents/train_ppo.py                               # the README's main demo
+    python agents/train_ppo.py --env-id DiscKinetics-v0 --algo recurrent_ppo
+    python agents/train_ppo.py --env-id DiscJacket-v0 --algo sac --total-timesteps 200000
 
-It writes into ``--out``: ``model.zip`` (the policy), ``vecnormalize.pkl`` (observation
-normalisation statistics), ``learning_curve.png``, ``progress.csv`` (episode returns over
-training), ``args.json``, and TensorBoard logs under ``tb/`` when tensorboard is installed.
-Evaluate with ``python agents/evaluate.py --run <out>``.
+It writes into ``--out`` (default ``runs/<env-id>_<algo>``): ``model.zip`` and
+``vecnormalize.pkl`` (the final policy and its observation statistics), ``best_model.zip`` and
+``best_vecnormalize.pkl`` (the checkpoint that did best on the validation seeds), ``args.json``,
+``hyperparams.json``, ``monitor.csv``, ``progress.csv``, ``evaluations.npz`` and
+``train_summary.json``. Evaluate with ``python agents/evaluate.py --run <out>``.
+
+Seeds: training reactors start from ``seed``, ``seed + 1``, ...; the validation episodes of
+``EvalCallback`` use :data:`VALIDATION_SEEDS`, disjoint from the seeds ``evaluate.py`` reports
+(1000-1019) and from the constant-action search (0-9 are the *search* seeds of the baselines;
+training reactors reuse them, which is harmless: they are not the reported seeds).
 """
 
 from __future__ import annotations
 
-import argparse
-import csv
 import dataclasses
 import json
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
+from typing import Literal
 
-import numpy as np
+import yaml
+
+ROOT = Path(__file__).resolve().parent.parent
+#: Seeds of the validation episodes EvalCallback runs during training (not the reported ones).
+VALIDATION_SEEDS = range(500, 510)
+#: The algorithm classes by name, and the policy each one uses when the hyperparameters do not
+#: name one.
+ALGOS = ("ppo", "sac", "recurrent_ppo")
 
 
 @dataclass
 class Args:
-    """Training arguments (each is also a command-line flag: ``--total-timesteps`` ...)."""
+    """Training arguments; each is also a flag (``--env-id``, ``--total-timesteps``, ...)."""
 
-    total_timesteps: int = 400_000
-    """environment steps (summed over all reactors) to train for"""
-    num_envs: int = 16
-    """reactors stepped together in one compiled call"""
+    env_id: str = "DiscFlow-v0"
+    """the task (``discgym.tasks.TASKS``); its hyperparameters come from ``hyperparams/<algo>.yml``"""
+    algo: Literal["ppo", "sac", "recurrent_ppo"] = "ppo"
+    """SB3's PPO, SB3's SAC, or sb3-contrib's RecurrentPPO (an LSTM policy)"""
+    total_timesteps: int | None = None
+    """environment steps summed over all reactors (default: the file's ``n_timesteps``)"""
     seed: int = 0
-    """seed of the policy initialisation, of PPO's sampling and of the reactors' contents"""
-    scene: str = "reactor"
-    """built-in scene name or TOML path for the reactor"""
-    product: str | None = None
-    """product species rewarded (default: the env's choice for the scene)"""
+    """seed of the policy initialisation, of the algorithm's sampling and of the reactors"""
+    out: str | None = None
+    """output folder (default ``runs/<env-id>_<algo>``)"""
+    hyperparams: str = str(ROOT / "hyperparams")
+    """folder of the RL Zoo style files ``<algo>.yml``"""
+    n_envs: int | None = None
+    """reactors stepped together in one compiled call (default: the file's ``n_envs``)"""
+    scene: str | None = None
+    """built-in scene name or TOML path, replacing the task's scene"""
     episode_steps: int | None = None
-    """env steps per episode (default: the env's)"""
-    out: str = "runs/ppo"
-    """output folder"""
-    learning_rate: float = 3e-4
-    n_steps: int = 256
-    """rollout length per reactor between updates"""
-    batch_size: int = 512
-    n_epochs: int = 10
-    gamma: float = 0.995
-    gae_lambda: float = 0.95
-    ent_coef: float = 0.0
-    clip_range: float = 0.2
-    net_arch: list = field(default_factory=lambda: [64, 64])
-    normalize: bool = True
-    """normalise observations (VecNormalize)"""
-    normalize_reward: bool = False
-    """also scale rewards by a running estimate of the return's spread (VecNormalize)"""
+    """env steps per episode, replacing the task's (tests use short episodes)"""
     threads: int | None = None
-    """numba threads for the vector env (None: all cores)"""
+    """numba threads of the vector env (None: all cores)"""
     torch_threads: int = 1
-    """torch intra-op threads (the tiny MLP gains nothing from more)"""
+    """torch intra-op threads (the small networks here gain nothing from more)"""
+    eval_freq: int = 50_000
+    """validate every this many environment steps (0: no EvalCallback, no best checkpoint)"""
     progress_bar: bool = True
     device: str = "cpu"
 
     def env_kwargs(self) -> dict:
-        kw = {"scene": self.scene}
-        if self.product is not None:
-            kw["product"] = self.product
-        if self.episode_steps is not None:
-            kw["episode_steps"] = self.episode_steps
-        return kw
+        """Keyword arguments for the env beyond the task's own defaults."""
+        return {k: v for k, v in (("scene", self.scene), ("episode_steps", self.episode_steps))
+                if v is not None}
+
+    def folder(self) -> Path:
+        return Path(self.out or f"runs/{self.env_id}_{self.algo}")
 
 
-def make_vec_env(args: Args, num_envs: int | None = None, seed: int | None = None):
-    """The SB3 VecEnv: batched reactors, episode statistics, optional normalisation."""
+def load_hyperparams(args: Args) -> dict:
+    """The task's entry of ``<hyperparams>/<algo>.yml`` (RL Zoo's format: ``n_envs``,
+    ``n_timesteps``, ``policy``, ``normalize``, ``policy_kwargs`` as a Python expression, the
+    rest the algorithm's keyword arguments), with ``--n-envs`` and ``--total-timesteps``
+    applied."""
+    import torch
+
+    path = Path(args.hyperparams) / f"{args.algo}.yml"
+    table = yaml.safe_load(path.read_text())
+    if args.env_id not in table:
+        raise ValueError(f"env_id: {args.env_id!r} has no entry in {path} (entries: "
+                         f"{', '.join(sorted(table))})")
+    hp = dict(table[args.env_id])
+    # RL Zoo writes these two as Python expressions; evaluate them with only what they need
+    names = {"dict": dict, "nn": torch.nn}
+    for key in ("policy_kwargs", "normalize"):
+        if isinstance(hp.get(key), str):
+            hp[key] = eval(hp[key], {"__builtins__": {}}, names)  # noqa: S307 (our own file)
+    if args.n_envs is not None:
+        hp["n_envs"] = args.n_envs
+    if args.total_timesteps is not None:
+        hp["n_timesteps"] = args.total_timesteps
+    hp["n_timesteps"] = int(hp["n_timesteps"])
+    return hp
+
+
+def make_vec_env(args: Args, n_envs: int, normalize: dict | bool, gamma: float,
+                 monitor: Path | None = None):
+    """The SB3 VecEnv: ``n_envs`` reactors of the task, VecMonitor, then VecNormalize."""
     from stable_baselines3.common.vec_env import VecMonitor, VecNormalize
 
     from discgym.sb3 import DiscReactorSB3VecEnv
+    from discgym.tasks import TASKS
 
-    venv = DiscReactorSB3VecEnv(num_envs=num_envs or args.num_envs, threads=args.threads,
-                                **args.env_kwargs())
-    venv.seed(args.seed if seed is None else seed)
-    venv = VecMonitor(venv)
-    if args.normalize:
-        venv = VecNormalize(venv, norm_obs=True, norm_reward=args.normalize_reward,
-                            gamma=args.gamma, clip_obs=10.0)
+    if args.env_id not in TASKS:
+        raise ValueError(f"env_id: {args.env_id!r} is not a task of discgym.tasks.TASKS "
+                         f"({', '.join(sorted(TASKS))})")
+    kw = {**TASKS[args.env_id][0].defaults, **args.env_kwargs()}
+    venv = VecMonitor(DiscReactorSB3VecEnv(num_envs=n_envs, threads=args.threads, **kw),
+                      filename=None if monitor is None else str(monitor))
+    if normalize:
+        opts = {"norm_obs": True, "norm_reward": False}
+        opts.update(normalize if isinstance(normalize, dict) else {})
+        venv = VecNormalize(venv, gamma=gamma, clip_obs=10.0, **opts)
     return venv
 
 
-class _CurveCallback:
-    """Collects (timestep, episode return) pairs from VecMonitor infos."""
+def _callbacks(args: Args, out: Path, n_envs: int, normalize, gamma: float):
+    """EvalCallback on the validation seeds (re-seeded before every evaluation, so that every
+    checkpoint meets the same episodes), saving VecNormalize's statistics with the best model."""
+    from stable_baselines3.common.callbacks import BaseCallback, EvalCallback
 
-    def __init__(self):
-        from stable_baselines3.common.callbacks import BaseCallback
+    if args.eval_freq <= 0:
+        return None
 
-        outer = self
+    class SaveVecNormalize(BaseCallback):
+        def _on_step(self) -> bool:
+            vn = self.model.get_vec_normalize_env()
+            if vn is not None:
+                vn.save(str(out / "best_vecnormalize.pkl"))
+            return True
 
-        class CB(BaseCallback):
-            def _on_step(self) -> bool:
-                for info in self.locals.get("infos", []):
-                    ep = info.get("episode")
-                    if ep is not None:
-                        outer.rows.append((self.num_timesteps, float(ep["r"])))
-                return True
+    class SeededEval(EvalCallback):
+        def _on_step(self) -> bool:
+            if self.eval_freq > 0 and self.n_calls % self.eval_freq == 0:
+                self.eval_env.seed(VALIDATION_SEEDS[0])
+            return super()._on_step()
 
-        self.rows: list[tuple[int, float]] = []
-        self.callback = CB()
+    eval_env = make_vec_env(args, len(VALIDATION_SEEDS), normalize, gamma)
+    if hasattr(eval_env, "training"):
+        eval_env.training, eval_env.norm_reward = False, False
+    return SeededEval(eval_env, n_eval_episodes=len(VALIDATION_SEEDS),
+                      eval_freq=max(1, args.eval_freq // n_envs),
+                      best_model_save_path=str(out), log_path=str(out),
+                      deterministic=True, callback_on_new_best=SaveVecNormalize(), verbose=0)
+
+
+def algo_class(name: str):
+    if name == "recurrent_ppo":
+        from sb3_contrib import RecurrentPPO
+
+        return RecurrentPPO
+    import stable_baselines3
+
+    return getattr(stable_baselines3, name.upper())
 
 
 def train(args: Args) -> Path:
-    """Train PPO; returns the output folder (see the module docstring for its files)."""
+    """Train; returns the output folder (see the module docstring for its files)."""
     import torch
-    from stable_baselines3 import PPO
+    from stable_baselines3.common.logger import configure
 
-    out = Path(args.out)
+    out = args.folder()
     out.mkdir(parents=True, exist_ok=True)
+    hp = load_hyperparams(args)
     (out / "args.json").write_text(json.dumps(dataclasses.asdict(args), indent=2))
+    (out / "hyperparams.json").write_text(json.dumps(hp, indent=2, default=repr))
     torch.set_num_threads(args.torch_threads)
-    venv = make_vec_env(args)
-    try:
-        import tensorboard  # noqa: F401
-
-        tb = str(out / "tb")
-    except ImportError:
-        tb = None
-    model = PPO(
-        "MlpPolicy", venv, learning_rate=args.learning_rate, n_steps=args.n_steps,
-        batch_size=args.batch_size, n_epochs=args.n_epochs, gamma=args.gamma,
-        gae_lambda=args.gae_lambda, ent_coef=args.ent_coef, clip_range=args.clip_range,
-        policy_kwargs={"net_arch": list(args.net_arch)}, seed=args.seed, device=args.device,
-        tensorboard_log=tb, verbose=0,
-    )
-    curve = _CurveCallback()
+    n_envs, steps = int(hp.pop("n_envs")), hp.pop("n_timesteps")
+    normalize, policy = hp.pop("normalize", False), hp.pop("policy", None)
+    gamma = hp.get("gamma", 0.99)
+    venv = make_vec_env(args, n_envs, normalize, gamma, monitor=out / "monitor.csv")
+    venv.seed(args.seed)
+    callback = _callbacks(args, out, n_envs, normalize, gamma)
+    cls = algo_class(args.algo)
+    policy = policy or ("MlpLstmPolicy" if args.algo == "recurrent_ppo" else "MlpPolicy")
+    model = cls(policy, venv, seed=args.seed, device=args.device, verbose=0, **hp)
+    model.set_logger(configure(str(out), ["csv"]))
     t0 = time.perf_counter()
-    model.learn(total_timesteps=args.total_timesteps, callback=curve.callback,
+    model.learn(total_timesteps=steps, callback=callback,
                 progress_bar=args.progress_bar and _has_progress_bar())
     wall = time.perf_counter() - t0
     model.save(out / "model.zip")
-    if args.normalize:
+    if normalize:
         venv.save(str(out / "vecnormalize.pkl"))
     venv.close()
-    with open(out / "progress.csv", "w", newline="") as fh:
-        w = csv.writer(fh)
-        w.writerow(["timestep", "episode_return"])
-        w.writerows(curve.rows)
     (out / "train_summary.json").write_text(json.dumps(
-        {"wall_seconds": wall, "timesteps": args.total_timesteps,
-         "episodes": len(curve.rows)}, indent=2))
-    plot_learning_curve(curve.rows, out / "learning_curve.png")
+        {"env_id": args.env_id, "algo": args.algo, "wall_seconds": wall,
+         "timesteps": int(model.num_timesteps), "n_envs": n_envs,
+         "best_checkpoint": (out / "best_model.zip").exists()}, indent=2))
     return out
-
-
-def plot_learning_curve(rows, path: Path, window: int = 32) -> None:
-    """Episode return against timestep, with a moving average."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    fig, ax = plt.subplots(figsize=(6.4, 3.6), dpi=120)
-    if rows:
-        t = np.array([r[0] for r in rows])
-        r = np.array([r[1] for r in rows])
-        ax.plot(t, r, ".", ms=2, alpha=0.35, color="tab:blue", label="episode")
-        if len(r) >= window:
-            k = np.ones(window) / window
-            ax.plot(t[window - 1:], np.convolve(r, k, mode="valid"), color="tab:blue",
-                    label=f"mean of {window}")
-    ax.set_xlabel("environment steps")
-    ax.set_ylabel("episode return (product yield)")
-    ax.set_title("PPO on DiscReactor-v0")
-    ax.grid(alpha=0.3)
-    ax.legend(loc="lower right")
-    fig.tight_layout()
-    fig.savefig(path)
-    plt.close(fig)
 
 
 def _has_progress_bar() -> bool:
@@ -189,27 +215,14 @@ def _has_progress_bar() -> bool:
 
 
 def parse_args(argv=None) -> Args:
-    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
-                                formatter_class=argparse.ArgumentDefaultsHelpFormatter)
-    for f in dataclasses.fields(Args):
-        flag = "--" + f.name.replace("_", "-")
-        default = f.default if f.default is not dataclasses.MISSING else f.default_factory()
-        if f.type in ("bool", bool):
-            p.add_argument(flag, action=argparse.BooleanOptionalAction, default=default)
-        elif f.name == "net_arch":
-            p.add_argument(flag, type=int, nargs="+", default=default)
-        elif f.name in ("product", "threads", "episode_steps"):
-            typ = str if f.name == "product" else int
-            p.add_argument(flag, type=typ, default=default)
-        else:
-            p.add_argument(flag, type=type(default), default=default)
-    return Args(**vars(p.parse_args(argv)))
+    import tyro
+
+    return tyro.cli(Args, args=argv, description=__doc__.split("\n\n")[0])
 
 
 if __name__ == "__main__":
     a = parse_args()
     folder = train(a)
     summary = json.loads((folder / "train_summary.json").read_text())
-    print(f"trained in {summary['wall_seconds']:.0f} s; wrote {folder}/model.zip, "
-          "learning_curve.png; evaluate with "
-          f"python agents/evaluate.py --run {folder}")
+    print(f"trained {summary['timesteps']} steps in {summary['wall_seconds']:.0f} s; wrote "
+          f"{folder}; evaluate with python agents/evaluate.py --run {folder}")

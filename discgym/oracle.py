@@ -91,8 +91,13 @@ def steps_left(env: gym.Env) -> int | None:
     return left
 
 
-def _copy_env(u: gym.Env) -> gym.Env:
-    c = u.clone() if hasattr(u, "clone") else copy.deepcopy(u)
+def _copy_env(u: gym.Env, reseed=None) -> gym.Env:
+    if reseed is not None:
+        if not hasattr(u, "clone"):
+            raise TypeError("noise: needs an env whose clone() takes reseed (DiscReactorEnv)")
+        c = u.clone(reseed=reseed)
+    else:
+        c = u.clone() if hasattr(u, "clone") else copy.deepcopy(u)
     # a rollout must not draw: no window, no frames
     c.render_mode = None
     return c
@@ -114,6 +119,14 @@ class RolloutOracle:
             the oracle guaranteed to return at least the base policy's return).
         replan_every: plan at every ``replan_every``-th step and execute the best
             rollout's actions in between.
+        noise: None (default): every rollout runs on an exact copy and meets the env's
+            own random future (clairvoyant). A seed: each rollout's copy gets fresh random
+            generators (``clone(reseed=...)``), drawn from this seed, so the oracle knows
+            the model and the state but not the noise: a model-predictive controller that
+            could be deployed given a perfect simulator. Every candidate meets the same
+            ``samples`` futures (common random numbers) and is scored by their mean. The
+            guarantee "never below the base policy" holds only without noise.
+        samples: futures per candidate (only with ``noise``).
 
     ``stats`` holds the planning budget of the episode so far: decisions, replans,
     candidates rolled out, simulated env steps, copies, seconds spent planning, and the
@@ -122,7 +135,8 @@ class RolloutOracle:
     """
 
     def __init__(self, env: gym.Env, base: Policy, candidates: CandidateFn | None = None,
-                 horizon: int | None = None, replan_every: int = 1):
+                 horizon: int | None = None, replan_every: int = 1, noise=None,
+                 samples: int = 1):
         if not callable(base):
             raise TypeError(f"base: expected a policy (observation -> action), got {base!r}")
         if candidates is not None and not callable(candidates):
@@ -134,8 +148,16 @@ class RolloutOracle:
         if isinstance(replan_every, bool) or not isinstance(replan_every, (int, np.integer)) \
                 or replan_every < 1:
             raise ValueError(f"replan_every: need a whole number >= 1, got {replan_every!r}")
+        if isinstance(samples, bool) or not isinstance(samples, (int, np.integer)) \
+                or samples < 1:
+            raise ValueError(f"samples: need a whole number >= 1, got {samples!r}")
+        if samples > 1 and noise is None:
+            raise ValueError("samples: more than one rollout per candidate needs noise (an "
+                             "exact copy repeats the same future)")
         self.env = env
         self.base = base
+        self.samples = int(samples)
+        self._noise = None if noise is None else np.random.SeedSequence(noise)
         self.candidates = candidates or (lambda a, env: np.asarray(a, np.float32)[None])
         self.horizon = None if horizon is None else int(horizon)
         self.replan_every = int(replan_every)
@@ -165,8 +187,14 @@ class RolloutOracle:
             limit = left if limit is None else min(limit, left)
         best, best_plan = -np.inf, None
         best_k = 0
+        # common random numbers: every candidate meets the same `samples` futures
+        futures = [None] if self._noise is None else self._noise.spawn(self.samples)
         for k, first in enumerate(cands):
-            total, plan = self._rollout(u, first, limit)
+            total, plan = 0.0, None
+            for fut in futures:
+                t, p = self._rollout(u, first, limit, fut)
+                total += t / len(futures)
+                plan = p if plan is None else plan
             if total > best:  # strictly: a tie keeps the earlier candidate (row 0: the base)
                 best, best_plan, best_k = total, plan, k
         if best_plan is None:  # (every rollout's return was NaN: follow the base policy)
@@ -176,11 +204,13 @@ class RolloutOracle:
         st["planning_seconds"] += time.perf_counter() - t0
         return cands[best_k].copy()
 
-    def _rollout(self, u: gym.Env, first: np.ndarray, limit: int | None) -> tuple:
+    def _rollout(self, u: gym.Env, first: np.ndarray, limit: int | None,
+                 future=None) -> tuple:
         """(return, the first ``replan_every`` actions) of ``first`` then the base policy on
-        a copy of ``u``, up to the episode's end or ``limit`` steps."""
+        a copy of ``u`` (its random future drawn from ``future`` if given), up to the
+        episode's end or ``limit`` steps."""
         st = self.stats
-        env = _copy_env(u)
+        env = _copy_env(u, future)
         pol = copy.deepcopy(self.base)
         st["copies"] += 1
         st["rollouts"] += 1

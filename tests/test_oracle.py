@@ -117,6 +117,49 @@ def test_candidates_and_arguments_are_checked():
         component_offsets([(0.1,)] * 5)(a, env)
 
 
+def test_a_reseeded_clone_continues_the_state_into_another_future():
+    env = gym.make(ENV, **TINY)
+    env.reset(seed=4)
+    u = env.unwrapped
+    a = np.array([0.3, 0.0, 1.0, 1.0], np.float32)
+
+    def run(c):
+        return np.stack([c.step(a)[0] for _ in range(4)])
+
+    exact, same1, same2, other = (run(u.clone()), run(u.clone(reseed=7)),
+                                  run(u.clone(reseed=7)), run(u.clone(reseed=8)))
+    np.testing.assert_array_equal(same1, same2)  # a seed fixes the future
+    assert not np.array_equal(exact, same1) and not np.array_equal(same1, other)
+    assert u.clone(reseed=7).simulation.get_state()["positions"].tobytes() == \
+        u.simulation.get_state()["positions"].tobytes()  # same state, only the future differs
+    np.testing.assert_array_equal(run(u.clone()), exact)  # the env itself was not touched
+
+
+def test_the_oracle_without_clairvoyance():
+    """noise=seed: rollouts meet other futures than the env's, the same ones for every
+    candidate; deterministic given the seed; the arguments are checked."""
+    fac = lambda env: RolloutOracle(env, reactor_heuristic(env), reactor_oracle_candidates,
+                                    replan_every=3, noise=11, samples=2)
+    r1 = run_episodes(ENV, fac, SEEDS[:2], TINY)
+    r2 = run_episodes(ENV, fac, SEEDS[:2], TINY)
+    assert r1.returns.tobytes() == r2.returns.tobytes()
+    # every candidate rolled out once per future: two copies per candidate and replan
+    assert r1.stats[0]["rollouts"] == r1.stats[0]["copies"] > 2 * r1.stats[0]["replans"]
+    env = gym.make(ENV, **TINY)
+    env.reset(seed=0)
+    h = reactor_heuristic(env)
+    with pytest.raises(ValueError, match="samples"):
+        RolloutOracle(env, h, samples=2)  # several samples of an exact copy are one
+    with pytest.raises(ValueError, match="samples"):
+        RolloutOracle(env, h, noise=1, samples=0)
+    # one candidate, one future: a rollout per decision on a reseeded copy, executed as the
+    # base policy would act (only the base action is a candidate)
+    base = run_episodes(ENV, reactor_heuristic, SEEDS[:2], TINY)
+    one = run_episodes(ENV, lambda env: RolloutOracle(env, reactor_heuristic(env), noise=3),
+                       SEEDS[:2], TINY)
+    assert one.returns.tobytes() == base.returns.tobytes()
+
+
 def test_the_shooting_oracle_is_never_worse_than_its_base_policy():
     """The CEM planner keeps the incumbent sequence (first: the base policy's own actions)
     among its samples, so it too never falls below the base policy."""
