@@ -979,6 +979,16 @@ def check_status(cfg: ReactorConfig, iout: np.ndarray, active: np.ndarray) -> No
                            "plan")
 
 
+def integrator_changed(cfg: ReactorConfig, now: str, who: str) -> RuntimeError:
+    """The error of a step whose reactor's ``Simulation`` was switched to another integrator
+    (by ``set_state``) than the env runs: the compiled step runs the env's, and the
+    Simulation would no longer describe its own trajectory."""
+    return RuntimeError(
+        f"integrator: {who} now has integrator {now!r} (set_state with a state of another "
+        f"integrator), the env was made with integrator={cfg.integrator!r} and steps with "
+        f"it; set a state of integrator {cfg.integrator!r} (or without the key) or reset")
+
+
 _REAL_KINDS = frozenset("biuf")  # numpy dtype kinds of actions: bool, integers, floats
 
 
@@ -1234,6 +1244,8 @@ class DiscReactorEnv(gym.Env):
             act[0] = action
         else:
             act[0] = as_actions(cfg, action)
+        if sim.integrator != cfg.integrator:
+            raise integrator_changed(cfg, sim.integrator, "its Simulation")
         bound = self._bound
         arrays = sim.kernel_arrays()
         if arrays[0] is not bound[0] or arrays[1] is not bound[1] or \

@@ -264,3 +264,29 @@ def test_wall_moves_the_event_integrator_refuses_are_refused_at_construction():
     assert info["size"] == 0.1001 and not info["wall_blocked"]
     assert env.simulation.bounds.width == pytest.approx(1.001)
     assert len(env.simulation) == 3 and env.simulation.outside() == 0
+
+
+def test_a_simulation_set_to_another_integrator_is_refused_at_the_next_step():
+    """The compiled step runs the env's integrator: a Simulation switched to the other one
+    by set_state would no longer describe its own trajectory, so the next step raises
+    (nothing stepped); a state of the env's integrator steps on."""
+    a = np.zeros(4, np.float32)
+    for made, other in (("event", "step"), ("step", "event")):
+        env = DiscReactorEnv(n_discs=40, integrator=made)
+        env.reset(seed=0)
+        st = env.simulation.get_state()
+        env.simulation.set_state(dict(st, integrator=other))
+        t = env.simulation.time
+        with pytest.raises(RuntimeError, match=f"^integrator: its Simulation now has "
+                                               f"integrator '{other}'.*integrator='{made}'"):
+            env.step(a)
+        assert env.simulation.time == t
+        env.simulation.set_state(st)
+        env.step(a)
+    venv = DiscReactorVectorEnv(num_envs=2, n_discs=40, integrator="event")
+    venv.reset(seed=0)
+    sim = venv.simulations[1]
+    sim.set_state(dict(sim.get_state(), integrator="step"))
+    with pytest.raises(RuntimeError, match="^integrator: reactor 1's Simulation now has "
+                                           "integrator 'step'"):
+        venv.step(np.zeros((2, 4)))
