@@ -290,3 +290,26 @@ def test_a_simulation_set_to_another_integrator_is_refused_at_the_next_step():
     with pytest.raises(RuntimeError, match="^integrator: reactor 1's Simulation now has "
                                            "integrator 'step'"):
         venv.step(np.zeros((2, 4)))
+
+
+def test_a_decomposing_scene_stays_within_the_planned_capacity():
+    """Fissions (AB -> A + B, which doubles the discs) in the event-driven runs of the
+    compiled step: within the capacity plan, the vector env still the single env."""
+    kw = dict(scene="decomposition", product="A", feed=["AB"], n_discs=60, inject_max=5,
+              feed_budget=20, episode_steps=30, integrator="event")
+    venv = DiscReactorVectorEnv(num_envs=2, **kw)
+    venv.reset(seed=0)
+    a = np.tile(np.array([1.0, 0.0, 1.0], np.float32), (2, 1))
+    for _ in range(30):
+        obs, rew, term, trunc, info = venv.step(a)
+    assert (info["count_A"] > 60).all()  # most AB decomposed (and the fed AB too)
+    cap = venv.config.capacity
+    for sim in venv.simulations:
+        assert sim.kernel_arrays()[0].shape[0] == cap
+        assert sim.overlaps() == 0 and sim.outside() == 0
+    env = DiscReactorEnv(**kw)
+    env.reset(seed=0)
+    for _ in range(30):
+        o, *_ = env.step(a[0])
+    assert np.array_equal(o, obs[0])
+    assert np.array_equal(env.simulation.positions, venv.simulations[0].positions)
