@@ -4,10 +4,14 @@ For every task of ``discgym.tasks.TASKS`` (its own defaults), the single env wit
 ``integrator="step"`` (the default: ``step_time / dt`` steps of the time-stepped integrator)
 and with ``integrator="event"`` (one exact event-driven run of ``step_time`` per env step)
 runs whole episodes of one fixed sequence of uniform random actions (seeded, the same for
-every episode and both integrators). Pair i resets both envs with seed ``1000 + i`` (the
+every episode and both integrators). Pair i resets both envs with seed ``1000 + i`` (``--seed``; the
 same initial reactor) and times one episode of each, alternating which goes first (this
 machine's speed drifts by 10-30% from minute to minute: a pair is two episodes a few tens of
-milliseconds apart, so the ratio within a pair is what is compared).
+milliseconds apart, so the ratio within a pair is what is compared). With ``--num-envs R``
+the same with the task's native vector env of R reactors (reactor i of pair p seeded
+``1000 + p R + i``, every reactor given the same action sequence): reactor-steps/s, the
+compiled step's share of an env step larger (the Python around it is shared by R reactors),
+and R episodes per pair member for the returns.
 
 Columns:
 
@@ -32,12 +36,15 @@ Columns:
 - capped: event runs finished by the time-stepped integrator at the event bound
   (``events_capped``, summed over the event episodes; 0 means every step was exact).
 
-Run:  python benchmarks/bench_integrators.py              (~2-4 min on 2 shared cores)
+Run:  python benchmarks/bench_integrators.py              (~1-2 min on 2 shared cores)
       python benchmarks/bench_integrators.py --pairs 8    (a smoke test)
       python benchmarks/bench_integrators.py --write docs/performance.md
+      python benchmarks/bench_integrators.py --num-envs 16 --pairs 25   (the vector env)
 ``--write`` replaces the table between the markers ``<!-- bench_integrators -->`` and
-``<!-- /bench_integrators -->`` of that file with this run's (with its command, date and
-machine). Numbers depend on the machine and on its load: quote them with both.
+``<!-- /bench_integrators -->`` (with ``--num-envs R``: ``<!-- bench_integrators
+num_envs=R -->`` and ``<!-- /bench_integrators num_envs=R -->``) of that file with this
+run's (with its command, date and machine). Numbers depend on the machine and on its load:
+quote them with both.
 """
 
 from __future__ import annotations
@@ -56,9 +63,11 @@ INTEGRATORS = ("step", "event")
 BEGIN, END = "<!-- bench_integrators -->", "<!-- /bench_integrators -->"
 
 
-def episode(env, seed: int, acts: np.ndarray) -> tuple[float, float, float, int, int]:
-    """One episode from ``reset(seed=seed)`` under the actions ``acts`` (T, A): ``(seconds of
-    the step calls, return, ledger error, events capped, discs at the end)``."""
+def episode(env, seed: int, acts: np.ndarray) -> tuple[float, list, float, int, list]:
+    """One episode (R of them in a vector env of R reactors, seeds ``seed + r``) from
+    ``reset(seed=seed)`` under the actions ``acts`` (T, A), or (T, R, A): ``(seconds of the
+    step calls, returns, largest ledger error, events capped, discs at the end)``, the
+    lists one entry per reactor."""
     env.reset(seed=seed)
     ret = 0.0
     step = env.step
@@ -66,36 +75,46 @@ def episode(env, seed: int, acts: np.ndarray) -> tuple[float, float, float, int,
     for a in acts:
         ret += step(a)[1]
     t = time.perf_counter() - t0
-    sim = env.simulation
-    ledger = abs(sim.energy_balance()) / max(abs(sim.total_energy()), 1e-300)
-    return t, ret, ledger, sim.counters()["events_capped"], len(sim)
+    sims = getattr(env, "simulations", None) or [env.simulation]
+    ledger = max(abs(s.energy_balance()) / max(abs(s.total_energy()), 1e-300) for s in sims)
+    return (t, np.atleast_1d(ret).tolist(), ledger,
+            sum(s.counters()["events_capped"] for s in sims), [len(s) for s in sims])
 
 
-def measure(env_id: str, pairs: int) -> dict:
-    env_cls = TASKS[env_id][0]
-    envs = {i: env_cls(integrator=i) for i in INTEGRATORS}
+def measure(env_id: str, pairs: int, num_envs: int = 1, threads: int = 1,
+            seed: int = 1000) -> dict:
+    env_cls, vec_cls = TASKS[env_id]
+    R = num_envs
+    if R == 1:
+        envs = {i: env_cls(integrator=i) for i in INTEGRATORS}
+        space = envs["step"].action_space
+    else:
+        envs = {i: vec_cls(num_envs=R, threads=threads, integrator=i) for i in INTEGRATORS}
+        space = envs["step"].single_action_space
     T = envs["step"].config.episode_steps
-    A = envs["step"].action_space.shape[0]
-    acts = np.random.default_rng(0).uniform(-1.0, 1.0, (T, A)).astype(np.float32)
+    acts = np.random.default_rng(0).uniform(-1.0, 1.0, (T, space.shape[0])).astype(np.float32)
+    if R > 1:  # (every reactor the same sequence, the single env's)
+        acts = np.ascontiguousarray(np.broadcast_to(acts[:, None], (T, R, acts.shape[1])))
     for i in INTEGRATORS:  # (warm-up: compilation, caches)
         episode(envs[i], 999, acts[:5])
     res = {i: dict(t=[], ret=[], ledger=[], capped=0, discs=[]) for i in INTEGRATORS}
     for p in range(pairs):
         order = INTEGRATORS if p % 2 == 0 else INTEGRATORS[::-1]
         for i in order:
-            t, ret, ledger, capped, n = episode(envs[i], 1000 + p, acts)
+            t, ret, ledger, capped, n = episode(envs[i], seed + p * R, acts)
             r = res[i]
             r["t"].append(t)
-            r["ret"].append(ret)
+            r["ret"] += ret
             r["ledger"].append(ledger)
             r["capped"] += capped
-            r["discs"].append(n)
+            r["discs"] += n
     ts, te = np.array(res["step"]["t"]), np.array(res["event"]["t"])
     ratio = te / ts
+    T = T * R  # (reactor-steps per episode pair member)
     diff = np.array(res["event"]["ret"]) - np.array(res["step"]["ret"])
     ci = bootstrap((diff,), np.mean, confidence_level=0.95, n_resamples=4999, method="BCa",
                    random_state=np.random.default_rng(0)).confidence_interval
-    return dict(task=env_id, steps=T, pairs=pairs,
+    return dict(task=env_id, steps=T // R, pairs=pairs,
                 sps_step=float(np.median(T / ts)), sps_event=float(np.median(T / te)),
                 ratio=float(np.median(ratio)), ratio_lo=float(ratio.min()),
                 ratio_hi=float(ratio.max()),
@@ -107,9 +126,10 @@ def measure(env_id: str, pairs: int) -> dict:
                 discs=float(np.mean(res["step"]["discs"] + res["event"]["discs"])))
 
 
-def table(rows: list) -> str:
-    out = ["| task | steps/episode | discs at the end (mean) | step: env steps/s | "
-           "event: env steps/s | cost event / step: median [min, max] | return step | "
+def table(rows: list, num_envs: int = 1) -> str:
+    what = "env steps/s" if num_envs == 1 else "reactor-steps/s"
+    out = [f"| task | steps/episode | discs at the end (mean) | step: {what} | "
+           f"event: {what} | cost event / step: median [min, max] | return step | "
            "return event | event - step (95% CI) | ledger | capped |",
            "|:---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
     for r in rows:
@@ -127,33 +147,52 @@ def main(argv=None) -> None:
     ap.add_argument("--pairs", type=int, default=200,
                     help="interleaved (step, event) episode pairs per task (default 200)")
     ap.add_argument("--tasks", nargs="*", default=sorted(TASKS), help="task ids")
+    ap.add_argument("--seed", type=int, default=1000,
+                    help="pair p resets with seed + p (R reactors: seed + p R + r)")
+    ap.add_argument("--num-envs", type=int, default=1,
+                    help="R > 1: the native vector env of R reactors (episodes of all R at "
+                         "once, reactor i seeded 1000 + p R + i in pair p) instead of the "
+                         "single env")
+    ap.add_argument("--threads", type=int, default=1,
+                    help="the vector env's threads (default 1: the integrators, not the "
+                         "load balance, are compared)")
     ap.add_argument("--write", metavar="FILE",
                     help=f"replace the table between {BEGIN} and {END} in FILE")
     args = ap.parse_args(argv)
+    R = args.num_envs
+    begin, end = BEGIN, END
+    if R > 1:
+        begin = BEGIN.replace(" -->", f" num_envs={R} -->")
+        end = END.replace(" -->", f" num_envs={R} -->")
     info0 = machine_info()
     t0 = time.perf_counter()
     rows = []
     for env_id in args.tasks:
-        rows.append(measure(env_id, args.pairs))
+        rows.append(measure(env_id, args.pairs, R, args.threads, args.seed))
         print(f"{env_id}: done ({time.perf_counter() - t0:.0f} s)", file=sys.stderr)
     info1 = machine_info()
-    text = table(rows)
+    text = table(rows, R)
     cmd = "python benchmarks/bench_integrators.py" + (
-        f" --pairs {args.pairs}" if args.pairs != 200 else "")
+        f" --pairs {args.pairs}" if args.pairs != 200 else "") + (
+        f" --seed {args.seed}" if args.seed != 1000 else "") + (
+        f" --num-envs {R}" if R > 1 else "") + (
+        f" --threads {args.threads}" if R > 1 and args.threads != 1 else "")
+    env = "single env" if R == 1 else \
+        f"vector env of {R} reactors on {args.threads} thread(s)"
     head = (f"`{cmd}`, {info0['date']} ({time.perf_counter() - t0:.0f} s), {info0['cpu']}, "
             f"nproc = {info0['nproc']}, numba {info0['numba']}, numpy {info0['numpy']}; load "
             f"average {info0['load_avg'][0]} at the start, {info1['load_avg'][0]} at the end; "
-            f"{args.pairs} pairs of episodes per task, single env, one thread.")
+            f"{args.pairs} pairs of episodes per task, {env}.")
     print(head)
     print()
     print(text)
     if args.write:
         with open(args.write) as f:
             doc = f.read()
-        if BEGIN not in doc or END not in doc:
-            raise SystemExit(f"--write: {args.write} has no {BEGIN} ... {END} markers")
-        a = doc.index(BEGIN) + len(BEGIN)
-        b = doc.index(END)
+        if begin not in doc or end not in doc:
+            raise SystemExit(f"--write: {args.write} has no {begin} ... {end} markers")
+        a = doc.index(begin) + len(begin)
+        b = doc.index(end)
         with open(args.write, "w") as f:
             f.write(doc[:a] + "\n" + head + "\n\n" + text + "\n" + doc[b:])
 
