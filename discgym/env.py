@@ -72,7 +72,7 @@ from .scene import (
     SceneError,
     check_bounds_scale,
 )
-from .simulation import PLACEMENT_ATTEMPTS, Simulation, _as_scene, _inside
+from .simulation import PLACEMENT_ATTEMPTS, Simulation, _as_scene, _event_fit, _inside
 
 __all__ = [
     "DiscReactorEnv",
@@ -112,11 +112,14 @@ DEFAULTS = dict(
     reward="product",
     observe_outflow=False,
     feed_temperature=None,
+    integrator="step",
 )
 
 #: The ways the heat action heats (see ``heating``) and the rewards (see ``reward``).
 HEATINGS = ("scale", "jacket")
 REWARDS = ("product", "outflow")
+#: The integrators an env step may run (see ``integrator``; ReactorConsts.integrator's order).
+INTEGRATORS = ("step", "event")
 
 #: Observations are clipped to these bounds (see the README, "Observation Space").
 OBS_ENERGY_MAX = 20.0  # per-species kT, mean internal energy, |total energy per disc|
@@ -191,6 +194,7 @@ class ReactorConfig:
     reward: str  # "product" (product made) or "outflow" (product leaving through outlets)
     observe_outflow: bool
     feed_temperature: tuple | None  # (low, high) of the inlet kT drawn per episode, or None
+    integrator: str  # "step" (time-stepped) or "event" (one exact event-driven run per step)
     obs_names: tuple
     obs_low: np.ndarray
     obs_high: np.ndarray
@@ -249,7 +253,8 @@ class ReactorConfig:
             obs_reactions=int(self.observe_reactions),
             heating=HEATINGS.index(self.heating),
             obs_feed_kT=int(self.feed_temperature is not None),
-            obs_outflow=int(self.observe_outflow))
+            obs_outflow=int(self.observe_outflow),
+            integrator=INTEGRATORS.index(self.integrator))
 
     @property
     def uncertain(self) -> bool:
@@ -384,6 +389,9 @@ class ReactorConfig:
             if feed_temperature[1] > hottest:
                 raise ValueError(f"feed_temperature: {feed_temperature[1]} would inject discs "
                                  f"beyond the speed limit (at most {hottest:.4g})")
+        integrator = _choice(o["integrator"], "integrator", INTEGRATORS)
+        if integrator == "event":
+            _check_event_fit(scene, size_min)
         edges = energy_edges(scene, energy_bins)
         obs_names, lo, hi = _observation_slots(names, feed, size_min, size_max)
         _extra_slots(obs_names, lo, hi, names, energy_bins, edges, grid,
@@ -400,7 +408,7 @@ class ReactorConfig:
             observe_reactions=observe_reactions, activation_jitter=aj, reverse_jitter=rj,
             formation_jitter=fj, heating=heating, reward=reward,
             observe_outflow=observe_outflow, feed_temperature=feed_temperature,
-            obs_names=tuple(obs_names),
+            integrator=integrator, obs_names=tuple(obs_names),
             obs_low=np.array(lo, dtype=np.float32), obs_high=np.array(hi, dtype=np.float32),
             compiled=cs)
 
@@ -436,7 +444,8 @@ class ReactorConfig:
             generator = np.random.Generator(np.random.PCG64(seed))
         else:
             generator.bit_generator.state = np.random.PCG64(seed).state
-        sim = Simulation(scene, counts=counts, temperature=temperature, seed=generator)
+        sim = Simulation(scene, counts=counts, temperature=temperature, seed=generator,
+                         integrator=self.integrator)
         sim.threads = 1
         return sim
 
@@ -860,6 +869,24 @@ def _steps_per_action(v, dt: float) -> int:
     return spa
 
 
+def _check_event_fit(scene: Scene, size_min: float) -> None:
+    """The event-driven integrator refuses bounds that leave a species less free room than
+    1e-3 of its radius along an axis (``Simulation``'s check: its wall contacts would almost
+    never end). The room only shrinks with the size (a box's width, a circle's radius), so
+    the scene's bounds and the reactor at ``size_range``'s low end are the ones to check: no
+    wall move can then reach bounds the integrator refuses."""
+    try:
+        _event_fit("event", scene, scene.bounds)
+    except ValueError as e:
+        raise ValueError(f"integrator: 'event' cannot run the scene's bounds: {e}") from None
+    try:
+        _event_fit("event", scene, _bounds_of(scene, size_min))
+    except ValueError as e:
+        raise ValueError(f"size_range: with integrator='event' the reactor at size {size_min} "
+                         f"(the low end, the narrowest the wall can make it) is refused: "
+                         f"{e}") from None
+
+
 def _bounds_of(scene: Scene, size: float):
     """The scene's bounds at ``size`` (box: the width scales, origin kept; circle: the
     radius)."""
@@ -950,6 +977,16 @@ def check_status(cfg: ReactorConfig, iout: np.ndarray, active: np.ndarray) -> No
         raise RuntimeError(f"reactors {bad}: the state outgrew the capacity {cfg.capacity} "
                            f"(status {status[bad].tolist()}); this is a bug in the capacity "
                            "plan")
+
+
+def integrator_changed(cfg: ReactorConfig, now: str, who: str) -> RuntimeError:
+    """The error of a step whose reactor's ``Simulation`` was switched to another integrator
+    (by ``set_state``) than the env runs: the compiled step runs the env's, and the
+    Simulation would no longer describe its own trajectory."""
+    return RuntimeError(
+        f"integrator: {who} now has integrator {now!r} (set_state with a state of another "
+        f"integrator), the env was made with integrator={cfg.integrator!r} and steps with "
+        f"it; set a state of integrator {cfg.integrator!r} (or without the key) or reset")
 
 
 _REAL_KINDS = frozenset("biuf")  # numpy dtype kinds of actions: bool, integers, floats
@@ -1086,6 +1123,13 @@ class DiscReactorEnv(gym.Env):
       product leaving through the scene's outlets, which it must have); ``observe_outflow``:
       a bool; ``feed_temperature``: None or a (low, high) pair, 0 < low <= high <= the
       scene's hottest wall temperature (see :meth:`ReactorConfig.draw_feed`).
+    - ``integrator``: "step" (the time-stepped integrator, ``step_time / dt`` steps of the
+      scene's ``dt``) or "event" (one exact event-driven run of ``step_time``, as
+      ``Simulation(..., integrator="event").step(step_time / dt)``; the env's simulation
+      has that integrator). With "event" the scene's bounds and the reactor at
+      ``size_range``'s low end must leave every species at least 1e-3 of its radius of free
+      room along each axis (the event integrator's own rule), so that no wall move can
+      reach bounds it refuses.
     - ``render_mode``: None, "rgb_array" or "human"; ``render_size``: whole pixels,
       1 <= ``render_size`` <= 4096.
 
@@ -1200,6 +1244,8 @@ class DiscReactorEnv(gym.Env):
             act[0] = action
         else:
             act[0] = as_actions(cfg, action)
+        if sim.integrator != cfg.integrator:
+            raise integrator_changed(cfg, sim.integrator, "its Simulation")
         bound = self._bound
         arrays = sim.kernel_arrays()
         if arrays[0] is not bound[0] or arrays[1] is not bound[1] or \

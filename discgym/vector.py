@@ -3,9 +3,10 @@
 ``gymnasium.make_vec("DiscReactor-v0", num_envs=64)`` builds a :class:`DiscReactorVectorEnv`
 (it is the registered ``vector_entry_point``). Each reactor follows, bit for bit, the
 trajectory of a lone :class:`~discgym.env.DiscReactorEnv` reset with the same seed and given
-the same actions (``tests/test_vector.py`` checks it): both share the action, observation and
-reward code of :mod:`discgym.env`, and the kernel of each reactor is the same
-:func:`discgym.kernels.step.advance`.
+the same actions (``tests/test_vector.py`` checks it; ``tests/test_env_event.py`` with
+``integrator="event"``): both share the action, observation and reward code of
+:mod:`discgym.env`, and the kernel of each reactor is the same
+(:func:`discgym.kernels.step.advance`, or :func:`discgym.kernels.event_driven.run_steps`).
 
 How it works: the state of all reactors lives in padded arrays ``(R, C, 2)`` / ``(R, C)``
 with a capacity ``C = capacity_for_discs(max_discs)`` that can never run out (``max_discs``:
@@ -54,6 +55,7 @@ from .env import (
     check_keywords,
     check_render_mode,
     check_status,
+    integrator_changed,
     observe,
     with_config,
 )
@@ -483,6 +485,8 @@ class DiscReactorVectorEnv(VectorEnv):
                     "(e.g. an injection beyond the batch's capacity); the vector env "
                     "keeps every reactor in its own arrays and cannot follow. Change a reactor "
                     "through its controls (inject, resize, scale_temperature) only, or reset it")
+            if sim.integrator != cfg.integrator:
+                raise integrator_changed(cfg, sim.integrator, f"reactor {r}'s Simulation")
             m = len(sim)
             if m != self._n[r]:  # discs added or removed from outside: still within the plan?
                 need, mass = cfg.capacity_for(sim.species, self._feed_left[r])

@@ -94,6 +94,7 @@ BAD = {
                ("outflow", ValueError)],
     "observe_outflow": [(1, TypeError), (None, TypeError), ("no", TypeError)],
     "feed_temperature": [v for v in _PAIR if v[0] is not None] + [((0.3, 1e300), ValueError)],
+    "integrator": [(None, TypeError), (1, TypeError), ("exact", ValueError)],
     "render_mode": [(3, TypeError), ("humans", ValueError), ("", ValueError)],
     "render_size": _WHOLE + [(0, ValueError), (MAX_RENDER_SIZE + 1, ValueError),
                              (10**6, ValueError)],

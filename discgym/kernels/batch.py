@@ -11,20 +11,22 @@ does the same in a ``prange`` over reactors (numba's threads). Both run the same
 ``np.random.Generator`` (a ``numba.typed.List`` of them: a tuple would compile once per batch
 size, and numba refuses tuples of more than 100 items in a parallel region), so a reactor of
 a batch follows bit for bit the trajectory of a lone environment (``R = 1``) with the same
-state, generator and actions. The physics of a step is
-:func:`discgym.kernels.step.advance`, the kernel :meth:`Simulation.step
-<discgym.Simulation.step>` calls, single-threaded for each reactor; the controls are those of
+state, generator and actions. The physics of a step is the kernel :meth:`Simulation.step
+<discgym.Simulation.step>` calls, single-threaded for each reactor: the time-stepped
+:func:`discgym.kernels.step.advance` or, with ``consts.integrator`` = ``EVENT``, one exact run
+of :func:`discgym.kernels.event_driven.run_steps` over the whole env step (as
+``Simulation(..., integrator="event").step(steps_per_action)``); the controls are those of
 :mod:`~discgym.kernels.controls`, which the ``Simulation`` methods call.
 
 One call per environment step: the environment's Python only checks the action's shape,
 books the ``Simulation``'s clocks and builds ``info``.
 
 The capacity C must never be too small: ``advance`` returns new, larger arrays when a
-fission finds ``C < 2 n``, and those could not be written back into the batch; an injection
-could not fit either. :func:`reactor_step` reports such a reactor in its status
-(:data:`GREW`, :data:`FULL`) instead and the caller raises. Give each reactor
-``capacity_for_discs(max_discs)`` (:mod:`~discgym.kernels.structs`; ``max_discs``: the most
-discs a reactor can ever hold) and it never happens.
+fission finds ``C < 2 n`` (``run_steps`` when it finds no free slot), and those could not be
+written back into the batch; an injection could not fit either. :func:`reactor_step` reports
+such a reactor in its status (:data:`GREW`, :data:`FULL`) instead and the caller raises.
+Give each reactor ``capacity_for_discs(max_discs)`` (:mod:`~discgym.kernels.structs`;
+``max_discs``: the most discs a reactor can ever hold) and it never happens.
 
 Physics-free glue: this module imports numpy and numba only.
 """
@@ -35,9 +37,13 @@ import numpy as np
 from numba import njit, prange
 
 from .controls import RESIZED, heat, inject, resize
+from .event_driven import CELLS_PER_DISC, N_STATS, run_steps
+from .event_structs import Counters as EventCounters
 from .step import FS_WALL_HEAT, advance, empty_work
 from .structs import (
     BOX,
+    COUNT,
+    EVENT,
     JACKET,
     N_SIDES,
     P_RMAX,
@@ -136,7 +142,8 @@ def balance(cost, active, T, order, starts):
 @njit(cache=True)
 def reactor_step(r, rx, ep, tables, params, flags, consts, rngs, act):
     """Apply the action ``act[r]`` to reactor r (heat, then the wall, then injection), advance
-    it ``consts.steps_per_action`` steps of ``consts.dt``, count the episode step and observe
+    it ``consts.steps_per_action`` steps of ``consts.dt`` (with ``consts.integrator`` =
+    ``EVENT``: one exact event-driven run of that time), count the episode step and observe
     it.
 
     ``rx`` the batch's :class:`~discgym.kernels.structs.Reactors` (rows r), ``ep`` its
@@ -199,11 +206,18 @@ def reactor_step(r, rx, ep, tables, params, flags, consts, rngs, act):
         out_last[k] = outflow[k]
     fsum = rx.fsum[r]
     wall_heat0 = _wall_heat(fsum)
-    after, m, _w = advance(discs, rx.n[r], consts.steps_per_action, consts.dt,
-                           Bounds(rx.bounds_kind[r], rx.bounds_params[r], rx.bounds_walls[r]),
-                           tables, params, flags, rngs[r],
-                           Counters(rx.icnt[r], rx.fsum[r], ch_count, rx.outflow[r]),
-                           1, rx.ksteps[r], consts.reorder_every, empty_work())
+    bounds = Bounds(rx.bounds_kind[r], rx.bounds_params[r], rx.bounds_walls[r])
+    if consts.integrator == EVENT:  # one exact run of the step (Simulation.step's call)
+        after, m = run_steps(discs, rx.n[r], consts.steps_per_action, consts.dt, bounds,
+                             tables, params, flags, rngs[r],
+                             EventCounters(rx.icnt[r], fsum, ch_count,
+                                           np.zeros(N_STATS, dtype=COUNT), outflow),
+                             CELLS_PER_DISC)
+    else:
+        after, m, _w = advance(discs, rx.n[r], consts.steps_per_action, consts.dt, bounds,
+                               tables, params, flags, rngs[r],
+                               Counters(rx.icnt[r], rx.fsum[r], ch_count, rx.outflow[r]),
+                               1, rx.ksteps[r], consts.reorder_every, empty_work())
     if after.pos.shape[0] != cap:
         iout[r, O_STATUS] = GREW
         return

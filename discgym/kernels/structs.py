@@ -35,6 +35,9 @@ BOX, CIRCLE = 0, 1
 # How an environment's heat action heats: rescaling every velocity, or setting the
 # temperature of the thermal walls (ReactorConsts.heating).
 SCALE, JACKET = 0, 1
+# Which integrator an environment step runs (ReactorConsts.integrator): the time-stepped one
+# (kernels.step.advance) or the exact event-driven one (kernels.event_driven.run_steps).
+STEPPED, EVENT = 0, 1
 
 # Indices into a compiled scene's float parameter vector (params).
 P_RESTITUTION, P_RELAX, P_MAXDISP, P_RMIN, P_RMAX = range(5)
@@ -209,6 +212,7 @@ class ReactorConsts(NamedTuple):
     heating: int  #: SCALE (velocities rescaled) or JACKET (thermal walls set)
     obs_feed_kT: int  #: 1: the observation shows the inlet temperature
     obs_outflow: int  #: 1: the observation counts the discs that left in the last step
+    integrator: int  #: STEPPED (kernels.step.advance) or EVENT (one exact event-driven run)
 
 
 @register_jitable
