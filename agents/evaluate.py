@@ -39,7 +39,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from train_ppo import algo_class  # noqa: E402
 
-LADDER = ("random", "best constant", "hand-written", "oracle")
+LADDER = ("random", "best constant", "hand-written", "mpc", "oracle")
 
 
 @dataclass
@@ -57,6 +57,8 @@ class Args:
     """the checkpoint that did best on the validation seeds during training, or the last"""
     oracle: bool = True
     """run the oracle (about 5-7 s per episode)"""
+    mpc: bool = False
+    """run the oracle without clairvoyance too (twice the oracle's cost)"""
     workers: int = os.cpu_count() or 1
     """processes the episodes are spread over"""
     gif: bool = True
@@ -139,6 +141,8 @@ def _factory(env_id: str, kind: str, payload):
         return tb.controller
     if kind == "oracle":
         return tb.oracle()
+    if kind == "mpc":
+        return tb.mpc()
     if kind == "agent":
         return agent_factory(*payload)
     raise ValueError(f"kind: unknown policy {kind!r}")
@@ -186,7 +190,8 @@ def _chunks(seeds: list, n: int) -> list:
 
 def evaluate_task(env_id: str, runs: list, seeds: list, search_seeds: list,
                   env_kwargs: dict | None = None, checkpoint: str = "best",
-                  oracle: bool = True, workers: int = 1, log=print) -> dict:
+                  oracle: bool = True, workers: int = 1, mpc: bool = False,
+                  log=print) -> dict:
     """Every policy's per-seed returns on ``seeds`` and the table's statistics."""
     from discgym.baselines import (
         TASK_BASELINES,
@@ -232,13 +237,19 @@ def evaluate_task(env_id: str, runs: list, seeds: list, search_seeds: list,
             label = f"{info['algo']} ({Path(run).name})"
             jobs[label] = (str(run), checkpoint)
             names[label] = label
+        if mpc:
+            jobs["mpc"] = None
+            names["mpc"] = (f"MPC without clairvoyance (rollouts on 2 fresh random futures, "
+                            f"on the {tb.controller_name})")
         if oracle:
-            jobs["oracle"], names["oracle"] = None, f"oracle (rollout MPC on the {tb.controller_name})"
+            jobs["oracle"] = None
+            names["oracle"] = (f"oracle (rollout MPC on the {tb.controller_name}, "
+                               "foreseeing the noise)")
         futures = {}
         for name, payload in jobs.items():
             kind = "agent" if name not in LADDER else name
             # the slow policies get one chunk per worker, the fast ones a single job
-            n = workers if kind in ("oracle", "agent") else 1
+            n = workers if kind in ("oracle", "mpc", "agent") else 1
             futures[name] = [pool.submit(_episodes, env_id, kind, payload, c, kw)
                              for c in _chunks(seeds, n)]
         runs_out = {}
@@ -280,8 +291,8 @@ def table(res: dict) -> str:
     n = len(res["eval_seeds"])
     lines = [f"| policy ({n} seeds) | mean [95% CI] | IQM [95% CI] | minus hand-written "
              "[95% CI] | training |", "|---|---|---|---|---|"]
-    order = [k for k in LADDER[:-1]] + [k for k in res["policies"] if k not in LADDER]
-    order += ["oracle"] if "oracle" in res["policies"] else []
+    order = [k for k in LADDER[:3]] + [k for k in res["policies"] if k not in LADDER]
+    order += [k for k in LADDER[3:] if k in res["policies"]]
     for k in order:
         r = res["policies"][k]
         diff = r.get("minus_hand_written")
@@ -305,11 +316,13 @@ def plot_curves(res: dict, path: Path) -> Path:
 
     fig, ax = plt.subplots(figsize=(6.4, 3.8), dpi=120)
     styles = {"random": ("0.6", ":"), "best constant": ("0.4", "--"),
-              "hand-written": ("tab:blue", "--"), "oracle": ("tab:green", "-.")}
+              "hand-written": ("tab:blue", "--"), "mpc": ("tab:olive", "-."),
+              "oracle": ("tab:green", "-.")}
     for k, (color, ls) in styles.items():
         if k in res["policies"]:
             ax.axhline(res["policies"][k]["mean"]["value"], color=color, ls=ls, lw=1.2,
-                       label=res["policies"][k]["label"].split(" [")[0])
+                       label={"hand-written": res["policies"][k]["label"],
+                              "mpc": "MPC without clairvoyance"}.get(k, k))
     for k, r in res["policies"].items():
         if "run" not in r:
             continue
@@ -393,7 +406,7 @@ def main(argv=None) -> int:
     seeds = list(range(a.first_seed, a.first_seed + a.seeds))
     t0 = time.perf_counter()
     res = evaluate_task(env_id, a.run, seeds, list(range(a.search_seeds)), kws[0],
-                        a.checkpoint, a.oracle, a.workers,
+                        a.checkpoint, a.oracle, a.workers, a.mpc,
                         log=lambda s: print(s, file=sys.stderr, flush=True))
     import gymnasium
     import numba

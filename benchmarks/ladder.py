@@ -74,7 +74,7 @@ def versions() -> dict:
 
 def run_task(env_id: str, eval_seeds: list, search_seeds: list, env_kwargs: dict,
              replan_every: int | None = None, horizon: int | None = None,
-             log=print) -> dict:
+             log=print, mpc: bool = False) -> dict:
     """The ladder of one task: every policy's per-seed returns, the summaries, the paired
     differences between the ladder's steps, the oracle's budget."""
     tb = TASK_BASELINES[env_id]
@@ -89,6 +89,8 @@ def run_task(env_id: str, eval_seeds: list, search_seeds: list, env_kwargs: dict
     oracle = tb.oracle(replan_every=replan_every, horizon=horizon)
     factories = {"random": random_factory, "best constant": constant_factory(best),
                  "hand-written": tb.controller, "oracle": oracle}
+    if mpc:  # the oracle without clairvoyance (TaskBaselines.mpc): room a policy could take
+        factories["mpc"] = tb.mpc()
     runs = {}
     for name, fac in factories.items():
         t = time.perf_counter()
@@ -104,6 +106,13 @@ def run_task(env_id: str, eval_seeds: list, search_seeds: list, env_kwargs: dict
         d = paired_difference(runs[hi].returns, runs[lo].returns)
         steps.append({"step": f"{hi} - {lo}", "difference": d.as_dict(),
                       "ordered": bool(d.value > 0), "separated": bool(d.low > 0)})
+    extra = {}
+    if mpc:
+        extra["mpc"] = {
+            "minus_hand_written": paired_difference(runs["mpc"].returns,
+                                                    runs["hand-written"].returns).as_dict(),
+            "oracle_minus_mpc": paired_difference(runs["oracle"].returns,
+                                                  runs["mpc"].returns).as_dict()}
     ost = [s for s in runs["oracle"].stats if s]
     ep_steps = runs["oracle"].steps
     budget = {
@@ -131,7 +140,7 @@ def run_task(env_id: str, eval_seeds: list, search_seeds: list, env_kwargs: dict
                        "rule": (tb.controller.__doc__ or "").strip()},
         "policies": rows, "ladder": steps,
         "ordered": all(s["ordered"] for s in steps),
-        "oracle_budget": budget,
+        "oracle_budget": budget, **extra,
     }
 
 
@@ -206,7 +215,8 @@ def table(res: dict) -> str:
     def ci(d):
         return f"{d['value']:.3f} [{d['low']:.3f}, {d['high']:.3f}]"
 
-    for k in LADDER:
+    names["mpc"] = "MPC without clairvoyance (the oracle on 2 fresh random futures)"
+    for k in [*LADDER[:3], *(["mpc"] if "mpc" in res["policies"] else []), LADDER[3]]:
         r = res["policies"][k]
         lines.append(f"| {names[k]} | {ci(r['mean'])} | {ci(r['iqm'])} | "
                      f"{seconds(r['seconds_per_episode'])} |")
@@ -215,6 +225,11 @@ def table(res: dict) -> str:
     for s in res["ladder"]:
         lines.append(f"| {s['step']} | {ci(s['difference'])} | "
                      f"{'yes' if s['separated'] else 'no'} |")
+    if "mpc" in res:
+        for k, label in (("minus_hand_written", "MPC - hand-written"),
+                         ("oracle_minus_mpc", "oracle - MPC (the value of foreseeing the noise)")):
+            d = res["mpc"][k]
+            lines.append(f"| {label} | {ci(d)} | {'yes' if d['low'] > 0 else 'no'} |")
     return "\n".join(lines)
 
 
@@ -278,6 +293,10 @@ def main(argv=None) -> int:
                    help="default docs/img/ladder_<env>.png (ladder_all.png for --env all)")
     p.add_argument("--variants", action="store_true",
                    help="also run other oracle budgets and the sampling planner (slow)")
+    p.add_argument("--mpc", action="store_true",
+                   help="also run the oracle without clairvoyance (TaskBaselines.mpc: twice "
+                   "the oracle's cost), to split the oracle's margin into what a policy could "
+                   "learn and what only foreseeing the noise gives")
     p.add_argument("--check", action="store_true",
                    help="exit 1 if the means are not ordered random < constant < "
                    "hand-written < oracle")
@@ -305,7 +324,8 @@ def main(argv=None) -> int:
     for env_id in envs:
         t0 = time.perf_counter()
         res = run_task(env_id, eval_seeds, search_seeds, env_kwargs, a.replan_every,
-                       a.horizon, log=lambda s: print(s, file=sys.stderr, flush=True))
+                       a.horizon, log=lambda s: print(s, file=sys.stderr, flush=True),
+                       mpc=a.mpc)
         res.update(date=date, machine=machine(), versions=versions(), command=cmd,
                    total_seconds=time.perf_counter() - t0)
         res["table"] = table(res)

@@ -473,6 +473,23 @@ class TaskBaselines:
 
         return factory
 
+    def mpc(self, samples: int = 2, noise: int = 12345) -> PolicyFactory:
+        """A factory of the oracle *without clairvoyance*: the same rollout planner, whose
+        copies meet ``samples`` fresh random futures (``RolloutOracle(noise=...)``) instead
+        of the env's own. It knows the model and the state, not the noise: what a
+        model-predictive controller with a perfect simulator could do, so its margin over
+        the controller is room a learned policy could take, while the oracle's margin over
+        it is the value of foreseeing the noise."""
+        from .oracle import RolloutOracle
+
+        def factory(env):
+            return RolloutOracle(env, self.controller(env), self.oracle_candidates,
+                                 horizon=self.oracle_horizon,
+                                 replan_every=self.oracle_replan_every, noise=noise,
+                                 samples=samples)
+
+        return factory
+
 
 #: The baselines of every task, keyed by env id (extend it when you register a task).
 TASK_BASELINES: dict[str, TaskBaselines] = {

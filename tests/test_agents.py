@@ -71,10 +71,10 @@ def test_train_writes_every_file(ppo_run):
 
 def test_evaluate_table_has_every_policy_and_paired_differences(ppo_run):
     res = evaluate.evaluate_task("DiscReactor-v0", [ppo_run], [1000, 1001], [0],
-                                 {"episode_steps": 20}, workers=1, oracle=True,
+                                 {"episode_steps": 20}, workers=1, oracle=True, mpc=True,
                                  log=lambda s: None)
     assert set(res["policies"]) == {"random", "best constant", "hand-written",
-                                    f"ppo ({ppo_run.name})", "oracle"}
+                                    f"ppo ({ppo_run.name})", "mpc", "oracle"}
     for name, row in res["policies"].items():
         assert len(row["returns"]) == 2 and np.isfinite(row["mean"]["value"])
         assert ("minus_hand_written" in row) == (name != "hand-written")

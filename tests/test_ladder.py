@@ -46,6 +46,19 @@ def test_a_tiny_ladder_writes_its_json_table_and_plot(tmp_path, capsys):
     assert png.stat().st_size > 1000
 
 
+def test_the_mpc_row_splits_the_oracles_margin(tmp_path, capsys):
+    out = tmp_path / "{env}.json"
+    assert ladder.main(["--env", "DiscReactor-v0", "--seeds", "2", "--search-seeds", "1",
+                        *TINY, "--out", str(out), "--mpc"]) == 0
+    res = json.loads((tmp_path / "DiscReactor-v0.json").read_text())
+    mpc = np.array(res["policies"]["mpc"]["returns"])
+    hw = np.array(res["policies"]["hand-written"]["returns"])
+    orc = np.array(res["policies"]["oracle"]["returns"])
+    assert res["mpc"]["minus_hand_written"]["value"] == pytest.approx((mpc - hw).mean())
+    assert res["mpc"]["oracle_minus_mpc"]["value"] == pytest.approx((orc - mpc).mean())
+    assert "| MPC - hand-written |" in res["table"] and "without clairvoyance" in res["table"]
+
+
 def test_overlapping_or_too_few_seeds_are_refused(tmp_path, capsys):
     with pytest.raises(SystemExit):
         ladder.main(["--seeds", "1", "--out", str(tmp_path / "x.json")])
