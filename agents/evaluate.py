@@ -58,7 +58,7 @@ class Args:
     oracle: bool = True
     """run the oracle (about 5-7 s per episode)"""
     mpc: bool = False
-    """run the oracle without clairvoyance too (twice the oracle's cost)"""
+    """also run the oracle without foresight of the random draws (twice the oracle's cost)"""
     workers: int = os.cpu_count() or 1
     """processes the episodes are spread over"""
     gif: bool = True
@@ -239,8 +239,8 @@ def evaluate_task(env_id: str, runs: list, seeds: list, search_seeds: list,
             names[label] = label
         if mpc:
             jobs["mpc"] = None
-            names["mpc"] = (f"MPC without clairvoyance (rollouts on 2 fresh random futures, "
-                            f"on the {tb.controller_name})")
+            names["mpc"] = (f"oracle without foresight of the random draws (2 fresh random "
+                            f"futures per candidate, on the {tb.controller_name})")
         if oracle:
             jobs["oracle"] = None
             names["oracle"] = (f"oracle (rollout MPC on the {tb.controller_name}, "
@@ -322,7 +322,7 @@ def plot_curves(res: dict, path: Path) -> Path:
         if k in res["policies"]:
             ax.axhline(res["policies"][k]["mean"]["value"], color=color, ls=ls, lw=1.2,
                        label={"hand-written": res["policies"][k]["label"],
-                              "mpc": "MPC without clairvoyance"}.get(k, k))
+                              "mpc": "oracle, random draws not foreseen"}.get(k, k))
     for k, r in res["policies"].items():
         if "run" not in r:
             continue

@@ -89,7 +89,7 @@ def run_task(env_id: str, eval_seeds: list, search_seeds: list, env_kwargs: dict
     oracle = tb.oracle(replan_every=replan_every, horizon=horizon)
     factories = {"random": random_factory, "best constant": constant_factory(best),
                  "hand-written": tb.controller, "oracle": oracle}
-    if mpc:  # the oracle without clairvoyance (TaskBaselines.mpc): room a policy could take
+    if mpc:  # the oracle without foresight of the random draws (TaskBaselines.mpc)
         factories["mpc"] = tb.mpc()
     runs = {}
     for name, fac in factories.items():
@@ -215,7 +215,7 @@ def table(res: dict) -> str:
     def ci(d):
         return f"{d['value']:.3f} [{d['low']:.3f}, {d['high']:.3f}]"
 
-    names["mpc"] = "MPC without clairvoyance (the oracle on 2 fresh random futures)"
+    names["mpc"] = "oracle without foresight of the random draws (2 fresh futures)"
     for k in [*LADDER[:3], *(["mpc"] if "mpc" in res["policies"] else []), LADDER[3]]:
         r = res["policies"][k]
         lines.append(f"| {names[k]} | {ci(r['mean'])} | {ci(r['iqm'])} | "
@@ -227,7 +227,7 @@ def table(res: dict) -> str:
                      f"{'yes' if s['separated'] else 'no'} |")
     if "mpc" in res:
         for k, label in (("minus_hand_written", "MPC - hand-written"),
-                         ("oracle_minus_mpc", "oracle - MPC (the value of foreseeing the noise)")):
+                         ("oracle_minus_mpc", "oracle - MPC (foreseeing the random draws)")):
             d = res["mpc"][k]
             lines.append(f"| {label} | {ci(d)} | {'yes' if d['low'] > 0 else 'no'} |")
     return "\n".join(lines)
@@ -294,9 +294,8 @@ def main(argv=None) -> int:
     p.add_argument("--variants", action="store_true",
                    help="also run other oracle budgets and the sampling planner (slow)")
     p.add_argument("--mpc", action="store_true",
-                   help="also run the oracle without clairvoyance (TaskBaselines.mpc: twice "
-                   "the oracle's cost), to split the oracle's margin into what a policy could "
-                   "learn and what only foreseeing the noise gives")
+                   help="also run the oracle without foresight of the random draws "
+                   "(TaskBaselines.mpc: twice the oracle's cost; it still knows every disc)")
     p.add_argument("--check", action="store_true",
                    help="exit 1 if the means are not ordered random < constant < "
                    "hand-written < oracle")

@@ -474,12 +474,14 @@ class TaskBaselines:
         return factory
 
     def mpc(self, samples: int = 2, noise: int = 12345) -> PolicyFactory:
-        """A factory of the oracle *without clairvoyance*: the same rollout planner, whose
-        copies meet ``samples`` fresh random futures (``RolloutOracle(noise=...)``) instead
-        of the env's own. It knows the model and the state, not the noise: what a
-        model-predictive controller with a perfect simulator could do, so its margin over
-        the controller is room a learned policy could take, while the oracle's margin over
-        it is the value of foreseeing the noise."""
+        """A factory of the oracle *without foresight of the random draws*: the same rollout
+        planner, whose copies meet ``samples`` fresh random futures
+        (``RolloutOracle(noise=...)``) instead of the env's own. It still knows the model
+        and the exact microstate (every disc's position and velocity), whose collisions are
+        deterministic: far more than an observation shows. The oracle's margin over it is
+        the value of foreseeing the random draws (injections, reverse reactions); its own
+        margin over the controller is an upper bound, not an estimate, of what a policy that
+        sees only the observation could gain."""
         from .oracle import RolloutOracle
 
         def factory(env):

@@ -122,8 +122,8 @@ class RolloutOracle:
         noise: None (default): every rollout runs on an exact copy and meets the env's
             own random future (clairvoyant). A seed: each rollout's copy gets fresh random
             generators (``clone(reseed=...)``), drawn from this seed, so the oracle knows
-            the model and the state but not the noise: a model-predictive controller that
-            could be deployed given a perfect simulator. Every candidate meets the same
+            the model and the exact state (every disc; the collisions themselves are
+            deterministic) but not the random draws to come. Every candidate meets the same
             ``samples`` futures (common random numbers) and is scored by their mean. The
             guarantee "never below the base policy" holds only without noise.
         samples: futures per candidate (only with ``noise``).

@@ -56,7 +56,7 @@ def test_the_mpc_row_splits_the_oracles_margin(tmp_path, capsys):
     orc = np.array(res["policies"]["oracle"]["returns"])
     assert res["mpc"]["minus_hand_written"]["value"] == pytest.approx((mpc - hw).mean())
     assert res["mpc"]["oracle_minus_mpc"]["value"] == pytest.approx((orc - mpc).mean())
-    assert "| MPC - hand-written |" in res["table"] and "without clairvoyance" in res["table"]
+    assert "| MPC - hand-written |" in res["table"] and "without foresight" in res["table"]
 
 
 def test_overlapping_or_too_few_seeds_are_refused(tmp_path, capsys):

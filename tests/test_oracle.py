@@ -135,7 +135,7 @@ def test_a_reseeded_clone_continues_the_state_into_another_future():
     np.testing.assert_array_equal(run(u.clone()), exact)  # the env itself was not touched
 
 
-def test_the_oracle_without_clairvoyance():
+def test_the_oracle_without_foresight_of_the_random_draws():
     """noise=seed: rollouts meet other futures than the env's, the same ones for every
     candidate; deterministic given the seed; the arguments are checked."""
     fac = lambda env: RolloutOracle(env, reactor_heuristic(env), reactor_oracle_candidates,
