@@ -1,7 +1,7 @@
 """Evaluate trained agents on their task against the task's baselines: the task's whole table.
 
-    python agents/evaluate.py --run runs/DiscFlow-v0_ppo               # after train_ppo.py
-    python agents/evaluate.py --run runs/DiscFlow-v0_ppo runs/DiscFlow-v0_sac
+    python agents/evaluate.py --run runs/DiscReactor-v0_ppo            # after train_ppo.py
+    python agents/evaluate.py --run runs/DiscReactor-v0_ppo runs/DiscReactor-v0_sac --mpc
 
 Every policy plays one episode on each evaluation seed (1000-1019 by default; training used
 other seeds, see train_ppo.py), on a fresh ``gymnasium.make(env_id)``:
@@ -28,6 +28,7 @@ import os
 import platform
 import sys
 import time
+import zlib
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, field
 from multiprocessing import get_context
@@ -55,6 +56,8 @@ class Args:
     """the best constant action is searched on seeds 0 .. search_seeds - 1"""
     checkpoint: Literal["best", "final"] = "best"
     """the checkpoint that did best on the validation seeds during training, or the last"""
+    deterministic: bool = True
+    """the agents' mean actions (--no-deterministic: sampled, as in training)"""
     oracle: bool = True
     """run the oracle (about 5-7 s per episode)"""
     mpc: bool = False
@@ -86,10 +89,12 @@ def env_kwargs_of(run: Path) -> dict:
     return {k: info[k] for k in ("scene", "episode_steps") if info.get(k) is not None}
 
 
-def agent_factory(run: Path, checkpoint: str = "best"):
-    """``env -> policy`` of a trained agent: deterministic actions, its VecNormalize
-    statistics (``VecNormalize.load``) applied to the observations, an LSTM's state reset at
-    each episode (a factory is called once per episode)."""
+def agent_factory(run: Path, checkpoint: str = "best", deterministic: bool = True):
+    """``env -> policy`` of a trained agent: deterministic actions (or sampled ones, with
+    torch's generator seeded from the episode's first observation, so that a seed gives the
+    same episode however the seeds are spread over workers), its VecNormalize statistics
+    (``VecNormalize.load``) applied to the observations, an LSTM's state reset at each
+    episode (a factory is called once per episode)."""
     import gymnasium as gym
     import torch
     from stable_baselines3.common.vec_env import DummyVecEnv, VecNormalize
@@ -113,10 +118,12 @@ def agent_factory(run: Path, checkpoint: str = "best"):
         def policy(obs):
             nonlocal state, start
             o = np.asarray(obs, dtype=np.float32)[None]
+            if not deterministic and start[0]:
+                torch.manual_seed(zlib.crc32(o.tobytes()))
             if vn is not None:
                 o = vn.normalize_obs(o)
             act, state = model.predict(o, state=state, episode_start=start,
-                                       deterministic=True)
+                                       deterministic=deterministic)
             start = np.zeros(1, dtype=bool)
             return act[0]
 
@@ -191,7 +198,7 @@ def _chunks(seeds: list, n: int) -> list:
 def evaluate_task(env_id: str, runs: list, seeds: list, search_seeds: list,
                   env_kwargs: dict | None = None, checkpoint: str = "best",
                   oracle: bool = True, workers: int = 1, mpc: bool = False,
-                  log=print) -> dict:
+                  deterministic: bool = True, log=print) -> dict:
     """Every policy's per-seed returns on ``seeds`` and the table's statistics."""
     from discgym.baselines import (
         TASK_BASELINES,
@@ -235,7 +242,7 @@ def evaluate_task(env_id: str, runs: list, seeds: list, search_seeds: list,
         for run in runs:
             info = run_info(run)
             label = f"{info['algo']} ({Path(run).name})"
-            jobs[label] = (str(run), checkpoint)
+            jobs[label] = (str(run), checkpoint, deterministic)
             names[label] = label
         if mpc:
             jobs["mpc"] = None
@@ -277,6 +284,7 @@ def evaluate_task(env_id: str, runs: list, seeds: list, search_seeds: list,
         rows[name] = row
     return {"env_id": env_id, "env_kwargs": kw, "eval_seeds": list(seeds),
             "search_seeds": list(search_seeds), "checkpoint": checkpoint,
+            "deterministic": deterministic,
             "best_constant": [float(x) for x in best], "policies": rows}
 
 
@@ -406,7 +414,7 @@ def main(argv=None) -> int:
     seeds = list(range(a.first_seed, a.first_seed + a.seeds))
     t0 = time.perf_counter()
     res = evaluate_task(env_id, a.run, seeds, list(range(a.search_seeds)), kws[0],
-                        a.checkpoint, a.oracle, a.workers, a.mpc,
+                        a.checkpoint, a.oracle, a.workers, a.mpc, a.deterministic,
                         log=lambda s: print(s, file=sys.stderr, flush=True))
     import gymnasium
     import numba
@@ -423,14 +431,16 @@ def main(argv=None) -> int:
     out = Path(a.out or a.run[0])
     out.mkdir(parents=True, exist_ok=True)
     res["table"] = table(res)
-    md = (f"{env_id}, seeds {seeds[0]}-{seeds[-1]} (deterministic actions, the {a.checkpoint} "
+    acts = "deterministic" if a.deterministic else "sampled"
+    md = (f"{env_id}, seeds {seeds[0]}-{seeds[-1]} ({acts} actions, the {a.checkpoint} "
           f"checkpoint), {res['date']}, {res['machine']}\n\n{res['table']}")
     (out / "evaluation.json").write_text(json.dumps(res, indent=2) + "\n")
     (out / "evaluation.md").write_text(md + "\n")
     print(md)
     print(f"wrote {out / 'evaluation.md'}, {plot_curves(res, out / 'learning_curve.png')}")
     if a.gif:
-        gif = animate(env_id, agent_factory(a.run[0], a.checkpoint), out / "episode.gif",
+        gif = animate(env_id, agent_factory(a.run[0], a.checkpoint, a.deterministic),
+                      out / "episode.gif",
                       seed=seeds[0], env_kwargs=kws[0])
         print(f"wrote {gif}")
     return 0

@@ -117,6 +117,15 @@ def test_agent_factory_matches_vecnormalize_and_predict(ppo_run):
     np.testing.assert_array_equal(fac(env)(obs), want[0])
 
 
+def test_sampled_actions_are_reproducible_per_episode(ppo_run):
+    obs = np.linspace(0, 1, 19, dtype=np.float32)
+    a1 = evaluate.agent_factory(ppo_run, "final", deterministic=False)(None)(obs)
+    a2 = evaluate.agent_factory(ppo_run, "final", deterministic=False)(None)(obs)
+    mean = evaluate.agent_factory(ppo_run, "final")(None)(obs)
+    np.testing.assert_array_equal(a1, a2)  # seeded from the episode's first observation
+    assert not np.array_equal(a1, mean)
+
+
 @pytest.mark.parametrize("algo", ["sac", "recurrent_ppo"])
 def test_other_algorithms_train_and_act(algo, hp_dir, tmp_path):
     if algo == "recurrent_ppo":
