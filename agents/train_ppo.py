@@ -190,16 +190,16 @@ def train(args: Args) -> Path:
     policy = policy or ("MlpLstmPolicy" if args.algo == "recurrent_ppo" else "MlpPolicy")
     model = cls(policy, venv, seed=args.seed, device=args.device, verbose=0, **hp)
     model.set_logger(configure(str(out), ["csv"]))
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), time.process_time()
     model.learn(total_timesteps=steps, callback=callback,
                 progress_bar=args.progress_bar and _has_progress_bar())
-    wall = time.perf_counter() - t0
+    wall, cpu = time.perf_counter() - t0, time.process_time() - c0
     model.save(out / "model.zip")
     if normalize:
         venv.save(str(out / "vecnormalize.pkl"))
     venv.close()
     (out / "train_summary.json").write_text(json.dumps(
-        {"env_id": args.env_id, "algo": args.algo, "wall_seconds": wall,
+        {"env_id": args.env_id, "algo": args.algo, "wall_seconds": wall, "cpu_seconds": cpu,
          "timesteps": int(model.num_timesteps), "n_envs": n_envs,
          "best_checkpoint": (out / "best_model.zip").exists()}, indent=2))
     return out
