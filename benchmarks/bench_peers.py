@@ -11,7 +11,8 @@ It prints two tables and writes docs/img/perf_peers.png (unless ``--quick`` or `
 
 1. Raw throughput: disc-steps per second of each engine and of discgym, one thread each, at
    N = 10^3, 10^4, 10^5, timed in interleaved pairs (a chunk of discgym, a chunk of the peer);
-   the ratio peer / discgym per pair, median and min-max over the pairs.
+   the ratio peer / discgym per pair, median and min-max over the pairs. LAMMPS runs at the
+   stiffness the equal-accuracy table chose (that table runs first).
 2. Equal accuracy (N = 10^4): each engine's CPU seconds per unit of simulated time at the
    cheapest setting of its ladder (time step; LAMMPS: stiffness, with dt = contact time / 10)
    whose wall pressure is within 1% of the exact result (discgym's event-driven integrator
@@ -361,7 +362,7 @@ class PymunkEngine(Engine):
         return self.box.velocities()
 
 
-LAMMPS_KN = 3.0e4  #: the stiffness of the throughput table (the equal-accuracy ladder's pick)
+LAMMPS_KN = 1.0e5  #: the throughput table's stiffness when the equal-accuracy table did not pick one
 
 
 class LammpsEngine(Engine):
@@ -670,7 +671,7 @@ def accuracy_run(peer: str, setting, pos, vel, extent, duration: float, rounds: 
         w_pe += b
         ratios.append((b / pr.blocks[-1][1]) / (a / pd.blocks[-1][1]))
     out = pr.result(n)
-    out.update(code=eng.name, setting=eng.setting(), dt=eng.dt,
+    out.update(code=eng.name, setting=eng.setting(), dt=eng.dt, value=setting,
                cpu_per_time=w_pe / out["sim_time"],
                cpu_per_time_discgym=w_dg / sum(d for _, d in pd.blocks),
                ratio_median=float(np.median(ratios)), ratio_min=float(min(ratios)),
@@ -766,7 +767,8 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--exact-time", type=float, default=None,
                    help="simulated time of the exact reference (default 1000; quick 200)")
     p.add_argument("--lammps-kn", type=float, default=None,
-                   help=f"LAMMPS stiffness of the throughput table (default {LAMMPS_KN:g})")
+                   help="LAMMPS stiffness of the throughput table (default: the one the "
+                        f"equal-accuracy ladder chose, else {LAMMPS_KN:g})")
     p.add_argument("--equilibrate", type=float, default=None,
                    help="simulated time run before measuring (default 10; quick 5)")
     p.add_argument("--seed", type=int, default=0)
@@ -790,14 +792,6 @@ def main(argv: list[str] | None = None) -> int:
     peers = available_peers(args.peers)
     eq = args.equilibrate or (5.0 if q else 10.0)
     rounds = args.rounds or (3 if q else 5)
-    _log("\n== raw throughput: disc-steps per second, one thread each, interleaved pairs")
-    rows = throughput(args.sizes or ([1_000, 10_000] if q else [1_000, 10_000, 100_000]),
-                      peers, args.seconds or (0.5 if q else 2.5), rounds, args.seed, eq)
-    if rows:
-        report.section("throughput", "Raw throughput (one thread each)", rows,
-                       throughput_table)
-    else:
-        _log("(no peer installed: nothing to compare)")
     n_acc = args.accuracy_n if args.accuracy_n is not None else (1_000 if q else 10_000)
     acc = []
     if n_acc:
@@ -807,6 +801,17 @@ def main(argv: list[str] | None = None) -> int:
                              args.exact_time or (200.0 if q else 1000.0), args.seed, eq)
         report.section("accuracy", "Equal accuracy: CPU per unit simulated time", acc,
                        accuracy_table)
+        if not args.lammps_kn:  # the throughput table runs LAMMPS at its equal-accuracy kn
+            LAMMPS_KN = next((r["value"] for r in acc if r["code"] == "LAMMPS" and r["chosen"]),
+                             LAMMPS_KN)
+    _log("\n== raw throughput: disc-steps per second, one thread each, interleaved pairs")
+    rows = throughput(args.sizes or ([1_000, 10_000] if q else [1_000, 10_000, 100_000]),
+                      peers, args.seconds or (0.5 if q else 2.5), rounds, args.seed, eq)
+    if rows:
+        report.section("throughput", "Raw throughput (one thread each)", rows,
+                       throughput_table)
+    else:
+        _log("(no peer installed: nothing to compare)")
     _log("Throughput: a disc-step is one disc advanced one step of the engine's own dt; ratios "
          "per interleaved pair of chunks. Equal accuracy: Z from the momentum given to the "
          "walls over the run, against discgym's event-driven integrator from the same state; "

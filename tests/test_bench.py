@@ -165,7 +165,34 @@ def test_interleave_alternates_runners_within_step_bounds():
     assert sum(1 for c in calls if c[0] == "b-between") == 3
 
 
-@pytest.mark.parametrize("script", ["bench_core.py", "bench_peers.py"])
+def test_profile_step_phases_add_up_to_the_run_and_keep_the_trajectory():
+    import profile_step
+
+    T, wall = profile_step.profile(300, 20, equilibrate=0.5)
+    assert T.shape == (len(profile_step.PHASES),) and (T >= 0).all()
+    assert T[profile_step.PHASES.index("events")] > 0
+    assert T.sum() <= wall * 1.05  # the phases are inside the timed run
+    # the copy of the substep loop computes Simulation.step's trajectory, bit for bit
+    a = dg.Simulation(bench.bench_scene(300), seed=0)
+    a.threads = 1
+    a.step(1)
+    a.advance(0.5)
+    b = a.copy()
+    a.step(21)
+    cs = b._cs
+    w = profile_step.profiled_advance(
+        profile_step.Discs(b._pos, b._vel, b._species, b._internal_energy, b._ids, b._idctr),
+        b._n, 21, b.scene.dt,
+        profile_step.Bounds(b._bounds_kind, b._bounds_params, b._walls), cs.tables, cs.params,
+        cs.flags, b._rngs[0], profile_step.Counters(b._icnt, b._fsum, b._ch_count, b._outflow),
+        b._steps, profile_step.S.empty_work(), np.zeros(len(profile_step.PHASES)),
+        np.zeros(2, dtype=np.int64))
+    assert w is not None
+    assert np.array_equal(a.positions, b._pos[:b._n]) and np.array_equal(a.velocities,
+                                                                          b._vel[:b._n])
+
+
+@pytest.mark.parametrize("script", ["bench_core.py", "bench_peers.py", "profile_step.py"])
 def test_scripts_print_their_help(script):
     res = subprocess.run([sys.executable, str(BENCHMARKS / script), "--help"],
                          capture_output=True, text=True, timeout=300)
