@@ -362,7 +362,8 @@ class PymunkEngine(Engine):
         return self.box.velocities()
 
 
-LAMMPS_KN = 1.0e5  #: the throughput table's stiffness when the equal-accuracy table did not pick one
+#: the throughput table's stiffness when the equal-accuracy table did not pick one
+LAMMPS_KN = 1.0e5
 
 
 class LammpsEngine(Engine):
@@ -707,7 +708,8 @@ def equal_accuracy(peers: Sequence[str], n: int = 10_000, duration: float = 30.0
             _log(f"  {r['code']:7s} {r['setting']:24s} Z err {100 * r['z_err']:+.2f}% "
                  f"+- {100 * r['z_err_se']:.2f}%, overlaps>1% {r['overlaps']}, max "
                  f"{r['max_overlap']:.2e}; {r['cpu_per_time']:.3g} s/time unit, "
-                 f"x{r['ratio_median']:.2f} discgym's{'  <- equal accuracy' if r['passes'] else ''}")
+                 f"x{r['ratio_median']:.2f} discgym's"
+                 f"{'  <- equal accuracy' if r['passes'] else ''}")
             if r["passes"]:
                 break
     return rows

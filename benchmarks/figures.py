@@ -8,8 +8,6 @@ import math
 import numba
 import numpy as np
 
-from discgym.bench import DT
-
 
 def save(fn, rows, path) -> None:
     """``fn(rows, path)``, or a note if matplotlib is missing."""
