@@ -125,8 +125,6 @@ EVENTS_PER_DISC = 64  # event budget per substep: EVENTS_PER_DISC * n + 1024
 DISC_EVENTS = 1024  # events one disc may take part in per substep; past it, see resolve.py
 REBUILD_UNBINNED = 256  # rebuild the grid when this many discs were created since it was built
 OV_SLOTS = 4  # overlaps recorded per disc by the (parallel) broad phase; more: rescanned
-SCAN_W1 = 4  # candidates per disc tested without branching in its own row (_scan_rows) ...
-SCAN_W2 = 6  # ... and in the row below (3 cells)
 PARALLEL_MIN = 65536  # below this many discs a step runs on one thread: waking numba's
 # threads for the two parallel regions of a step costs more than they save
 REORDER_MIN = 16384  # from this many discs, discs are periodically put in cell order in memory
@@ -238,16 +236,13 @@ def _scan_rows(r0, r1, grid, cell_start, sx, sy, sr, ov_n, ov_b):
     discs, so row chunks run in parallel.
 
     The loop runs over the discs of a row (a disc's column from its x, as it was binned),
-    not over the cells: most cells are empty and a branch on that mispredicts. Each disc
-    tests a fixed number of candidates (SCAN_W1 in its row, SCAN_W2 in the row below),
-    without a branch on the outcome: a candidate outside its run (masked) or not
-    overlapping is written to slot k and left there to be overwritten; k counts the hits.
-    A run longer than its window (rare) takes the plain loop.
+    not over the cells: most cells are empty (about 60% at packing 0.3), and a branch on
+    that mispredicts. (Testing a fixed window of candidates without branches was slower:
+    docs/performance.md.)
     """
     x0, icx = grid[0], grid[2]
     ncx = int(grid[4])
     ncy = int(grid[5])
-    last = cell_start[ncx * ncy + 1] - 1  # (reads are clamped into the binned discs)
     for cy in range(r0, r1):
         rowc = ncx * cy
         below = cy + 1 < ncy
@@ -1212,7 +1207,6 @@ def _drift_and_bin(threads, n, h, pos, vel, species, sp_radius, bounds_kind, bou
                      sc.wall_t, sc.wflag, grid, sc.cell_of, collide, sc.nev, sc.binx, sc.biny,
                      sc.partner)
     if collide:
-        ncx = int(grid[4])
         ncy = int(grid[5])
         cell_start, cell_items = sc.cell_start, sc.cell_items
         _sort(n, sc.cell_of, cell_start, cell_items)
