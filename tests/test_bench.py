@@ -192,7 +192,30 @@ def test_profile_step_phases_add_up_to_the_run_and_keep_the_trajectory():
                                                                           b._vel[:b._n])
 
 
-@pytest.mark.parametrize("script", ["bench_core.py", "bench_peers.py", "profile_step.py"])
+def test_pairlist_probe_lists_exactly_the_close_pairs():
+    import pairlist_probe
+
+    rng = np.random.default_rng(0)
+    pos = rng.uniform(0, 30, size=(200, 2))
+    from discgym.kernels.celllist import make_grid
+
+    grid = make_grid(0, np.array([0.0, 0.0, 30.0, 30.0]), 1.5, 200)
+    nc = int(grid[4]) * int(grid[5])
+    pi, pj = np.zeros(20000, np.int32), np.zeros(20000, np.int32)
+    m = pairlist_probe.build(200, pos, grid, 3.0, np.zeros(nc + 1, np.int64),
+                             np.zeros(200, np.int64), np.zeros(200, np.int64), pi, pj,
+                             np.zeros((200, 2)))
+    d = np.linalg.norm(pos[:, None] - pos[None], axis=-1)
+    want = {(i, j) for i in range(200) for j in range(i + 1, 200) if d[i, j] < 3.0}
+    assert set(zip(pi[:m].tolist(), pj[:m].tolist())) == want
+    assert pairlist_probe.check(m, pi, pj, pos, 2.0) == int((d[np.triu_indices(200, 1)]
+                                                             < 2.0).sum())
+    r = pairlist_probe.probe(300, 1.0, 5)
+    assert r["pairs_per_disc"] > 0 and r["check"] > 0
+
+
+@pytest.mark.parametrize("script", ["bench_core.py", "bench_peers.py", "profile_step.py",
+                                    "pairlist_probe.py"])
 def test_scripts_print_their_help(script):
     res = subprocess.run([sys.executable, str(BENCHMARKS / script), "--help"],
                          capture_output=True, text=True, timeout=300)
