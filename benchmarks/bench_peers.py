@@ -5,7 +5,7 @@ pymunk (Chipmunk2D) and Box2D (both impulse solvers). Each peer is optional (``p
 'discgym[peers]'``); a missing one is skipped with a note.
 
     python benchmarks/bench_peers.py           # both tables of docs/performance.md (~5 min)
-    python benchmarks/bench_peers.py --quick   # small and short (~1 min; no figure written)
+    python benchmarks/bench_peers.py --quick   # small and short (< 1 min; no figure written)
 
 It prints two tables and writes docs/img/perf_peers.png (unless ``--quick`` or ``--plot DIR``):
 
