@@ -233,7 +233,8 @@ def evaluate_task(env_id: str, runs: list, seeds: list, search_seeds: list,
         cand = np.asarray(grid(probe) if callable(grid) else grid, dtype=np.float32)
         probe.close()
         best = cand[int(np.argmax(means))]
-        log(f"{env_id}: best constant {np.round(best.astype(float), 3).tolist()} of {len(cand)} on seeds "
+        shown = np.round(best.astype(float), 3).tolist()
+        log(f"{env_id}: best constant {shown} of {len(cand)} on seeds "
             f"{search_seeds[0]}..{search_seeds[-1]} ({time.perf_counter() - t0:.0f} s)")
         jobs = {"random": None, "best constant": best, "hand-written": None}
         names = {"random": "random", "best constant":
@@ -331,7 +332,7 @@ def plot_curves(res: dict, path: Path) -> Path:
             ax.axhline(res["policies"][k]["mean"]["value"], color=color, ls=ls, lw=1.2,
                        label={"hand-written": res["policies"][k]["label"],
                               "mpc": "oracle, random draws not foreseen"}.get(k, k))
-    for k, r in res["policies"].items():
+    for r in res["policies"].values():
         if "run" not in r:
             continue
         npz = Path(r["run"]) / "evaluations.npz"

@@ -47,7 +47,7 @@ class Args:
     """Training arguments; each is also a flag (``--env-id``, ``--total-timesteps``, ...)."""
 
     env_id: str = "DiscReactor-v0"
-    """the task (``discgym.tasks.TASKS``); its hyperparameters come from ``hyperparams/<algo>.yml``"""
+    """the task (``discgym.tasks.TASKS``); hyperparameters from ``hyperparams/<algo>.yml``"""
     algo: Literal["ppo", "sac", "recurrent_ppo"] = "ppo"
     """SB3's PPO, SB3's SAC, or sb3-contrib's RecurrentPPO (an LSTM policy)"""
     total_timesteps: int | None = None

@@ -138,8 +138,10 @@ def test_a_reseeded_clone_continues_the_state_into_another_future():
 def test_the_oracle_without_foresight_of_the_random_draws():
     """noise=seed: rollouts meet other futures than the env's, the same ones for every
     candidate; deterministic given the seed; the arguments are checked."""
-    fac = lambda env: RolloutOracle(env, reactor_heuristic(env), reactor_oracle_candidates,
-                                    replan_every=3, noise=11, samples=2)
+    def fac(env):
+        return RolloutOracle(env, reactor_heuristic(env), reactor_oracle_candidates,
+                             replan_every=3, noise=11, samples=2)
+
     r1 = run_episodes(ENV, fac, SEEDS[:2], TINY)
     r2 = run_episodes(ENV, fac, SEEDS[:2], TINY)
     assert r1.returns.tobytes() == r2.returns.tobytes()
