@@ -67,6 +67,7 @@ from .structs import (
     Bounds,
     Counters,
     Discs,
+    PairList,
     RunConsts,
     Scratch,
     Tables,
@@ -130,6 +131,10 @@ PARALLEL_MIN = 65536  # below this many discs a step runs on one thread: waking 
 REORDER_MIN = 16384  # from this many discs, discs are periodically put in cell order in memory
 REORDER_EVERY = 8  # steps between reorderings (Simulation's default)
 REORDER_CELLS = 1 << 19  # the reordering grid: cells of 2 r_max, at most about this many
+PAIR_SKIN = 0.5  # the pair list's skin, in cell radii (docs/performance.md)
+PAIR_SLOTS = 8  # neighbour slots per disc the pair list starts with (doubled when one overflows)
+PAIR_MIN_STEPS = 4  # calls of fewer steps use the per-substep scan (a list built at the start
+# of a call, for a few steps only, costs more than it saves)
 
 
 
@@ -298,6 +303,214 @@ def _broad_parallel(nch, n, ncy, grid, cell_start, cell_items, pos, species, sp_
                    ov_b)
 
 
+# ------------------------------------------------------------ phase 2 (list): the pair list
+# The broad phase of a call of PAIR_MIN_STEPS or more steps: a neighbour list of the small
+# discs (PairList), kept across substeps. A disc is re-listed ("refreshed": its reference
+# position set to where it is, its neighbours searched anew in this substep's grid) when it
+# has moved more than skin / 2 from its reference position; each substep then tests only the
+# listed pairs for an overlap. The overlapping pairs found are exactly those of the scan
+# (the invariant of PairList), so the same contacts are queued and, as the heap pops them by
+# (t, i, j), the trajectory is the same bit for bit.
+@njit(cache=True)
+def new_pairlist(ws, slots):
+    """An empty pair list for ``ws`` discs with ``slots`` neighbour slots each (no disc
+    listed)."""
+    nbn = np.empty(ws, dtype=INDEX)
+    nbn[:] = -1
+    mark = np.zeros(ws, dtype=INDEX)
+    return PairList(np.empty(ws, dtype=FLOAT), np.empty(ws, dtype=FLOAT), nbn,
+                    np.empty((ws, slots), dtype=INDEX), np.empty(ws, dtype=INDEX), mark)
+
+
+@njit(cache=True)
+def _pl_resize(pl, ws, slots):
+    """``pl`` with room for ``ws`` discs and ``slots`` neighbours each: its entries kept
+    (discs past the old size not listed)."""
+    old = pl.nbn.shape[0]
+    K = pl.nb.shape[1]
+    q = new_pairlist(ws, slots)
+    m = min(old, ws)
+    q.refx[:m] = pl.refx[:m]
+    q.refy[:m] = pl.refy[:m]
+    q.nbn[:m] = pl.nbn[:m]
+    kk = min(K, slots)
+    q.nb[:m, :kk] = pl.nb[:m, :kk]
+    return q
+
+
+@njit(cache=True)
+def _pl_unlink(v, nb, nbn):
+    """Remove disc v from its neighbours' lists and empty its own."""
+    for s in range(nbn[v]):
+        k = nb[v, s]
+        c = nbn[k]
+        for u in range(c):
+            if nb[k, u] == v:
+                nb[k, u] = nb[k, c - 1]
+                nbn[k] = c - 1
+                break
+    nbn[v] = 0
+
+
+@njit(cache=True)
+def _pl_stale(n, pos, species, sp_radius, rcell, half, pl):
+    """The discs to refresh in this substep, into ``pl.todo``: every small disc farther than
+    ``half`` (skin / 2) from its reference position or not listed. A listed disc that has
+    become big (a reaction) is unlisted (big discs are queued by :func:`_queue_initial`).
+    Returns how many."""
+    refx, refy, nbn, nb, todo = pl.refx, pl.refy, pl.nbn, pl.nb, pl.todo
+    h2 = half * half
+    m = 0
+    for i in range(n):
+        if nbn[i] < 0:
+            if sp_radius[species[i]] <= rcell:
+                todo[m] = i
+                m += 1
+            continue
+        dx = pos[i, 0] - refx[i]
+        dy = pos[i, 1] - refy[i]
+        if dx * dx + dy * dy > h2:
+            if sp_radius[species[i]] > rcell:
+                _pl_unlink(i, nb, nbn)
+                nbn[i] = -1
+            else:
+                todo[m] = i
+                m += 1
+        elif sp_radius[species[i]] > rcell:  # (a reaction made it big where it was)
+            _pl_unlink(i, nb, nbn)
+            nbn[i] = -1
+    return m
+
+
+@njit(cache=True)
+def _pl_refresh(m, pos, pl, grid, cell_start, cell_items, cut, reach):
+    """Re-list the ``m`` discs of ``pl.todo``: each one's reference position is set to where
+    it is, and its neighbours (reference positions closer than ``cut``) are searched for in
+    this substep's grid (binned where they are now, within ``reach - cut`` of their reference
+    positions). Returns False, the list left inconsistent, when a disc's neighbours
+    overflow the slots: the caller grows them and lists every disc anew."""
+    refx, refy, nbn, nb, todo, mark = pl.refx, pl.refy, pl.nbn, pl.nb, pl.todo, pl.mark
+    K = nb.shape[1]
+    ncx = int(grid[4])
+    for q in range(m):
+        v = todo[q]
+        if nbn[v] > 0:
+            _pl_unlink(v, nb, nbn)
+        nbn[v] = 0
+        refx[v] = pos[v, 0]
+        refy[v] = pos[v, 1]
+        mark[v] = 1
+    cut2 = cut * cut
+    ok = True
+    for q in range(m):
+        v = todo[q]
+        x = refx[v]
+        y = refy[v]
+        cx0, cx1, cy0, cy1 = cell_range(x, y, reach, grid)
+        for cy in range(cy0, cy1 + 1):
+            for a in range(cell_start[cx0 + ncx * cy], cell_start[cx1 + 1 + ncx * cy]):
+                k = cell_items[a]
+                if k == v or (mark[k] != 0 and k < v):
+                    continue  # (a pair of two refreshed discs is listed from the lower one)
+                dx = refx[k] - x
+                dy = refy[k] - y
+                if dx * dx + dy * dy < cut2:
+                    if nbn[v] >= K or nbn[k] >= K:
+                        ok = False
+                        break
+                    nb[v, nbn[v]] = k
+                    nbn[v] += 1
+                    nb[k, nbn[k]] = v
+                    nbn[k] += 1
+            if not ok:
+                break
+        if not ok:
+            break
+    for q in range(m):
+        mark[todo[q]] = 0
+    return ok
+
+
+@njit(cache=True)
+def _pl_overlaps(n, pos, species, sp_radius, nb, nbn, ov_n, ov_b):
+    """The overlapping listed pairs: ``ov_n[i]`` gets the number of i's listed neighbours
+    j > i that overlap it, the first OV_SLOTS of them in ``ov_b[i]`` (indexed by disc, not
+    by sorted position as the scan's)."""
+    for i in range(n):
+        c = nbn[i]
+        k = 0
+        if c > 0:
+            xi = pos[i, 0]
+            yi = pos[i, 1]
+            ri = sp_radius[species[i]]
+            for s in range(c):
+                j = nb[i, s]
+                if j > i:
+                    dx = pos[j, 0] - xi
+                    dy = pos[j, 1] - yi
+                    R = ri + sp_radius[species[j]]
+                    if dx * dx + dy * dy < R * R:
+                        if k < OV_SLOTS:
+                            ov_b[i, k] = j
+                        k += 1
+        ov_n[i] = k
+
+
+@njit(cache=True)
+def _pl_compact(n, species, pl, newidx):
+    """Follow :func:`_compact` (to be called before it, on the same discs): drop the removed
+    discs (species < 0) from the lists and renumber the others. ``newidx``: (n,) scratch."""
+    refx, refy, nbn, nb = pl.refx, pl.refy, pl.nbn, pl.nb
+    m = 0
+    for i in range(n):
+        if species[i] >= 0:
+            newidx[i] = m
+            m += 1
+        else:
+            newidx[i] = -1
+    for i in range(n):
+        a = newidx[i]
+        if a < 0:
+            continue
+        c = nbn[i]
+        w = 0
+        for s in range(c):
+            k = newidx[nb[i, s]]
+            if k >= 0:
+                nb[a, w] = k
+                w += 1
+        nbn[a] = w if c >= 0 else -1
+        refx[a] = refx[i]
+        refy[a] = refy[i]
+    for i in range(m, n):
+        nbn[i] = -1
+
+
+@njit(cache=True)
+def _pl_broad(n, pos, species, sp_radius, grid, sc, pl, full):
+    """The broad phase through the pair list (after :func:`_sort`): refresh the discs that
+    need it (every small disc if ``full``: the list is built), then test the listed pairs.
+    Returns the pair list (a new one when its slots had to grow)."""
+    rcell = grid[6]
+    skin = PAIR_SKIN * rcell
+    cut = 2.0 * rcell + skin
+    if full:
+        pl.nbn[:n] = -1
+    m = _pl_stale(n, pos, species, sp_radius, rcell, 0.5 * skin, pl)
+    # (a disc not refreshed is within skin / 2 of its reference position)
+    while not _pl_refresh(m, pos, pl, grid, sc.cell_start, sc.cell_items, cut,
+                          cut + 0.5 * skin):
+        pl = _pl_resize(pl, pl.nbn.shape[0], 2 * pl.nb.shape[1])
+        pl.nbn[:n] = -1
+        m = _pl_stale(n, pos, species, sp_radius, rcell, 0.5 * skin, pl)
+    _pl_overlaps(n, pos, species, sp_radius, pl.nb, pl.nbn, sc.ov_n, sc.ov_b)
+    nbc = int(grid[4]) * int(grid[5])
+    # the big discs' positions, for _queue_initial
+    _gather(sc.cell_start[nbc], sc.cell_start[nbc + 1], sc.cell_items, pos, species, sp_radius,
+            sc.sx, sc.sy, sc.sr)
+    return pl
+
+
 # ------------------------------------------------------------------ phase 3: event queue
 @njit(cache=True)
 def _try_pair(i, j, sp_radius, pos, vel, species, tlast, stamp, H, size, icnt):
@@ -317,9 +530,10 @@ def _try_pair(i, j, sp_radius, pos, vel, species, tlast, stamp, H, size, icnt):
 
 
 @njit(cache=True)
-def _queue_initial(n, collide, sp_radius, pos, vel, species, sc, grid, H, icnt):
+def _queue_initial(n, collide, sp_radius, pos, vel, species, sc, grid, H, icnt, pl, listed):
     """Queue every wall contact and every overlapping pair of the substep: the pairs the
-    broad phase found (``sc.ov_n``, ``sc.ov_b``: small discs, half stencil) and those of the
+    broad phase found (``sc.ov_n``, ``sc.ov_b``: small discs; by sorted position from the
+    scan, half stencil, or by disc from the pair list ``pl`` if ``listed``) and those of the
     big discs (found here: each big disc against the cells within its radius + rcell and the
     big discs after it). ``sc``: the :class:`~.structs.Scratch`."""
     tlast, stamp, wall_t, wflag = sc.tlast, sc.stamp, sc.wall_t, sc.wflag
@@ -336,7 +550,7 @@ def _queue_initial(n, collide, sp_radius, pos, vel, species, sc, grid, H, icnt):
         if wflag[i]:
             icnt[IC_PUSHED_INSIDE] += 1
     if collide:
-        for a in range(cell_start[nbc]):
+        for a in range(n if listed else cell_start[nbc]):
             need += ov_n[a]
         for a in range(cell_start[nbc], cell_start[nbc + 1]):
             need += _big_candidates(a, sx, sy, sr, rcell, grid, cell_start)
@@ -347,7 +561,23 @@ def _queue_initial(n, collide, sp_radius, pos, vel, species, sc, grid, H, icnt):
             size = push(H, size, wall_t[i], i, -1, stamp[i], 0)
     if not collide:
         return H, size
-    for a in range(cell_start[nbc]):
+    if listed:
+        nb, nbn = pl.nb, pl.nbn
+        for i in range(n):
+            k = ov_n[i]
+            if k == 0:
+                continue
+            if k <= OV_SLOTS:
+                for q in range(k):
+                    size = _try_pair(i, ov_b[i, q], sp_radius, pos, vel, species, tlast, stamp,
+                                     H, size, icnt)
+                continue
+            for q in range(nbn[i]):  # more partners than slots: its list again
+                j = nb[i, q]
+                if j > i:
+                    size = _try_pair(i, j, sp_radius, pos, vel, species, tlast, stamp, H, size,
+                                     icnt)
+    for a in range(0 if listed else cell_start[nbc]):
         k = ov_n[a]
         if k == 0:
             continue
@@ -1087,9 +1317,14 @@ def advance(discs, n, n_steps, dt, bounds, tables, params, flags, rng, cnt, thre
     ws = pos.shape[0]  # per-disc workspace, reallocated when the state grows
     work = _fit_work(work, ws, nstart)
     sc = _carve(work, ws, nstart)
+    # the broad phase: a pair list kept across the substeps of a call long enough to pay
+    listed = collide and n_steps >= PAIR_MIN_STEPS
+    pl = new_pairlist(ws if listed else 0, PAIR_SLOTS if listed else 1)
+    full = True  # (the list is built at the first substep, and after a reordering)
     for s in range(n_steps):
         if reorder_every > 0 and n >= REORDER_MIN and (step0 + s) % reorder_every == 0:
             _reorder(n, pos, vel, species, internal_energy, ids, rgrid, work)
+            full = True
         # first-order reactions run only if some disc has a first-order channel: a scene
         # whose first-order species are absent pays this lookup, not a pass per substep
         uni_live = False
@@ -1103,10 +1338,12 @@ def advance(discs, n, n_steps, dt, bounds, tables, params, flags, rng, cnt, thre
         sub = 0
         while sub < k:
             icnt[IC_SUBSTEPS] += 1
-            _drift_and_bin(threads, n, h, pos, vel, species, sp_radius, bounds_kind,
-                           bounds_params, grid, sc, collide)
+            pl = _drift_and_bin(threads, n, h, pos, vel, species, sp_radius, bounds_kind,
+                                bounds_params, grid, sc, collide, pl, listed, full)
+            full = False
             left0 = icnt[IC_LEFT_OVERLAPPING]
-            H, size = _queue_initial(n, collide, sp_radius, pos, vel, species, sc, grid, H, icnt)
+            H, size = _queue_initial(n, collide, sp_radius, pos, vel, species, sc, grid, H, icnt,
+                                     pl, listed)
             # a substep is cut short (at a reaction, see _events) only while the step has
             # taken fewer than MAX_SUBSTEPS substeps and not shorter than the capped substep
             # dt / MAX_SUBSTEPS: a step of a finite number of substeps, each of them useful
@@ -1128,6 +1365,7 @@ def advance(discs, n, n_steps, dt, bounds, tables, params, flags, rng, cnt, thre
             # (a reactive collision may have made a species with first-order channels)
             if has_uni and (uni_live or icnt[IC_REACTIVE] != reactive0):
                 uni_live = True
+                n_before = n
                 grown, n, vfrag = _first_order(
                     n, hu, tables, Discs(pos, vel, species, internal_energy, ids, idctr),
                         fission_possible,
@@ -1143,7 +1381,13 @@ def advance(discs, n, n_steps, dt, bounds, tables, params, flags, rng, cnt, thre
                     ws = pos.shape[0]  # the next step's reordering
                     work = _fit_work(work, ws, nstart)
                     sc = _carve(work, ws, nstart)
+                    if listed:
+                        pl = _pl_resize(pl, ws, pl.nb.shape[1])
+                if listed:
+                    pl.nbn[n_before:n] = -1  # fragments: listed at the next substep
             if n_dead:
+                if listed:
+                    _pl_compact(n, species, pl, pl.todo)
                 n = _compact(n, pos, vel, species, internal_energy, ids)
             sub += 1
             # Energy released in this substep may have made a disc faster than the remaining
@@ -1193,10 +1437,12 @@ def _first_split(vel, n, dt, maxdisp, icnt):
 
 @njit(cache=True)
 def _drift_and_bin(threads, n, h, pos, vel, species, sp_radius, bounds_kind, bounds_params, grid,
-                   sc, collide):
+                   sc, collide, pl, listed, full):
     """Phases 1 and 2 of a substep: the drift (and wall contacts), then, if ``collide``, the
-    discs sorted into their cells and the overlapping pairs found (in parallel over
-    ``threads`` chunks from PARALLEL_MIN discs); resets the per-disc event counts."""
+    discs sorted into their cells and the overlapping pairs found, by the pair list ``pl``
+    if ``listed`` (built anew if ``full``), else by the scan (in parallel over ``threads``
+    chunks from PARALLEL_MIN discs, as the drift); resets the per-disc event counts.
+    Returns the pair list (a new one if it had to grow)."""
     par = threads > 1 and n >= PARALLEL_MIN
     if par:
         _drift_parallel(threads, n, h, pos, vel, species, sp_radius, bounds_kind, bounds_params,
@@ -1210,12 +1456,15 @@ def _drift_and_bin(threads, n, h, pos, vel, species, sp_radius, bounds_kind, bou
         ncy = int(grid[5])
         cell_start, cell_items = sc.cell_start, sc.cell_items
         _sort(n, sc.cell_of, cell_start, cell_items)
+        if listed:
+            return _pl_broad(n, pos, species, sp_radius, grid, sc, pl, full)
         if par:
             _broad_parallel(threads, n, ncy, grid, cell_start, cell_items, pos, species,
                             sp_radius, sc.sx, sc.sy, sc.sr, sc.ov_n, sc.ov_b)
         else:
             _gather(0, n, cell_items, pos, species, sp_radius, sc.sx, sc.sy, sc.sr)
             _scan_rows(0, ncy, grid, cell_start, sc.sx, sc.sy, sc.sr, sc.ov_n, sc.ov_b)
+    return pl
 
 
 @njit(cache=True)

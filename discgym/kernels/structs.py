@@ -121,6 +121,23 @@ class Scratch(NamedTuple):
     cell_start: np.ndarray  #: (cells + 2,) INDEX CSR offsets of the cells into cell_items
 
 
+class PairList(NamedTuple):
+    """The stepped integrator's neighbour (Verlet) list, kept across the substeps of one call
+    (``kernels.step``, "the pair list"). Small discs only (radius <= the cell radius); the
+    lists are symmetric: k is in i's list if and only if i is in k's.
+
+    Invariant at every broad phase: every listed disc is within skin / 2 of its reference
+    position, and every pair of listed discs whose reference positions are closer than
+    2 rcell + skin is listed, so every overlapping pair of small discs is listed."""
+
+    refx: np.ndarray  #: (ws,) FLOAT x of a disc's reference position (where it was listed)
+    refy: np.ndarray  #: (ws,) FLOAT y of it
+    nbn: np.ndarray  #: (ws,) INDEX a disc's listed neighbours; -1: not listed (new, big)
+    nb: np.ndarray  #: (ws, K) INDEX the neighbours (K slots: grown when one runs out)
+    todo: np.ndarray  #: (ws,) INDEX the discs refreshed in this substep (compact)
+    mark: np.ndarray  #: (ws,) INDEX 1 while a disc is being refreshed
+
+
 class RunConsts(NamedTuple):
     """What a stepped run reads from its scene and flags, once per call."""
 
