@@ -45,7 +45,10 @@ from discgym.kernels.structs import (
 )
 
 PHASES = ("reorder in memory", "substep split", "drift, walls, binning", "cell sort",
-          "gather", "broad phase scan", "initial event queue", "events", "repair")
+          "gather", "broad phase scan", "pair list: stale discs", "pair list: refresh",
+          "pair list: pair test", "initial event queue", "events", "repair")
+# the counts PROFILED_ADVANCE also returns (per disc-step in profile())
+COUNTS = ("substeps", "discs refreshed", "listed pairs")
 
 _clock_gettime = ctypes.CDLL(None).clock_gettime
 _clock_gettime.argtypes = [ctypes.c_int, ctypes.c_void_p]
@@ -61,9 +64,11 @@ def _now(buf):
 
 @njit
 def profiled_advance(discs, n, n_steps, dt, bounds, tables, params, flags, rng, cnt, step0,
-                     work, T, clk):
+                     work, T, clk, C, skin_factor=S.PAIR_SKIN):
     """kernels.step.advance for a scene without reactions (one thread), adding the ns
-    spent in each phase of PHASES to T."""
+    spent in each phase of PHASES to T and the COUNTS to C. The broad phase is the one
+    advance takes for a call of ``n_steps`` steps (the pair list from PAIR_MIN_STEPS on, its
+    skin ``skin_factor`` cell radii: advance's PAIR_SKIN unless a probe asks otherwise)."""
     pos, vel, species, internal_energy = discs.pos, discs.vel, discs.species, discs.internal_energy
     ids, idctr = discs.ids, discs.next_id
     bounds_kind, bounds_params = bounds.kind, bounds.params
@@ -83,10 +88,17 @@ def profiled_advance(discs, n, n_steps, dt, bounds, tables, params, flags, rng, 
     ws = pos.shape[0]
     work = S._fit_work(work, ws, nstart)
     sc = S._carve(work, ws, nstart)
+    listed = collide and n_steps >= S.PAIR_MIN_STEPS
+    pl = S.new_pairlist(ws if listed else 0, S.PAIR_CAP * ws if listed else 0)
+    big = sp_radius.max() > rcell
+    skin = skin_factor * rcell
+    cut = 2.0 * rcell + skin
     for s in range(n_steps):
         t0 = _now(clk)
         if n >= S.REORDER_MIN and (step0 + s) % S.REORDER_EVERY == 0:
             S._reorder(n, pos, vel, species, internal_energy, ids, rgrid, work)
+            if listed:
+                S._pl_permute(n, work[1][n:2 * n], pl, work[1][0:n], work[0])
         t1 = _now(clk)
         T[0] += t1 - t0
         k, capped, vfast = S._first_split(vel, n, dt, maxdisp, icnt)
@@ -104,30 +116,56 @@ def profiled_advance(discs, n, n_steps, dt, bounds, tables, params, flags, rng, 
             S._sort(n, sc.cell_of, sc.cell_start, sc.cell_items)
             t0 = _now(clk)
             T[3] += t0 - t1
-            S._gather(0, n, sc.cell_items, pos, species, sp_radius, sc.sx, sc.sy, sc.sr)
-            t1 = _now(clk)
-            T[4] += t1 - t0
-            S._scan_rows(0, ncy, grid, sc.cell_start, sc.sx, sc.sy, sc.sr, sc.ov_n, sc.ov_b)
-            t0 = _now(clk)
-            T[5] += t0 - t1
+            C[0] += 1
+            if listed:  # S._pl_broad, phase by phase
+                m = S._pl_stale(n, pos, species, sp_radius, rcell, 0.5 * skin, big, pl)
+                t1 = _now(clk)
+                T[6] += t1 - t0
+                S._pl_test(pos, species, sp_radius, S._mono_radius(sp_radius, rcell), pl)
+                t0 = _now(clk)
+                T[8] += t0 - t1
+                p0 = pl.count[0]
+                o0 = pl.count[1]
+                while not S._pl_refresh(m, pos, species, sp_radius, pl, grid, sc.cell_start,
+                                        sc.cell_items, cut, cut + 0.5 * skin):
+                    pl.count[0] = p0
+                    pl.count[1] = o0
+                    pl = S._pl_resize(pl, pl.ref.shape[0], 2 * pl.pi.shape[0])
+                nbc = int(grid[4]) * ncy
+                S._gather(sc.cell_start[nbc], sc.cell_start[nbc + 1], sc.cell_items, pos,
+                          species, sp_radius, sc.sx, sc.sy, sc.sr)
+                C[1] += m
+                t1 = _now(clk)
+                T[7] += t1 - t0
+                t0 = t1
+            else:
+                S._gather(0, n, sc.cell_items, pos, species, sp_radius, sc.sx, sc.sy, sc.sr)
+                t1 = _now(clk)
+                T[4] += t1 - t0
+                S._scan_rows(0, ncy, grid, sc.cell_start, sc.sx, sc.sy, sc.sr, sc.ov_n,
+                             sc.ov_b)
+                t0 = _now(clk)
+                T[5] += t0 - t1
             left0 = icnt[S.IC_LEFT_OVERLAPPING]
             H, size = S._queue_initial(n, collide, sp_radius, pos, vel, species, sc, grid, H,
-                                       icnt)
+                                       icnt, pl, listed)
             t1 = _now(clk)
-            T[6] += t1 - t0
+            T[9] += t1 - t0
             H, n_dead, delta, dropped, vfast, vrel, t_cut = S._events(
                 n, H, size, tables, Discs(pos, vel, species, internal_energy, ids, idctr), sc,
                 bounds, grid, cnt, rc, icnt[S.IC_SUBSTEPS], h, vfast, math.inf, rng)
             t0 = _now(clk)
-            T[7] += t0 - t1
+            T[10] += t0 - t1
             if dropped or icnt[S.IC_LEFT_OVERLAPPING] != left0:
                 S._repair(dropped, n, pos, vel, species, tables, e, collide, bounds_kind,
                           bounds_params, grid, sc, cnt)
-            T[8] += _now(clk) - t0
+            T[11] += _now(clk) - t0
+    C[2] += pl.count[0]  # the list's pairs at the end
     return work
 
 
-def profile(n: int, steps: int, seed: int = 0, equilibrate: float = 5.0):
+def profile(n: int, steps: int, seed: int = 0, equilibrate: float = 5.0,
+            skin: float = S.PAIR_SKIN):
     """ns per disc-step of each phase over ``steps`` steps, and of the whole run."""
     sim = Simulation(bench_scene(n), seed=seed)
     sim.threads = 1
@@ -139,13 +177,18 @@ def profile(n: int, steps: int, seed: int = 0, equilibrate: float = 5.0):
     rest = (Bounds(sim._bounds_kind, sim._bounds_params, sim._walls), cs.tables, cs.params,
             cs.flags, sim._rngs[0], Counters(sim._icnt, sim._fsum, sim._ch_count, sim._outflow))
     T = np.zeros(len(PHASES))
+    C = np.zeros(len(COUNTS))
     clk = np.zeros(2, dtype=np.int64)
-    work = profiled_advance(*args, 1, sim.scene.dt, *rest, 0, S.empty_work(), T, clk)  # warm
+    work = profiled_advance(*args, 1, sim.scene.dt, *rest, 0, S.empty_work(), T, clk, C,
+                            skin)  # warm
     T[:] = 0.0
+    C[:] = 0.0
     t0 = time.perf_counter()
-    profiled_advance(*args, steps, sim.scene.dt, *rest, 1, work, T, clk)
+    profiled_advance(*args, steps, sim.scene.dt, *rest, 1, work, T, clk, C, skin)
     wall = time.perf_counter() - t0
-    return T / (n * steps), wall * 1e9 / (n * steps)
+    counts = {"substeps per step": C[0] / steps, "discs refreshed per disc-substep":
+              C[1] / (n * C[0]), "listed pairs per disc": C[2] / n}
+    return T / (n * steps), wall * 1e9 / (n * steps), counts
 
 
 def main(argv=None) -> int:
@@ -155,12 +198,16 @@ def main(argv=None) -> int:
                     help="disc-steps per run (steps = this / N, at least 10)")
     ap.add_argument("--reps", type=int, default=3, help="runs per N (median reported)")
     ap.add_argument("--markdown", action="store_true", help="print a Markdown table")
+    ap.add_argument("--skin", type=float, default=S.PAIR_SKIN,
+                    help="the pair list's skin in cell radii (default: the integrator's)")
     args = ap.parse_args(argv)
     sizes = [int(float(x)) for x in args.sizes.split(",") if x.strip()]
     cols = {}
     for n in sizes:
-        runs = [profile(n, max(10, int(args.disc_steps / n)), seed=r) for r in range(args.reps)]
-        cols[n] = (np.median([r[0] for r in runs], axis=0), float(np.median([r[1] for r in runs])))
+        runs = [profile(n, max(10, int(args.disc_steps / n)), seed=r, skin=args.skin)
+                for r in range(args.reps)]
+        cols[n] = (np.median([r[0] for r in runs], axis=0), float(np.median([r[1] for r in runs])),
+                   {k: float(np.median([r[2][k] for r in runs])) for k in runs[0][2]})
     head = ["phase"] + [f"N = {n_label(n)}: ns" for n in sizes] + [f"{n_label(n)} %" for n in sizes]
     body = []
     for p, name in enumerate(PHASES):
@@ -169,6 +216,8 @@ def main(argv=None) -> int:
     body.append(["sum of the phases"] + [f"{cols[n][0].sum():.1f}" for n in sizes]
                 + ["100%" for _ in sizes])
     body.append(["whole run (wall)"] + [f"{cols[n][1]:.1f}" for n in sizes] + ["" for _ in sizes])
+    for key in cols[sizes[0]][2]:
+        body.append([key] + [f"{cols[n][2][key]:.3f}" for n in sizes] + ["" for _ in sizes])
     print(format_table(head, body, args.markdown))
     return 0
 

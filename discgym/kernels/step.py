@@ -131,8 +131,8 @@ PARALLEL_MIN = 65536  # below this many discs a step runs on one thread: waking 
 REORDER_MIN = 16384  # from this many discs, discs are periodically put in cell order in memory
 REORDER_EVERY = 8  # steps between reorderings (Simulation's default)
 REORDER_CELLS = 1 << 19  # the reordering grid: cells of 2 r_max, at most about this many
-PAIR_SKIN = 0.5  # the pair list's skin, in cell radii (docs/performance.md)
-PAIR_SLOTS = 8  # neighbour slots per disc the pair list starts with (doubled when one overflows)
+PAIR_SKIN = 1.0  # the pair list's skin, in cell radii (docs/performance.md)
+PAIR_CAP = 2  # listed pairs the pair list has room for per disc at first (doubled when full)
 PAIR_MIN_STEPS = 4  # calls of fewer steps use the per-substep scan (a list built at the start
 # of a call, for a few steps only, costs more than it saves)
 
@@ -304,211 +304,242 @@ def _broad_parallel(nch, n, ncy, grid, cell_start, cell_items, pos, species, sp_
 
 
 # ------------------------------------------------------------ phase 2 (list): the pair list
-# The broad phase of a call of PAIR_MIN_STEPS or more steps: a neighbour list of the small
-# discs (PairList), kept across substeps. A disc is re-listed ("refreshed": its reference
-# position set to where it is, its neighbours searched anew in this substep's grid) when it
-# has moved more than skin / 2 from its reference position; each substep then tests only the
-# listed pairs for an overlap. The overlapping pairs found are exactly those of the scan
-# (the invariant of PairList), so the same contacts are queued and, as the heap pops them by
-# (t, i, j), the trajectory is the same bit for bit.
+# The broad phase of a call of PAIR_MIN_STEPS or more steps: a flat list of the pairs of
+# small discs whose reference positions are closer than 2 rcell + skin (PairList), kept
+# across substeps. Each substep, a disc that has moved more than skin / 2 from its reference
+# position (or is not listed yet) is "refreshed": its pairs are dropped, its reference
+# position set to where it is, and its pairs searched anew in this substep's grid; the
+# other pairs are tested for an overlap in one pass over the list. The overlapping pairs
+# found are exactly the scan's (the invariant of PairList), so the same contacts are queued
+# and, as the heap pops them by (t, i, j), the trajectory is the same bit for bit.
 @njit(cache=True)
-def new_pairlist(ws, slots):
-    """An empty pair list for ``ws`` discs with ``slots`` neighbour slots each (no disc
-    listed)."""
-    nbn = np.empty(ws, dtype=INDEX)
-    nbn[:] = -1
-    mark = np.zeros(ws, dtype=INDEX)
-    return PairList(np.empty(ws, dtype=FLOAT), np.empty(ws, dtype=FLOAT), nbn,
-                    np.empty((ws, slots), dtype=INDEX), np.empty(ws, dtype=INDEX), mark)
+def new_pairlist(ws, cap):
+    """An empty pair list for ``ws`` discs and ``cap`` pairs (no disc listed)."""
+    return PairList(np.empty((ws, 2), dtype=FLOAT), np.zeros(ws, dtype=INDEX), np.zeros(ws, dtype=INDEX),
+                    np.empty(ws, dtype=INDEX), np.empty(cap, dtype=INDEX),
+                    np.empty(cap, dtype=INDEX), np.empty(cap, dtype=INDEX),
+                    np.empty(cap, dtype=INDEX), np.zeros(2, dtype=np.int64))
 
 
 @njit(cache=True)
-def _pl_resize(pl, ws, slots):
-    """``pl`` with room for ``ws`` discs and ``slots`` neighbours each: its entries kept
-    (discs past the old size not listed)."""
-    old = pl.nbn.shape[0]
-    K = pl.nb.shape[1]
-    q = new_pairlist(ws, slots)
-    m = min(old, ws)
-    q.refx[:m] = pl.refx[:m]
-    q.refy[:m] = pl.refy[:m]
-    q.nbn[:m] = pl.nbn[:m]
-    kk = min(K, slots)
-    q.nb[:m, :kk] = pl.nb[:m, :kk]
+def _pl_resize(pl, ws, cap):
+    """``pl`` with room for ``ws`` discs and ``cap`` pairs, its entries kept (discs past the
+    old size not listed)."""
+    q = new_pairlist(ws, cap)
+    m = min(pl.ref.shape[0], ws)
+    q.ref[:m] = pl.ref[:m]
+    q.listed[:m] = pl.listed[:m]
+    p = pl.count[0]
+    q.pi[:p] = pl.pi[:p]
+    q.pj[:p] = pl.pj[:p]
+    v = pl.count[1]
+    q.ovi[:v] = pl.ovi[:v]
+    q.ovj[:v] = pl.ovj[:v]
+    q.count[:] = pl.count
     return q
 
 
 @njit(cache=True)
-def _pl_unlink(v, nb, nbn):
-    """Remove disc v from its neighbours' lists and empty its own."""
-    for s in range(nbn[v]):
-        k = nb[v, s]
-        c = nbn[k]
-        for u in range(c):
-            if nb[k, u] == v:
-                nb[k, u] = nb[k, c - 1]
-                nbn[k] = c - 1
-                break
-    nbn[v] = 0
-
-
-@njit(cache=True)
-def _pl_stale(n, pos, species, sp_radius, rcell, half, pl):
-    """The discs to refresh in this substep, into ``pl.todo``: every small disc farther than
-    ``half`` (skin / 2) from its reference position or not listed. A listed disc that has
-    become big (a reaction) is unlisted (big discs are queued by :func:`_queue_initial`).
-    Returns how many."""
-    refx, refy, nbn, nb, todo = pl.refx, pl.refy, pl.nbn, pl.nb, pl.todo
+def _pl_stale(n, pos, species, sp_radius, rcell, half, big, pl):
+    """Mark the discs to refresh in this substep (``pl.mark``), small ones in ``pl.todo``:
+    every listed disc farther than ``half`` (skin / 2) from its reference position, every
+    small disc not listed. If ``big`` (the scene has discs larger than rcell), a listed disc
+    that has become big (a reaction) is marked, to drop its pairs, and unlisted: big discs
+    are queued by :func:`_queue_initial`. Returns how many discs are in ``pl.todo``."""
+    ref, listed, mark, todo = pl.ref, pl.listed, pl.mark, pl.todo
     h2 = half * half
     m = 0
+    if not big:
+        for i in range(n):  # (without branches: the test goes either way)
+            dx = pos[i, 0] - ref[i, 0]
+            dy = pos[i, 1] - ref[i, 1]
+            st = (dx * dx + dy * dy > h2) | (listed[i] == 0)
+            mark[i] = st
+            todo[m] = i
+            m += st
+        return m
     for i in range(n):
-        if nbn[i] < 0:
-            if sp_radius[species[i]] <= rcell:
-                todo[m] = i
-                m += 1
-            continue
-        dx = pos[i, 0] - refx[i]
-        dy = pos[i, 1] - refy[i]
-        if dx * dx + dy * dy > h2:
-            if sp_radius[species[i]] > rcell:
-                _pl_unlink(i, nb, nbn)
-                nbn[i] = -1
-            else:
-                todo[m] = i
-                m += 1
-        elif sp_radius[species[i]] > rcell:  # (a reaction made it big where it was)
-            _pl_unlink(i, nb, nbn)
-            nbn[i] = -1
+        small = sp_radius[species[i]] <= rcell
+        dx = pos[i, 0] - ref[i, 0]
+        dy = pos[i, 1] - ref[i, 1]
+        st = (dx * dx + dy * dy > h2) | (listed[i] == 0)
+        if not small:
+            st = listed[i] != 0
+            listed[i] = 0
+        mark[i] = st
+        if st and small:
+            todo[m] = i
+            m += 1
     return m
 
 
 @njit(cache=True)
-def _pl_refresh(m, pos, pl, grid, cell_start, cell_items, cut, reach):
-    """Re-list the ``m`` discs of ``pl.todo``: each one's reference position is set to where
-    it is, and its neighbours (reference positions closer than ``cut``) are searched for in
-    this substep's grid (binned where they are now, within ``reach - cut`` of their reference
-    positions). Returns False, the list left inconsistent, when a disc's neighbours
-    overflow the slots: the caller grows them and lists every disc anew."""
-    refx, refy, nbn, nb, todo, mark = pl.refx, pl.refy, pl.nbn, pl.nb, pl.todo, pl.mark
-    K = nb.shape[1]
+def _pl_test(pos, species, sp_radius, rmono, pl):
+    """Drop the pairs of the marked discs from the list and test the others for an overlap,
+    in one pass: the overlapping pairs go to ``pl.ovi``, ``pl.ovj`` (their number to
+    ``pl.count[1]``). ``rmono`` > 0: every small disc has this radius (no lookup)."""
+    pi, pj, ovi, ovj, mark = pl.pi, pl.pj, pl.ovi, pl.ovj, pl.mark
+    w = 0
+    v = 0
+    R = rmono + rmono
+    for p in range(pl.count[0]):
+        i = pi[p]
+        j = pj[p]
+        keep = (mark[i] | mark[j]) == 0
+        pi[w] = i
+        pj[w] = j
+        w += keep
+        dx = pos[j, 0] - pos[i, 0]
+        dy = pos[j, 1] - pos[i, 1]
+        if rmono == 0.0:
+            R = sp_radius[species[i]] + sp_radius[species[j]]
+        if keep and dx * dx + dy * dy < R * R:
+            ovi[v] = i
+            ovj[v] = j
+            v += 1
+    pl.count[0] = w
+    pl.count[1] = v
+
+
+@njit(cache=True)
+def _pl_refresh(m, pos, species, sp_radius, pl, grid, cell_start, cell_items, cut, reach):
+    """Re-list the ``m`` discs of ``pl.todo`` (their pairs dropped already): each one's
+    reference position is set to where it is, and its pairs (reference positions closer than
+    ``cut``) searched for in this substep's grid (the discs binned where they are now, within
+    ``reach - cut`` of their reference positions), appended to the list and tested for an
+    overlap. Returns False, the list left to be refreshed again, when it is full: the
+    caller grows it and calls again."""
+    ref, listed, mark, todo = pl.ref, pl.listed, pl.mark, pl.todo
+    pi, pj, ovi, ovj = pl.pi, pl.pj, pl.ovi, pl.ovj
+    cap = pi.shape[0]
     ncx = int(grid[4])
     for q in range(m):
         v = todo[q]
-        if nbn[v] > 0:
-            _pl_unlink(v, nb, nbn)
-        nbn[v] = 0
-        refx[v] = pos[v, 0]
-        refy[v] = pos[v, 1]
-        mark[v] = 1
+        ref[v, 0] = pos[v, 0]
+        ref[v, 1] = pos[v, 1]
+        listed[v] = 1
     cut2 = cut * cut
-    ok = True
+    p = pl.count[0]
+    o = pl.count[1]
     for q in range(m):
         v = todo[q]
-        x = refx[v]
-        y = refy[v]
+        x = ref[v, 0]
+        y = ref[v, 1]
+        rv = sp_radius[species[v]]
+        p1 = p
         cx0, cx1, cy0, cy1 = cell_range(x, y, reach, grid)
         for cy in range(cy0, cy1 + 1):
-            for a in range(cell_start[cx0 + ncx * cy], cell_start[cx1 + 1 + ncx * cy]):
+            a0 = cell_start[cx0 + ncx * cy]
+            a1 = cell_start[cx1 + 1 + ncx * cy]
+            if p + (a1 - a0) > cap:
+                return False
+            for a in range(a0, a1):
+                # written whatever the test says, kept if it passes: no branch to mispredict
+                # (a pair of two refreshed discs is listed from the lower one)
                 k = cell_items[a]
-                if k == v or (mark[k] != 0 and k < v):
-                    continue  # (a pair of two refreshed discs is listed from the lower one)
-                dx = refx[k] - x
-                dy = refy[k] - y
-                if dx * dx + dy * dy < cut2:
-                    if nbn[v] >= K or nbn[k] >= K:
-                        ok = False
-                        break
-                    nb[v, nbn[v]] = k
-                    nbn[v] += 1
-                    nb[k, nbn[k]] = v
-                    nbn[k] += 1
-            if not ok:
-                break
-        if not ok:
-            break
-    for q in range(m):
-        mark[todo[q]] = 0
-    return ok
+                dx = ref[k, 0] - x
+                dy = ref[k, 1] - y
+                keep = (dx * dx + dy * dy < cut2) & (k != v) & ((mark[k] == 0) | (k > v))
+                pi[p] = v
+                pj[p] = k
+                p += keep
+        for b in range(p1, p):  # the pairs just listed that overlap now
+            k = pj[b]
+            dx = pos[k, 0] - x
+            dy = pos[k, 1] - y
+            R = rv + sp_radius[species[k]]
+            if dx * dx + dy * dy < R * R:
+                ovi[o] = v
+                ovj[o] = k
+                o += 1
+    pl.count[0] = p
+    pl.count[1] = o
+    return True
 
 
 @njit(cache=True)
-def _pl_overlaps(n, pos, species, sp_radius, nb, nbn, ov_n, ov_b):
-    """The overlapping listed pairs: ``ov_n[i]`` gets the number of i's listed neighbours
-    j > i that overlap it, the first OV_SLOTS of them in ``ov_b[i]`` (indexed by disc, not
-    by sorted position as the scan's)."""
-    for i in range(n):
-        c = nbn[i]
-        k = 0
-        if c > 0:
-            xi = pos[i, 0]
-            yi = pos[i, 1]
-            ri = sp_radius[species[i]]
-            for s in range(c):
-                j = nb[i, s]
-                if j > i:
-                    dx = pos[j, 0] - xi
-                    dy = pos[j, 1] - yi
-                    R = ri + sp_radius[species[j]]
-                    if dx * dx + dy * dy < R * R:
-                        if k < OV_SLOTS:
-                            ov_b[i, k] = j
-                        k += 1
-        ov_n[i] = k
+def _mono_radius(sp_radius, rcell):
+    """rcell if every species no larger than rcell has radius rcell (so every small disc
+    has), else 0."""
+    for s in range(sp_radius.shape[0]):
+        if sp_radius[s] < rcell:
+            return 0.0
+    return rcell
 
 
 @njit(cache=True)
-def _pl_compact(n, species, pl, newidx):
-    """Follow :func:`_compact` (to be called before it, on the same discs): drop the removed
-    discs (species < 0) from the lists and renumber the others. ``newidx``: (n,) scratch."""
-    refx, refy, nbn, nb = pl.refx, pl.refy, pl.nbn, pl.nb
-    m = 0
-    for i in range(n):
-        if species[i] >= 0:
-            newidx[i] = m
-            m += 1
-        else:
-            newidx[i] = -1
-    for i in range(n):
-        a = newidx[i]
-        if a < 0:
-            continue
-        c = nbn[i]
-        w = 0
-        for s in range(c):
-            k = newidx[nb[i, s]]
-            if k >= 0:
-                nb[a, w] = k
-                w += 1
-        nbn[a] = w if c >= 0 else -1
-        refx[a] = refx[i]
-        refy[a] = refy[i]
-    for i in range(m, n):
-        nbn[i] = -1
-
-
-@njit(cache=True)
-def _pl_broad(n, pos, species, sp_radius, grid, sc, pl, full):
+def _pl_broad(n, pos, species, sp_radius, grid, sc, pl, full, big):
     """The broad phase through the pair list (after :func:`_sort`): refresh the discs that
-    need it (every small disc if ``full``: the list is built), then test the listed pairs.
-    Returns the pair list (a new one when its slots had to grow)."""
+    need it (every small disc if ``full``: the list is built anew), test the listed pairs.
+    Returns the pair list (a new one when it had to grow)."""
     rcell = grid[6]
     skin = PAIR_SKIN * rcell
     cut = 2.0 * rcell + skin
     if full:
-        pl.nbn[:n] = -1
-    m = _pl_stale(n, pos, species, sp_radius, rcell, 0.5 * skin, pl)
+        pl.listed[:n] = 0
+    m = _pl_stale(n, pos, species, sp_radius, rcell, 0.5 * skin, big, pl)
+    _pl_test(pos, species, sp_radius, _mono_radius(sp_radius, rcell), pl)
+    p0 = pl.count[0]
+    o0 = pl.count[1]
     # (a disc not refreshed is within skin / 2 of its reference position)
-    while not _pl_refresh(m, pos, pl, grid, sc.cell_start, sc.cell_items, cut,
-                          cut + 0.5 * skin):
-        pl = _pl_resize(pl, pl.nbn.shape[0], 2 * pl.nb.shape[1])
-        pl.nbn[:n] = -1
-        m = _pl_stale(n, pos, species, sp_radius, rcell, 0.5 * skin, pl)
-    _pl_overlaps(n, pos, species, sp_radius, pl.nb, pl.nbn, sc.ov_n, sc.ov_b)
+    while not _pl_refresh(m, pos, species, sp_radius, pl, grid, sc.cell_start, sc.cell_items,
+                          cut, cut + 0.5 * skin):
+        pl.count[0] = p0
+        pl.count[1] = o0
+        pl = _pl_resize(pl, pl.ref.shape[0], 2 * pl.pi.shape[0])
     nbc = int(grid[4]) * int(grid[5])
     # the big discs' positions, for _queue_initial
     _gather(sc.cell_start[nbc], sc.cell_start[nbc + 1], sc.cell_items, pos, species, sp_radius,
             sc.sx, sc.sy, sc.sr)
     return pl
+
+
+@njit(cache=True)
+def _pl_compact(n, species, pl, newidx):
+    """Follow :func:`_compact` (to be called before it, on the same discs): drop the pairs
+    of the removed discs (species < 0) and renumber the others. ``newidx``: (n,) scratch."""
+    ref, listed, pi, pj = pl.ref, pl.listed, pl.pi, pl.pj
+    m = 0
+    for i in range(n):
+        if species[i] >= 0:
+            newidx[i] = m
+            ref[m, 0] = ref[i, 0]
+            ref[m, 1] = ref[i, 1]
+            listed[m] = listed[i]
+            m += 1
+        else:
+            newidx[i] = -1
+    listed[m:n] = 0
+    w = 0
+    for p in range(pl.count[0]):
+        a = newidx[pi[p]]
+        b = newidx[pj[p]]
+        if a >= 0 and b >= 0:
+            pi[w] = a
+            pj[w] = b
+            w += 1
+    pl.count[0] = w
+
+
+@njit(cache=True)
+def _pl_permute(n, perm, pl, inv, fs):
+    """Follow :func:`_reorder` (called after it): disc ``perm[a]`` is now disc a. ``inv``
+    (n,) INDEX and ``fs`` (2 n,) FLOAT: scratch."""
+    ref, listed, pi, pj = pl.ref, pl.listed, pl.pi, pl.pj
+    lt = pl.mark  # (free between substeps)
+    for a in range(n):
+        inv[perm[a]] = a
+        lt[a] = listed[a]
+        fs[a] = ref[a, 0]
+        fs[n + a] = ref[a, 1]
+    for a in range(n):
+        b = perm[a]
+        listed[a] = lt[b]
+        ref[a, 0] = fs[b]
+        ref[a, 1] = fs[n + b]
+    for p in range(pl.count[0]):
+        pi[p] = inv[pi[p]]
+        pj[p] = inv[pj[p]]
 
 
 # ------------------------------------------------------------------ phase 3: event queue
@@ -550,7 +581,9 @@ def _queue_initial(n, collide, sp_radius, pos, vel, species, sc, grid, H, icnt, 
         if wflag[i]:
             icnt[IC_PUSHED_INSIDE] += 1
     if collide:
-        for a in range(n if listed else cell_start[nbc]):
+        if listed:
+            need += pl.count[1]
+        for a in range(0 if listed else cell_start[nbc]):
             need += ov_n[a]
         for a in range(cell_start[nbc], cell_start[nbc + 1]):
             need += _big_candidates(a, sx, sy, sr, rcell, grid, cell_start)
@@ -562,21 +595,10 @@ def _queue_initial(n, collide, sp_radius, pos, vel, species, sc, grid, H, icnt, 
     if not collide:
         return H, size
     if listed:
-        nb, nbn = pl.nb, pl.nbn
-        for i in range(n):
-            k = ov_n[i]
-            if k == 0:
-                continue
-            if k <= OV_SLOTS:
-                for q in range(k):
-                    size = _try_pair(i, ov_b[i, q], sp_radius, pos, vel, species, tlast, stamp,
-                                     H, size, icnt)
-                continue
-            for q in range(nbn[i]):  # more partners than slots: its list again
-                j = nb[i, q]
-                if j > i:
-                    size = _try_pair(i, j, sp_radius, pos, vel, species, tlast, stamp, H, size,
-                                     icnt)
+        ovi, ovj = pl.ovi, pl.ovj
+        for q in range(pl.count[1]):
+            size = _try_pair(ovi[q], ovj[q], sp_radius, pos, vel, species, tlast, stamp, H, size,
+                             icnt)
     for a in range(0 if listed else cell_start[nbc]):
         k = ov_n[a]
         if k == 0:
@@ -1319,12 +1341,14 @@ def advance(discs, n, n_steps, dt, bounds, tables, params, flags, rng, cnt, thre
     sc = _carve(work, ws, nstart)
     # the broad phase: a pair list kept across the substeps of a call long enough to pay
     listed = collide and n_steps >= PAIR_MIN_STEPS
-    pl = new_pairlist(ws if listed else 0, PAIR_SLOTS if listed else 1)
+    pl = new_pairlist(ws if listed else 0, PAIR_CAP * ws if listed else 0)
+    big = sp_radius.max() > rcell  # (discs not in the list: see PairList)
     full = True  # (the list is built at the first substep, and after a reordering)
     for s in range(n_steps):
         if reorder_every > 0 and n >= REORDER_MIN and (step0 + s) % reorder_every == 0:
             _reorder(n, pos, vel, species, internal_energy, ids, rgrid, work)
-            full = True
+            if listed:  # (perm and free scratch: see _reorder)
+                _pl_permute(n, work[1][n:2 * n], pl, work[1][0:n], work[0])
         # first-order reactions run only if some disc has a first-order channel: a scene
         # whose first-order species are absent pays this lookup, not a pass per substep
         uni_live = False
@@ -1339,7 +1363,7 @@ def advance(discs, n, n_steps, dt, bounds, tables, params, flags, rng, cnt, thre
         while sub < k:
             icnt[IC_SUBSTEPS] += 1
             pl = _drift_and_bin(threads, n, h, pos, vel, species, sp_radius, bounds_kind,
-                                bounds_params, grid, sc, collide, pl, listed, full)
+                                bounds_params, grid, sc, collide, pl, listed, full, big)
             full = False
             left0 = icnt[IC_LEFT_OVERLAPPING]
             H, size = _queue_initial(n, collide, sp_radius, pos, vel, species, sc, grid, H, icnt,
@@ -1382,9 +1406,9 @@ def advance(discs, n, n_steps, dt, bounds, tables, params, flags, rng, cnt, thre
                     work = _fit_work(work, ws, nstart)
                     sc = _carve(work, ws, nstart)
                     if listed:
-                        pl = _pl_resize(pl, ws, pl.nb.shape[1])
+                        pl = _pl_resize(pl, ws, pl.pi.shape[0])
                 if listed:
-                    pl.nbn[n_before:n] = -1  # fragments: listed at the next substep
+                    pl.listed[n_before:n] = 0  # fragments: listed at the next substep
             if n_dead:
                 if listed:
                     _pl_compact(n, species, pl, pl.todo)
@@ -1437,10 +1461,10 @@ def _first_split(vel, n, dt, maxdisp, icnt):
 
 @njit(cache=True)
 def _drift_and_bin(threads, n, h, pos, vel, species, sp_radius, bounds_kind, bounds_params, grid,
-                   sc, collide, pl, listed, full):
+                   sc, collide, pl, listed, full, big):
     """Phases 1 and 2 of a substep: the drift (and wall contacts), then, if ``collide``, the
     discs sorted into their cells and the overlapping pairs found, by the pair list ``pl``
-    if ``listed`` (built anew if ``full``), else by the scan (in parallel over ``threads``
+    if ``listed`` (built anew if ``full``; ``big``: the scene has big discs), else by the scan (in parallel over ``threads``
     chunks from PARALLEL_MIN discs, as the drift); resets the per-disc event counts.
     Returns the pair list (a new one if it had to grow)."""
     par = threads > 1 and n >= PARALLEL_MIN
@@ -1457,7 +1481,7 @@ def _drift_and_bin(threads, n, h, pos, vel, species, sp_radius, bounds_kind, bou
         cell_start, cell_items = sc.cell_start, sc.cell_items
         _sort(n, sc.cell_of, cell_start, cell_items)
         if listed:
-            return _pl_broad(n, pos, species, sp_radius, grid, sc, pl, full)
+            return _pl_broad(n, pos, species, sp_radius, grid, sc, pl, full, big)
         if par:
             _broad_parallel(threads, n, ncy, grid, cell_start, cell_items, pos, species,
                             sp_radius, sc.sx, sc.sy, sc.sr, sc.ov_n, sc.ov_b)

@@ -122,20 +122,23 @@ class Scratch(NamedTuple):
 
 
 class PairList(NamedTuple):
-    """The stepped integrator's neighbour (Verlet) list, kept across the substeps of one call
-    (``kernels.step``, "the pair list"). Small discs only (radius <= the cell radius); the
-    lists are symmetric: k is in i's list if and only if i is in k's.
+    """The stepped integrator's pair (Verlet) list, kept across the substeps of one call
+    (``kernels.step``, "the pair list"): the pairs of small discs (radius <= the cell radius
+    rcell) whose reference positions are closer than 2 rcell + skin, each pair once.
 
-    Invariant at every broad phase: every listed disc is within skin / 2 of its reference
-    position, and every pair of listed discs whose reference positions are closer than
-    2 rcell + skin is listed, so every overlapping pair of small discs is listed."""
+    Invariant at every broad phase, after the refresh: every small disc is listed and within
+    skin / 2 of its reference position, and every pair of them whose reference positions are
+    closer than 2 rcell + skin is in the list; so every overlapping pair of small discs is."""
 
-    refx: np.ndarray  #: (ws,) FLOAT x of a disc's reference position (where it was listed)
-    refy: np.ndarray  #: (ws,) FLOAT y of it
-    nbn: np.ndarray  #: (ws,) INDEX a disc's listed neighbours; -1: not listed (new, big)
-    nb: np.ndarray  #: (ws, K) INDEX the neighbours (K slots: grown when one runs out)
+    ref: np.ndarray  #: (ws, 2) FLOAT a disc's reference position (where it was listed)
+    listed: np.ndarray  #: (ws,) INDEX 1 if the disc is listed (0: new, big, or list rebuilt)
+    mark: np.ndarray  #: (ws,) INDEX 1 if the disc is refreshed (its pairs dropped) this substep
     todo: np.ndarray  #: (ws,) INDEX the discs refreshed in this substep (compact)
-    mark: np.ndarray  #: (ws,) INDEX 1 while a disc is being refreshed
+    pi: np.ndarray  #: (cap,) INDEX first disc of each listed pair (capacity doubled when full)
+    pj: np.ndarray  #: (cap,) INDEX second disc
+    ovi: np.ndarray  #: (cap,) INDEX first disc of each pair found overlapping in the substep
+    ovj: np.ndarray  #: (cap,) INDEX second disc
+    count: np.ndarray  #: (2,) int64 listed pairs, overlapping pairs
 
 
 class RunConsts(NamedTuple):
