@@ -323,12 +323,14 @@ def new_pairlist(ws, cap):
 
 @njit(cache=True)
 def _pl_resize(pl, ws, cap):
-    """``pl`` with room for ``ws`` discs and ``cap`` pairs, its entries kept (discs past the
-    old size not listed)."""
+    """``pl`` with room for ``ws`` discs and ``cap`` pairs, its entries kept, the refresh's
+    marks and to-do list too (discs past the old size not listed)."""
     q = new_pairlist(ws, cap)
     m = min(pl.ref.shape[0], ws)
     q.ref[:m] = pl.ref[:m]
     q.listed[:m] = pl.listed[:m]
+    q.mark[:m] = pl.mark[:m]
+    q.todo[:m] = pl.todo[:m]
     p = pl.count[0]
     q.pi[:p] = pl.pi[:p]
     q.pj[:p] = pl.pj[:p]
