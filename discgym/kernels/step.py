@@ -315,10 +315,11 @@ def _broad_parallel(nch, n, ncy, grid, cell_start, cell_items, pos, species, sp_
 @njit(cache=True)
 def new_pairlist(ws, cap):
     """An empty pair list for ``ws`` discs and ``cap`` pairs (no disc listed)."""
-    return PairList(np.empty((ws, 2), dtype=FLOAT), np.zeros(ws, dtype=INDEX), np.zeros(ws, dtype=INDEX),
-                    np.empty(ws, dtype=INDEX), np.empty(cap, dtype=INDEX),
+    return PairList(np.empty((ws, 2), dtype=FLOAT), np.zeros(ws, dtype=INDEX),
+                    np.zeros(ws, dtype=INDEX), np.empty(ws, dtype=INDEX),
                     np.empty(cap, dtype=INDEX), np.empty(cap, dtype=INDEX),
-                    np.empty(cap, dtype=INDEX), np.zeros(2, dtype=np.int64))
+                    np.empty(cap, dtype=INDEX), np.empty(cap, dtype=INDEX),
+                    np.zeros(2, dtype=np.int64))
 
 
 @njit(cache=True)
@@ -1466,8 +1467,9 @@ def _drift_and_bin(threads, n, h, pos, vel, species, sp_radius, bounds_kind, bou
                    sc, collide, pl, listed, full, big):
     """Phases 1 and 2 of a substep: the drift (and wall contacts), then, if ``collide``, the
     discs sorted into their cells and the overlapping pairs found, by the pair list ``pl``
-    if ``listed`` (built anew if ``full``; ``big``: the scene has big discs), else by the scan (in parallel over ``threads``
-    chunks from PARALLEL_MIN discs, as the drift); resets the per-disc event counts.
+    if ``listed`` (built anew if ``full``; ``big``: the scene has big discs), else by the
+    scan (in parallel over ``threads`` chunks from PARALLEL_MIN discs, as the drift);
+    resets the per-disc event counts.
     Returns the pair list (a new one if it had to grow)."""
     par = threads > 1 and n >= PARALLEL_MIN
     if par:
