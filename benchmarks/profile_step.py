@@ -195,7 +195,8 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(prog="profile_step.py", description=__doc__.split("\n")[0])
     ap.add_argument("--sizes", default="1e3,1e4,1e5", help="numbers of discs, comma-separated")
     ap.add_argument("--disc-steps", type=float, default=3e6,
-                    help="disc-steps per run (steps = this / N, at least 10)")
+                    help="disc-steps per run (steps = this / N, at least 100: one call,"
+                    " so the pair list's build at its start is spread thin)")
     ap.add_argument("--reps", type=int, default=3, help="runs per N (median reported)")
     ap.add_argument("--markdown", action="store_true", help="print a Markdown table")
     ap.add_argument("--skin", type=float, default=S.PAIR_SKIN,
@@ -204,7 +205,7 @@ def main(argv=None) -> int:
     sizes = [int(float(x)) for x in args.sizes.split(",") if x.strip()]
     cols = {}
     for n in sizes:
-        runs = [profile(n, max(10, int(args.disc_steps / n)), seed=r, skin=args.skin)
+        runs = [profile(n, max(100, int(args.disc_steps / n)), seed=r, skin=args.skin)
                 for r in range(args.reps)]
         cols[n] = (np.median([r[0] for r in runs], axis=0), float(np.median([r[1] for r in runs])),
                    {k: float(np.median([r[2][k] for r in runs])) for k in runs[0][2]})

@@ -168,10 +168,11 @@ def test_interleave_alternates_runners_within_step_bounds():
 def test_profile_step_phases_add_up_to_the_run_and_keep_the_trajectory():
     import profile_step
 
-    T, wall, counts = profile_step.profile(300, 20, equilibrate=0.5)
+    steps = profile_step.S.PAIR_MIN_STEPS + 4  # (a call the pair list serves)
+    T, wall, counts = profile_step.profile(300, steps, equilibrate=0.5)
     assert T.shape == (len(profile_step.PHASES),) and (T >= 0).all()
     assert T[profile_step.PHASES.index("events")] > 0
-    # a run of 20 steps takes the pair list, not the scan
+    # such a run takes the pair list, not the scan
     assert T[profile_step.PHASES.index("pair list: refresh")] > 0
     assert T[profile_step.PHASES.index("broad phase scan")] == 0
     assert 0 < counts["discs refreshed per disc-substep"] < 1
@@ -183,11 +184,11 @@ def test_profile_step_phases_add_up_to_the_run_and_keep_the_trajectory():
     a.step(1)
     a.advance(0.5)
     b = a.copy()
-    a.step(21)
+    a.step(steps + 1)
     cs = b._cs
     w = profile_step.profiled_advance(
         profile_step.Discs(b._pos, b._vel, b._species, b._internal_energy, b._ids, b._idctr),
-        b._n, 21, b.scene.dt,
+        b._n, steps + 1, b.scene.dt,
         profile_step.Bounds(b._bounds_kind, b._bounds_params, b._walls), cs.tables, cs.params,
         cs.flags, b._rngs[0], profile_step.Counters(b._icnt, b._fsum, b._ch_count, b._outflow),
         b._steps, profile_step.S.empty_work(), np.zeros(len(profile_step.PHASES)),

@@ -133,8 +133,9 @@ REORDER_EVERY = 8  # steps between reorderings (Simulation's default)
 REORDER_CELLS = 1 << 19  # the reordering grid: cells of 2 r_max, at most about this many
 PAIR_SKIN = 1.0  # the pair list's skin, in cell radii (docs/performance.md)
 PAIR_CAP = 2  # listed pairs the pair list has room for per disc at first (doubled when full)
-PAIR_MIN_STEPS = 4  # calls of fewer steps use the per-substep scan (a list built at the start
-# of a call, for a few steps only, costs more than it saves)
+PAIR_MIN_STEPS = 32  # calls of fewer steps use the per-substep scan: the list is built at the
+# start of each call (about 120 ns per disc), which a call of fewer steps does not earn back
+# (new / old 1.07 at 4 steps per call, 1.01 at 16, 0.99 at 32, 0.92 at 200: docs/performance.md)
 
 
 
