@@ -68,7 +68,8 @@ def profiled_advance(discs, n, n_steps, dt, bounds, tables, params, flags, rng, 
     """kernels.step.advance for a scene without reactions (one thread), adding the ns
     spent in each phase of PHASES to T and the COUNTS to C. The broad phase is the one
     advance takes for a call of ``n_steps`` steps (the pair list from PAIR_MIN_STEPS on, its
-    skin ``skin_factor`` cell radii: advance's PAIR_SKIN unless a probe asks otherwise)."""
+    skin ``skin_factor`` cell radii: advance's PAIR_SKIN unless a probe asks otherwise; 0:
+    the scan, as for a shorter call)."""
     pos, vel, species, internal_energy = discs.pos, discs.vel, discs.species, discs.internal_energy
     ids, idctr = discs.ids, discs.next_id
     bounds_kind, bounds_params = bounds.kind, bounds.params
@@ -88,7 +89,7 @@ def profiled_advance(discs, n, n_steps, dt, bounds, tables, params, flags, rng, 
     ws = pos.shape[0]
     work = S._fit_work(work, ws, nstart)
     sc = S._carve(work, ws, nstart)
-    listed = collide and n_steps >= S.PAIR_MIN_STEPS
+    listed = collide and n_steps >= S.PAIR_MIN_STEPS and skin_factor > 0.0
     pl = S.new_pairlist(ws if listed else 0, S.PAIR_CAP * ws if listed else 0)
     big = sp_radius.max() > rcell
     skin = skin_factor * rcell
@@ -200,7 +201,8 @@ def main(argv=None) -> int:
     ap.add_argument("--reps", type=int, default=3, help="runs per N (median reported)")
     ap.add_argument("--markdown", action="store_true", help="print a Markdown table")
     ap.add_argument("--skin", type=float, default=S.PAIR_SKIN,
-                    help="the pair list's skin in cell radii (default: the integrator's)")
+                    help="the pair list's skin in cell radii (default: the integrator's; 0: the "
+                    "per-substep scan that shorter calls take)")
     args = ap.parse_args(argv)
     sizes = [int(float(x)) for x in args.sizes.split(",") if x.strip()]
     cols = {}
