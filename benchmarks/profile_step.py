@@ -4,6 +4,7 @@
 
     python benchmarks/profile_step.py                  # N = 1e3, 1e4, 1e5
     python benchmarks/profile_step.py --sizes 1e6 --reps 3
+    python benchmarks/profile_step.py --compare 0,1 --reps 5   # the scan against the list
 
 numba has no profiler inside compiled code, so this runs a copy of the substep loop of
 ``kernels.step.advance`` for a scene without reactions (the same phase kernels, in the same
@@ -11,7 +12,10 @@ order, on a ``Simulation``'s own arrays) with a monotonic clock (``clock_gettime
 through ctypes from compiled code, about 40 ns a call) read between the phases. The
 trajectory is the one ``Simulation.step`` would compute; the sum of the phases matches the
 wall time of the run to within the clock's cost. Prints ns per disc-step for each phase,
-median over ``--reps`` runs (each from its own fresh equilibrated simulation).
+median over ``--reps`` runs (each from its own fresh equilibrated simulation). Each run is
+one call of at least 100 steps, so its broad phase is advance's pair list (kernels.step,
+from PAIR_MIN_STEPS steps per call), built once at the start; ``--skin 0`` profiles the
+per-substep scan that shorter calls take, ``--compare`` runs both interleaved.
 """
 
 from __future__ import annotations
@@ -192,6 +196,31 @@ def profile(n: int, steps: int, seed: int = 0, equilibrate: float = 5.0,
     return T / (n * steps), wall * 1e9 / (n * steps), counts
 
 
+def compare(n: int, steps: int, reps: int, skins: list[float], markdown: bool) -> None:
+    """Print the phases of runs with each of ``skins`` (0: the scan), interleaved: rep r
+    runs every skin in turn from seed r, so load from other processes hits them alike."""
+    runs = {s: [] for s in skins}
+    for r in range(reps):
+        for s in skins:
+            T, wall, counts = profile(n, steps, seed=r, skin=s)
+            runs[s].append((T, wall, counts))
+    name = [("scan" if s <= 0.0 else f"list, skin {s:g}") for s in skins]
+    head = [f"N = {n_label(n)}, ns per disc-step"] + name
+    body = []
+    for p, ph in enumerate(PHASES):
+        body.append([ph] + [f"{np.median([x[0][p] for x in runs[s]]):.1f}" for s in skins])
+    body.append(["whole run (wall)"] + [f"{np.median([x[1] for x in runs[s]]):.1f}"
+                                        for s in skins])
+    for s in skins[1:]:
+        q = [a[1] / b[1] for a, b in zip(runs[s], runs[skins[0]])]
+        body.append([f"whole run / {name[0]}: median [min, max]"] + [""] * skins.index(s)
+                    + [f"{np.median(q):.3f} [{min(q):.3f}, {max(q):.3f}]"]
+                    + [""] * (len(skins) - 1 - skins.index(s)))
+    for key in runs[skins[0]][0][2]:
+        body.append([key] + [f"{np.median([x[2][key] for x in runs[s]]):.3f}" for s in skins])
+    print(format_table(head, body, markdown))
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(prog="profile_step.py", description=__doc__.split("\n")[0])
     ap.add_argument("--sizes", default="1e3,1e4,1e5", help="numbers of discs, comma-separated")
@@ -203,8 +232,16 @@ def main(argv=None) -> int:
     ap.add_argument("--skin", type=float, default=S.PAIR_SKIN,
                     help="the pair list's skin in cell radii (default: the integrator's; 0: the "
                     "per-substep scan that shorter calls take)")
+    ap.add_argument("--compare", default=None, metavar="SKINS",
+                    help="comma-separated skins (0: the scan) run interleaved, rep by rep, on "
+                    "the same states: a table per N, and the whole run's ratio to the first")
     args = ap.parse_args(argv)
     sizes = [int(float(x)) for x in args.sizes.split(",") if x.strip()]
+    if args.compare:
+        for n in sizes:
+            compare(n, max(100, int(args.disc_steps / n)), args.reps,
+                    [float(x) for x in args.compare.split(",")], args.markdown)
+        return 0
     cols = {}
     for n in sizes:
         runs = [profile(n, max(100, int(args.disc_steps / n)), seed=r, skin=args.skin)

@@ -198,6 +198,17 @@ def test_profile_step_phases_add_up_to_the_run_and_keep_the_trajectory():
                                                                           b._vel[:b._n])
 
 
+def test_profile_step_compares_the_scan_and_the_list(capsys):
+    import profile_step
+
+    assert profile_step.main(["--compare", "0,1", "--sizes", "200", "--reps", "1",
+                              "--disc-steps", "1e3"]) == 0
+    out = capsys.readouterr().out
+    assert "list, skin 1" in out and "whole run / scan" in out
+    row = next(ln for ln in out.splitlines() if ln.startswith("broad phase scan"))
+    assert float(row.split()[-2]) > 0 and float(row.split()[-1]) == 0  # (scan, list)
+
+
 def test_pairlist_probe_lists_exactly_the_close_pairs():
     import pairlist_probe
 
