@@ -135,7 +135,7 @@ PAIR_SKIN = 1.0  # the pair list's skin, in cell radii (docs/performance.md)
 PAIR_CAP = 2  # listed pairs the pair list has room for per disc at first (doubled when full)
 PAIR_MIN_STEPS = 32  # calls of fewer steps use the per-substep scan: the list is built at the
 # start of each call (about 120 ns per disc), which a call of fewer steps does not earn back
-# (new / old 1.07 at 4 steps per call, 1.01 at 16, 0.99 at 32, 0.92 at 200: docs/performance.md)
+# (new / old 1.07 at 4 steps per call, 1.01 at 16, 0.99 at 32, 0.89 at 200: docs/performance.md)
 
 
 
