@@ -15,7 +15,9 @@ wall time of the run to within the clock's cost. Prints ns per disc-step for eac
 median over ``--reps`` runs (each from its own fresh equilibrated simulation). Each run is
 one call of at least 100 steps, so its broad phase is advance's pair list (kernels.step,
 from PAIR_MIN_STEPS steps per call), built once at the start; ``--skin 0`` profiles the
-per-substep scan that shorter calls take, ``--compare`` runs both interleaved.
+per-substep scan that shorter calls take, ``--compare`` runs both interleaved. (Above
+PAIR_MAX_DISCS discs advance takes the scan; the profile still runs the list unless told
+``--skin 0``, to measure what it would cost there.)
 """
 
 from __future__ import annotations
@@ -93,7 +95,8 @@ def profiled_advance(discs, n, n_steps, dt, bounds, tables, params, flags, rng, 
     ws = pos.shape[0]
     work = S._fit_work(work, ws, nstart)
     sc = S._carve(work, ws, nstart)
-    listed = collide and n_steps >= S.PAIR_MIN_STEPS and skin_factor > 0.0
+    listed = collide and n_steps >= S.PAIR_MIN_STEPS and skin_factor > 0.0  # (and any n:
+    # advance takes the scan above PAIR_MAX_DISCS, a profile may still ask for the list)
     pl = S.new_pairlist(ws if listed else 0, S.PAIR_CAP * ws if listed else 0)
     big = sp_radius.max() > rcell
     skin = skin_factor * rcell

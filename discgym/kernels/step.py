@@ -136,6 +136,9 @@ PAIR_CAP = 2  # listed pairs the pair list has room for per disc at first (doubl
 PAIR_MIN_STEPS = 32  # calls of fewer steps use the per-substep scan: the list is built at the
 # start of each call (about 120 ns per disc), which a call of fewer steps does not earn back
 # (new / old 1.07 at 4 steps per call, 1.01 at 16, 0.99 at 32, 0.89 at 200: docs/performance.md)
+PAIR_MAX_DISCS = 1 << 17  # calls on more discs use the scan: the list's scattered reads cost
+# more than the scan once the state and the list outgrow the caches (list / scan 0.85 at
+# 10^5, 1.10 at 3 10^5, 1.30 at 10^6: docs/performance.md)
 
 
 
@@ -1344,7 +1347,7 @@ def advance(discs, n, n_steps, dt, bounds, tables, params, flags, rng, cnt, thre
     work = _fit_work(work, ws, nstart)
     sc = _carve(work, ws, nstart)
     # the broad phase: a pair list kept across the substeps of a call long enough to pay
-    listed = collide and n_steps >= PAIR_MIN_STEPS
+    listed = collide and n_steps >= PAIR_MIN_STEPS and n <= PAIR_MAX_DISCS
     pl = new_pairlist(ws if listed else 0, PAIR_CAP * ws if listed else 0)
     big = sp_radius.max() > rcell  # (discs not in the list: see PairList)
     full = True  # (the list is built at the first substep, and after a reordering)
