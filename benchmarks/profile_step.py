@@ -4,6 +4,7 @@
 
     python benchmarks/profile_step.py                  # N = 1e3, 1e4, 1e5
     python benchmarks/profile_step.py --sizes 1e6 --reps 3
+    python benchmarks/profile_step.py --compare 0,1 --reps 5   # the scan against the list
 
 numba has no profiler inside compiled code, so this runs a copy of the substep loop of
 ``kernels.step.advance`` for a scene without reactions (the same phase kernels, in the same
@@ -11,7 +12,12 @@ order, on a ``Simulation``'s own arrays) with a monotonic clock (``clock_gettime
 through ctypes from compiled code, about 40 ns a call) read between the phases. The
 trajectory is the one ``Simulation.step`` would compute; the sum of the phases matches the
 wall time of the run to within the clock's cost. Prints ns per disc-step for each phase,
-median over ``--reps`` runs (each from its own fresh equilibrated simulation).
+median over ``--reps`` runs (each from its own fresh equilibrated simulation). Each run is
+one call of at least 100 steps, so its broad phase is advance's pair list (kernels.step,
+from PAIR_MIN_STEPS steps per call), built once at the start; ``--skin 0`` profiles the
+per-substep scan that shorter calls take, ``--compare`` runs both interleaved. (Above
+PAIR_MAX_DISCS discs advance takes the scan; the profile still runs the list unless told
+``--skin 0``, to measure what it would cost there.)
 """
 
 from __future__ import annotations
@@ -45,7 +51,10 @@ from discgym.kernels.structs import (
 )
 
 PHASES = ("reorder in memory", "substep split", "drift, walls, binning", "cell sort",
-          "gather", "broad phase scan", "initial event queue", "events", "repair")
+          "gather", "broad phase scan", "pair list: stale discs", "pair list: refresh",
+          "pair list: pair test", "initial event queue", "events", "repair")
+# the counts PROFILED_ADVANCE also returns (per disc-step in profile())
+COUNTS = ("substeps", "discs refreshed", "listed pairs")
 
 _clock_gettime = ctypes.CDLL(None).clock_gettime
 _clock_gettime.argtypes = [ctypes.c_int, ctypes.c_void_p]
@@ -61,9 +70,12 @@ def _now(buf):
 
 @njit
 def profiled_advance(discs, n, n_steps, dt, bounds, tables, params, flags, rng, cnt, step0,
-                     work, T, clk):
+                     work, T, clk, C, skin_factor=S.PAIR_SKIN):
     """kernels.step.advance for a scene without reactions (one thread), adding the ns
-    spent in each phase of PHASES to T."""
+    spent in each phase of PHASES to T and the COUNTS to C. The broad phase is the one
+    advance takes for a call of ``n_steps`` steps (the pair list from PAIR_MIN_STEPS on, its
+    skin ``skin_factor`` cell radii: advance's PAIR_SKIN unless a probe asks otherwise; 0:
+    the scan, as for a shorter call)."""
     pos, vel, species, internal_energy = discs.pos, discs.vel, discs.species, discs.internal_energy
     ids, idctr = discs.ids, discs.next_id
     bounds_kind, bounds_params = bounds.kind, bounds.params
@@ -83,10 +95,18 @@ def profiled_advance(discs, n, n_steps, dt, bounds, tables, params, flags, rng, 
     ws = pos.shape[0]
     work = S._fit_work(work, ws, nstart)
     sc = S._carve(work, ws, nstart)
+    listed = collide and n_steps >= S.PAIR_MIN_STEPS and skin_factor > 0.0  # (and any n:
+    # advance takes the scan above PAIR_MAX_DISCS, a profile may still ask for the list)
+    pl = S.new_pairlist(ws if listed else 0, S.PAIR_CAP * ws if listed else 0)
+    big = sp_radius.max() > rcell
+    skin = skin_factor * rcell
+    cut = 2.0 * rcell + skin
     for s in range(n_steps):
         t0 = _now(clk)
         if n >= S.REORDER_MIN and (step0 + s) % S.REORDER_EVERY == 0:
             S._reorder(n, pos, vel, species, internal_energy, ids, rgrid, work)
+            if listed:
+                S._pl_permute(n, work[1][n:2 * n], pl, work[1][0:n], work[0])
         t1 = _now(clk)
         T[0] += t1 - t0
         k, capped, vfast = S._first_split(vel, n, dt, maxdisp, icnt)
@@ -104,30 +124,56 @@ def profiled_advance(discs, n, n_steps, dt, bounds, tables, params, flags, rng, 
             S._sort(n, sc.cell_of, sc.cell_start, sc.cell_items)
             t0 = _now(clk)
             T[3] += t0 - t1
-            S._gather(0, n, sc.cell_items, pos, species, sp_radius, sc.sx, sc.sy, sc.sr)
-            t1 = _now(clk)
-            T[4] += t1 - t0
-            S._scan_rows(0, ncy, grid, sc.cell_start, sc.sx, sc.sy, sc.sr, sc.ov_n, sc.ov_b)
-            t0 = _now(clk)
-            T[5] += t0 - t1
+            C[0] += 1
+            if listed:  # S._pl_broad, phase by phase
+                m = S._pl_stale(n, pos, species, sp_radius, rcell, 0.5 * skin, big, pl)
+                t1 = _now(clk)
+                T[6] += t1 - t0
+                S._pl_test(pos, species, sp_radius, S._mono_radius(sp_radius, rcell), pl)
+                t0 = _now(clk)
+                T[8] += t0 - t1
+                p0 = pl.count[0]
+                o0 = pl.count[1]
+                while not S._pl_refresh(m, pos, species, sp_radius, pl, grid, sc.cell_start,
+                                        sc.cell_items, cut, cut + 0.5 * skin):
+                    pl.count[0] = p0
+                    pl.count[1] = o0
+                    pl = S._pl_resize(pl, pl.ref.shape[0], 2 * pl.pi.shape[0])
+                nbc = int(grid[4]) * ncy
+                S._gather(sc.cell_start[nbc], sc.cell_start[nbc + 1], sc.cell_items, pos,
+                          species, sp_radius, sc.sx, sc.sy, sc.sr)
+                C[1] += m
+                t1 = _now(clk)
+                T[7] += t1 - t0
+                t0 = t1
+            else:
+                S._gather(0, n, sc.cell_items, pos, species, sp_radius, sc.sx, sc.sy, sc.sr)
+                t1 = _now(clk)
+                T[4] += t1 - t0
+                S._scan_rows(0, ncy, grid, sc.cell_start, sc.sx, sc.sy, sc.sr, sc.ov_n,
+                             sc.ov_b)
+                t0 = _now(clk)
+                T[5] += t0 - t1
             left0 = icnt[S.IC_LEFT_OVERLAPPING]
             H, size = S._queue_initial(n, collide, sp_radius, pos, vel, species, sc, grid, H,
-                                       icnt)
+                                       icnt, pl, listed)
             t1 = _now(clk)
-            T[6] += t1 - t0
+            T[9] += t1 - t0
             H, n_dead, delta, dropped, vfast, vrel, t_cut = S._events(
                 n, H, size, tables, Discs(pos, vel, species, internal_energy, ids, idctr), sc,
                 bounds, grid, cnt, rc, icnt[S.IC_SUBSTEPS], h, vfast, math.inf, rng)
             t0 = _now(clk)
-            T[7] += t0 - t1
+            T[10] += t0 - t1
             if dropped or icnt[S.IC_LEFT_OVERLAPPING] != left0:
                 S._repair(dropped, n, pos, vel, species, tables, e, collide, bounds_kind,
                           bounds_params, grid, sc, cnt)
-            T[8] += _now(clk) - t0
+            T[11] += _now(clk) - t0
+    C[2] += pl.count[0]  # the list's pairs at the end
     return work
 
 
-def profile(n: int, steps: int, seed: int = 0, equilibrate: float = 5.0):
+def profile(n: int, steps: int, seed: int = 0, equilibrate: float = 5.0,
+            skin: float = S.PAIR_SKIN):
     """ns per disc-step of each phase over ``steps`` steps, and of the whole run."""
     sim = Simulation(bench_scene(n), seed=seed)
     sim.threads = 1
@@ -139,28 +185,72 @@ def profile(n: int, steps: int, seed: int = 0, equilibrate: float = 5.0):
     rest = (Bounds(sim._bounds_kind, sim._bounds_params, sim._walls), cs.tables, cs.params,
             cs.flags, sim._rngs[0], Counters(sim._icnt, sim._fsum, sim._ch_count, sim._outflow))
     T = np.zeros(len(PHASES))
+    C = np.zeros(len(COUNTS))
     clk = np.zeros(2, dtype=np.int64)
-    work = profiled_advance(*args, 1, sim.scene.dt, *rest, 0, S.empty_work(), T, clk)  # warm
+    work = profiled_advance(*args, 1, sim.scene.dt, *rest, 0, S.empty_work(), T, clk, C,
+                            skin)  # warm
     T[:] = 0.0
+    C[:] = 0.0
     t0 = time.perf_counter()
-    profiled_advance(*args, steps, sim.scene.dt, *rest, 1, work, T, clk)
+    profiled_advance(*args, steps, sim.scene.dt, *rest, 1, work, T, clk, C, skin)
     wall = time.perf_counter() - t0
-    return T / (n * steps), wall * 1e9 / (n * steps)
+    counts = {"substeps per step": C[0] / steps, "discs refreshed per disc-substep":
+              C[1] / (n * C[0]), "listed pairs per disc": C[2] / n}
+    return T / (n * steps), wall * 1e9 / (n * steps), counts
+
+
+def compare(n: int, steps: int, reps: int, skins: list[float], markdown: bool) -> None:
+    """Print the phases of runs with each of ``skins`` (0: the scan), interleaved: rep r
+    runs every skin in turn from seed r, so load from other processes hits them alike."""
+    runs = {s: [] for s in skins}
+    for r in range(reps):
+        for s in skins:
+            T, wall, counts = profile(n, steps, seed=r, skin=s)
+            runs[s].append((T, wall, counts))
+    name = [("scan" if s <= 0.0 else f"list, skin {s:g}") for s in skins]
+    head = [f"N = {n_label(n)}, ns per disc-step"] + name
+    body = []
+    for p, ph in enumerate(PHASES):
+        body.append([ph] + [f"{np.median([x[0][p] for x in runs[s]]):.1f}" for s in skins])
+    body.append(["whole run (wall)"] + [f"{np.median([x[1] for x in runs[s]]):.1f}"
+                                        for s in skins])
+    for s in skins[1:]:
+        q = [a[1] / b[1] for a, b in zip(runs[s], runs[skins[0]])]
+        body.append([f"whole run / {name[0]}: median [min, max]"] + [""] * skins.index(s)
+                    + [f"{np.median(q):.3f} [{min(q):.3f}, {max(q):.3f}]"]
+                    + [""] * (len(skins) - 1 - skins.index(s)))
+    for key in runs[skins[0]][0][2]:
+        body.append([key] + [f"{np.median([x[2][key] for x in runs[s]]):.3f}" for s in skins])
+    print(format_table(head, body, markdown))
 
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(prog="profile_step.py", description=__doc__.split("\n")[0])
     ap.add_argument("--sizes", default="1e3,1e4,1e5", help="numbers of discs, comma-separated")
     ap.add_argument("--disc-steps", type=float, default=3e6,
-                    help="disc-steps per run (steps = this / N, at least 10)")
+                    help="disc-steps per run (steps = this / N, at least 100: one call,"
+                    " so the pair list's build at its start is spread thin)")
     ap.add_argument("--reps", type=int, default=3, help="runs per N (median reported)")
     ap.add_argument("--markdown", action="store_true", help="print a Markdown table")
+    ap.add_argument("--skin", type=float, default=S.PAIR_SKIN,
+                    help="the pair list's skin in cell radii (default: the integrator's; 0: the "
+                    "per-substep scan that shorter calls take)")
+    ap.add_argument("--compare", default=None, metavar="SKINS",
+                    help="comma-separated skins (0: the scan) run interleaved, rep by rep, on "
+                    "the same states: a table per N, and the whole run's ratio to the first")
     args = ap.parse_args(argv)
     sizes = [int(float(x)) for x in args.sizes.split(",") if x.strip()]
+    if args.compare:
+        for n in sizes:
+            compare(n, max(100, int(args.disc_steps / n)), args.reps,
+                    [float(x) for x in args.compare.split(",")], args.markdown)
+        return 0
     cols = {}
     for n in sizes:
-        runs = [profile(n, max(10, int(args.disc_steps / n)), seed=r) for r in range(args.reps)]
-        cols[n] = (np.median([r[0] for r in runs], axis=0), float(np.median([r[1] for r in runs])))
+        runs = [profile(n, max(100, int(args.disc_steps / n)), seed=r, skin=args.skin)
+                for r in range(args.reps)]
+        cols[n] = (np.median([r[0] for r in runs], axis=0), float(np.median([r[1] for r in runs])),
+                   {k: float(np.median([r[2][k] for r in runs])) for k in runs[0][2]})
     head = ["phase"] + [f"N = {n_label(n)}: ns" for n in sizes] + [f"{n_label(n)} %" for n in sizes]
     body = []
     for p, name in enumerate(PHASES):
@@ -169,6 +259,8 @@ def main(argv=None) -> int:
     body.append(["sum of the phases"] + [f"{cols[n][0].sum():.1f}" for n in sizes]
                 + ["100%" for _ in sizes])
     body.append(["whole run (wall)"] + [f"{cols[n][1]:.1f}" for n in sizes] + ["" for _ in sizes])
+    for key in cols[sizes[0]][2]:
+        body.append([key] + [f"{cols[n][2][key]:.3f}" for n in sizes] + ["" for _ in sizes])
     print(format_table(head, body, args.markdown))
     return 0
 

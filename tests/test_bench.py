@@ -168,9 +168,15 @@ def test_interleave_alternates_runners_within_step_bounds():
 def test_profile_step_phases_add_up_to_the_run_and_keep_the_trajectory():
     import profile_step
 
-    T, wall = profile_step.profile(300, 20, equilibrate=0.5)
+    steps = profile_step.S.PAIR_MIN_STEPS + 4  # (a call the pair list serves)
+    T, wall, counts = profile_step.profile(300, steps, equilibrate=0.5)
     assert T.shape == (len(profile_step.PHASES),) and (T >= 0).all()
     assert T[profile_step.PHASES.index("events")] > 0
+    # such a run takes the pair list, not the scan
+    assert T[profile_step.PHASES.index("pair list: refresh")] > 0
+    assert T[profile_step.PHASES.index("broad phase scan")] == 0
+    assert 0 < counts["discs refreshed per disc-substep"] < 1
+    assert counts["listed pairs per disc"] > 0
     assert T.sum() <= wall * 1.05  # the phases are inside the timed run
     # the copy of the substep loop computes Simulation.step's trajectory, bit for bit
     a = dg.Simulation(bench.bench_scene(300), seed=0)
@@ -178,18 +184,29 @@ def test_profile_step_phases_add_up_to_the_run_and_keep_the_trajectory():
     a.step(1)
     a.advance(0.5)
     b = a.copy()
-    a.step(21)
+    a.step(steps + 1)
     cs = b._cs
     w = profile_step.profiled_advance(
         profile_step.Discs(b._pos, b._vel, b._species, b._internal_energy, b._ids, b._idctr),
-        b._n, 21, b.scene.dt,
+        b._n, steps + 1, b.scene.dt,
         profile_step.Bounds(b._bounds_kind, b._bounds_params, b._walls), cs.tables, cs.params,
         cs.flags, b._rngs[0], profile_step.Counters(b._icnt, b._fsum, b._ch_count, b._outflow),
         b._steps, profile_step.S.empty_work(), np.zeros(len(profile_step.PHASES)),
-        np.zeros(2, dtype=np.int64))
+        np.zeros(2, dtype=np.int64), np.zeros(len(profile_step.COUNTS)))
     assert w is not None
     assert np.array_equal(a.positions, b._pos[:b._n]) and np.array_equal(a.velocities,
                                                                           b._vel[:b._n])
+
+
+def test_profile_step_compares_the_scan_and_the_list(capsys):
+    import profile_step
+
+    assert profile_step.main(["--compare", "0,1", "--sizes", "200", "--reps", "1",
+                              "--disc-steps", "1e3"]) == 0
+    out = capsys.readouterr().out
+    assert "list, skin 1" in out and "whole run / scan" in out
+    row = next(ln for ln in out.splitlines() if ln.startswith("broad phase scan"))
+    assert float(row.split()[-2]) > 0 and float(row.split()[-1]) == 0  # (scan, list)
 
 
 def test_pairlist_probe_lists_exactly_the_close_pairs():

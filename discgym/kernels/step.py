@@ -67,6 +67,7 @@ from .structs import (
     Bounds,
     Counters,
     Discs,
+    PairList,
     RunConsts,
     Scratch,
     Tables,
@@ -130,6 +131,14 @@ PARALLEL_MIN = 65536  # below this many discs a step runs on one thread: waking 
 REORDER_MIN = 16384  # from this many discs, discs are periodically put in cell order in memory
 REORDER_EVERY = 8  # steps between reorderings (Simulation's default)
 REORDER_CELLS = 1 << 19  # the reordering grid: cells of 2 r_max, at most about this many
+PAIR_SKIN = 1.0  # the pair list's skin, in cell radii (docs/performance.md)
+PAIR_CAP = 2  # listed pairs the pair list has room for per disc at first (doubled when full)
+PAIR_MIN_STEPS = 32  # calls of fewer steps use the per-substep scan: the list is built at the
+# start of each call (about 120 ns per disc), which a call of fewer steps does not earn back
+# (new / old 1.07 at 4 steps per call, 1.01 at 16, 0.99 at 32, 0.89 at 200: docs/performance.md)
+PAIR_MAX_DISCS = 1 << 17  # calls on more discs use the scan: the list's scattered reads cost
+# more than the scan once the state and the list outgrow the caches (list / scan 0.85 at
+# 10^5, 1.10 at 3 10^5, 1.30 at 10^6: docs/performance.md)
 
 
 
@@ -298,6 +307,248 @@ def _broad_parallel(nch, n, ncy, grid, cell_start, cell_items, pos, species, sp_
                    ov_b)
 
 
+# ------------------------------------------------------------ phase 2 (list): the pair list
+# The broad phase of a call of PAIR_MIN_STEPS or more steps: a flat list of the pairs of
+# small discs whose reference positions are closer than 2 rcell + skin (PairList), kept
+# across substeps. Each substep, a disc that has moved more than skin / 2 from its reference
+# position (or is not listed yet) is "refreshed": its pairs are dropped, its reference
+# position set to where it is, and its pairs searched anew in this substep's grid; the
+# other pairs are tested for an overlap in one pass over the list. The overlapping pairs
+# found are exactly the scan's (the invariant of PairList), so the same contacts are queued
+# and, as the heap pops them by (t, i, j), the trajectory is the same bit for bit.
+@njit(cache=True)
+def new_pairlist(ws, cap):
+    """An empty pair list for ``ws`` discs and ``cap`` pairs (no disc listed)."""
+    return PairList(np.empty((ws, 2), dtype=FLOAT), np.zeros(ws, dtype=INDEX),
+                    np.zeros(ws, dtype=INDEX), np.empty(ws, dtype=INDEX),
+                    np.empty(cap, dtype=INDEX), np.empty(cap, dtype=INDEX),
+                    np.empty(cap, dtype=INDEX), np.empty(cap, dtype=INDEX),
+                    np.zeros(2, dtype=np.int64))
+
+
+@njit(cache=True)
+def _pl_resize(pl, ws, cap):
+    """``pl`` with room for ``ws`` discs and ``cap`` pairs, its entries kept, the refresh's
+    marks and to-do list too (discs past the old size not listed)."""
+    q = new_pairlist(ws, cap)
+    m = min(pl.ref.shape[0], ws)
+    q.ref[:m] = pl.ref[:m]
+    q.listed[:m] = pl.listed[:m]
+    q.mark[:m] = pl.mark[:m]
+    q.todo[:m] = pl.todo[:m]
+    p = pl.count[0]
+    q.pi[:p] = pl.pi[:p]
+    q.pj[:p] = pl.pj[:p]
+    v = pl.count[1]
+    q.ovi[:v] = pl.ovi[:v]
+    q.ovj[:v] = pl.ovj[:v]
+    q.count[:] = pl.count
+    return q
+
+
+@njit(cache=True)
+def _pl_stale(n, pos, species, sp_radius, rcell, half, big, pl):
+    """Mark the discs to refresh in this substep (``pl.mark``), small ones in ``pl.todo``:
+    every listed disc farther than ``half`` (skin / 2) from its reference position, every
+    small disc not listed. If ``big`` (the scene has discs larger than rcell), a listed disc
+    that has become big (a reaction) is marked, to drop its pairs, and unlisted: big discs
+    are queued by :func:`_queue_initial`. Returns how many discs are in ``pl.todo``."""
+    ref, listed, mark, todo = pl.ref, pl.listed, pl.mark, pl.todo
+    h2 = half * half
+    m = 0
+    if not big:
+        for i in range(n):  # (without branches: the test goes either way)
+            dx = pos[i, 0] - ref[i, 0]
+            dy = pos[i, 1] - ref[i, 1]
+            st = (dx * dx + dy * dy > h2) | (listed[i] == 0)
+            mark[i] = st
+            todo[m] = i
+            m += st
+        return m
+    for i in range(n):
+        small = sp_radius[species[i]] <= rcell
+        dx = pos[i, 0] - ref[i, 0]
+        dy = pos[i, 1] - ref[i, 1]
+        st = (dx * dx + dy * dy > h2) | (listed[i] == 0)
+        if not small:
+            st = listed[i] != 0
+            listed[i] = 0
+        mark[i] = st
+        if st and small:
+            todo[m] = i
+            m += 1
+    return m
+
+
+@njit(cache=True)
+def _pl_test(pos, species, sp_radius, rmono, pl):
+    """Drop the pairs of the marked discs from the list and test the others for an overlap,
+    in one pass: the overlapping pairs go to ``pl.ovi``, ``pl.ovj`` (their number to
+    ``pl.count[1]``). ``rmono`` > 0: every small disc has this radius (no lookup)."""
+    pi, pj, ovi, ovj, mark = pl.pi, pl.pj, pl.ovi, pl.ovj, pl.mark
+    w = 0
+    v = 0
+    R = rmono + rmono
+    for p in range(pl.count[0]):
+        i = pi[p]
+        j = pj[p]
+        keep = (mark[i] | mark[j]) == 0
+        pi[w] = i
+        pj[w] = j
+        w += keep
+        dx = pos[j, 0] - pos[i, 0]
+        dy = pos[j, 1] - pos[i, 1]
+        if rmono == 0.0:
+            R = sp_radius[species[i]] + sp_radius[species[j]]
+        if keep and dx * dx + dy * dy < R * R:
+            ovi[v] = i
+            ovj[v] = j
+            v += 1
+    pl.count[0] = w
+    pl.count[1] = v
+
+
+@njit(cache=True)
+def _pl_refresh(m, pos, species, sp_radius, pl, grid, cell_start, cell_items, cut, reach):
+    """Re-list the ``m`` discs of ``pl.todo`` (their pairs dropped already): each one's
+    reference position is set to where it is, and its pairs (reference positions closer than
+    ``cut``) searched for in this substep's grid (the discs binned where they are now, within
+    ``reach - cut`` of their reference positions), appended to the list and tested for an
+    overlap. Returns False, the list left to be refreshed again, when it is full: the
+    caller grows it and calls again."""
+    ref, listed, mark, todo = pl.ref, pl.listed, pl.mark, pl.todo
+    pi, pj, ovi, ovj = pl.pi, pl.pj, pl.ovi, pl.ovj
+    cap = pi.shape[0]
+    ncx = int(grid[4])
+    for q in range(m):
+        v = todo[q]
+        ref[v, 0] = pos[v, 0]
+        ref[v, 1] = pos[v, 1]
+        listed[v] = 1
+    cut2 = cut * cut
+    p = pl.count[0]
+    o = pl.count[1]
+    for q in range(m):
+        v = todo[q]
+        x = ref[v, 0]
+        y = ref[v, 1]
+        rv = sp_radius[species[v]]
+        p1 = p
+        cx0, cx1, cy0, cy1 = cell_range(x, y, reach, grid)
+        for cy in range(cy0, cy1 + 1):
+            a0 = cell_start[cx0 + ncx * cy]
+            a1 = cell_start[cx1 + 1 + ncx * cy]
+            if p + (a1 - a0) > cap:
+                return False
+            for a in range(a0, a1):
+                # written whatever the test says, kept if it passes: no branch to mispredict
+                # (a pair of two refreshed discs is listed from the lower one)
+                k = cell_items[a]
+                dx = ref[k, 0] - x
+                dy = ref[k, 1] - y
+                keep = (dx * dx + dy * dy < cut2) & (k != v) & ((mark[k] == 0) | (k > v))
+                pi[p] = v
+                pj[p] = k
+                p += keep
+        for b in range(p1, p):  # the pairs just listed that overlap now
+            k = pj[b]
+            dx = pos[k, 0] - x
+            dy = pos[k, 1] - y
+            R = rv + sp_radius[species[k]]
+            if dx * dx + dy * dy < R * R:
+                ovi[o] = v
+                ovj[o] = k
+                o += 1
+    pl.count[0] = p
+    pl.count[1] = o
+    return True
+
+
+@njit(cache=True)
+def _mono_radius(sp_radius, rcell):
+    """rcell if every species no larger than rcell has radius rcell (so every small disc
+    has), else 0."""
+    for s in range(sp_radius.shape[0]):
+        if sp_radius[s] < rcell:
+            return 0.0
+    return rcell
+
+
+@njit(cache=True)
+def _pl_broad(n, pos, species, sp_radius, grid, sc, pl, full, big):
+    """The broad phase through the pair list (after :func:`_sort`): refresh the discs that
+    need it (every small disc if ``full``: the list is built anew), test the listed pairs.
+    Returns the pair list (a new one when it had to grow)."""
+    rcell = grid[6]
+    skin = PAIR_SKIN * rcell
+    cut = 2.0 * rcell + skin
+    if full:
+        pl.listed[:n] = 0
+    m = _pl_stale(n, pos, species, sp_radius, rcell, 0.5 * skin, big, pl)
+    _pl_test(pos, species, sp_radius, _mono_radius(sp_radius, rcell), pl)
+    p0 = pl.count[0]
+    o0 = pl.count[1]
+    # (a disc not refreshed is within skin / 2 of its reference position)
+    while not _pl_refresh(m, pos, species, sp_radius, pl, grid, sc.cell_start, sc.cell_items,
+                          cut, cut + 0.5 * skin):
+        pl.count[0] = p0
+        pl.count[1] = o0
+        pl = _pl_resize(pl, pl.ref.shape[0], 2 * pl.pi.shape[0])
+    nbc = int(grid[4]) * int(grid[5])
+    # the big discs' positions, for _queue_initial
+    _gather(sc.cell_start[nbc], sc.cell_start[nbc + 1], sc.cell_items, pos, species, sp_radius,
+            sc.sx, sc.sy, sc.sr)
+    return pl
+
+
+@njit(cache=True)
+def _pl_compact(n, species, pl, newidx):
+    """Follow :func:`_compact` (to be called before it, on the same discs): drop the pairs
+    of the removed discs (species < 0) and renumber the others. ``newidx``: (n,) scratch."""
+    ref, listed, pi, pj = pl.ref, pl.listed, pl.pi, pl.pj
+    m = 0
+    for i in range(n):
+        if species[i] >= 0:
+            newidx[i] = m
+            ref[m, 0] = ref[i, 0]
+            ref[m, 1] = ref[i, 1]
+            listed[m] = listed[i]
+            m += 1
+        else:
+            newidx[i] = -1
+    listed[m:n] = 0
+    w = 0
+    for p in range(pl.count[0]):
+        a = newidx[pi[p]]
+        b = newidx[pj[p]]
+        if a >= 0 and b >= 0:
+            pi[w] = a
+            pj[w] = b
+            w += 1
+    pl.count[0] = w
+
+
+@njit(cache=True)
+def _pl_permute(n, perm, pl, inv, fs):
+    """Follow :func:`_reorder` (called after it): disc ``perm[a]`` is now disc a. ``inv``
+    (n,) INDEX and ``fs`` (2 n,) FLOAT: scratch."""
+    ref, listed, pi, pj = pl.ref, pl.listed, pl.pi, pl.pj
+    lt = pl.mark  # (free between substeps)
+    for a in range(n):
+        inv[perm[a]] = a
+        lt[a] = listed[a]
+        fs[a] = ref[a, 0]
+        fs[n + a] = ref[a, 1]
+    for a in range(n):
+        b = perm[a]
+        listed[a] = lt[b]
+        ref[a, 0] = fs[b]
+        ref[a, 1] = fs[n + b]
+    for p in range(pl.count[0]):
+        pi[p] = inv[pi[p]]
+        pj[p] = inv[pj[p]]
+
+
 # ------------------------------------------------------------------ phase 3: event queue
 @njit(cache=True)
 def _try_pair(i, j, sp_radius, pos, vel, species, tlast, stamp, H, size, icnt):
@@ -317,9 +568,10 @@ def _try_pair(i, j, sp_radius, pos, vel, species, tlast, stamp, H, size, icnt):
 
 
 @njit(cache=True)
-def _queue_initial(n, collide, sp_radius, pos, vel, species, sc, grid, H, icnt):
+def _queue_initial(n, collide, sp_radius, pos, vel, species, sc, grid, H, icnt, pl, listed):
     """Queue every wall contact and every overlapping pair of the substep: the pairs the
-    broad phase found (``sc.ov_n``, ``sc.ov_b``: small discs, half stencil) and those of the
+    broad phase found (``sc.ov_n``, ``sc.ov_b``: small discs; by sorted position from the
+    scan, half stencil, or by disc from the pair list ``pl`` if ``listed``) and those of the
     big discs (found here: each big disc against the cells within its radius + rcell and the
     big discs after it). ``sc``: the :class:`~.structs.Scratch`."""
     tlast, stamp, wall_t, wflag = sc.tlast, sc.stamp, sc.wall_t, sc.wflag
@@ -336,7 +588,9 @@ def _queue_initial(n, collide, sp_radius, pos, vel, species, sc, grid, H, icnt):
         if wflag[i]:
             icnt[IC_PUSHED_INSIDE] += 1
     if collide:
-        for a in range(cell_start[nbc]):
+        if listed:
+            need += pl.count[1]
+        for a in range(0 if listed else cell_start[nbc]):
             need += ov_n[a]
         for a in range(cell_start[nbc], cell_start[nbc + 1]):
             need += _big_candidates(a, sx, sy, sr, rcell, grid, cell_start)
@@ -347,7 +601,12 @@ def _queue_initial(n, collide, sp_radius, pos, vel, species, sc, grid, H, icnt):
             size = push(H, size, wall_t[i], i, -1, stamp[i], 0)
     if not collide:
         return H, size
-    for a in range(cell_start[nbc]):
+    if listed:
+        ovi, ovj = pl.ovi, pl.ovj
+        for q in range(pl.count[1]):
+            size = _try_pair(ovi[q], ovj[q], sp_radius, pos, vel, species, tlast, stamp, H, size,
+                             icnt)
+    for a in range(0 if listed else cell_start[nbc]):
         k = ov_n[a]
         if k == 0:
             continue
@@ -1087,9 +1346,16 @@ def advance(discs, n, n_steps, dt, bounds, tables, params, flags, rng, cnt, thre
     ws = pos.shape[0]  # per-disc workspace, reallocated when the state grows
     work = _fit_work(work, ws, nstart)
     sc = _carve(work, ws, nstart)
+    # the broad phase: a pair list kept across the substeps of a call long enough to pay
+    listed = collide and n_steps >= PAIR_MIN_STEPS and n <= PAIR_MAX_DISCS
+    pl = new_pairlist(ws if listed else 0, PAIR_CAP * ws if listed else 0)
+    big = sp_radius.max() > rcell  # (discs not in the list: see PairList)
+    full = True  # (the list is built at the first substep, and after a reordering)
     for s in range(n_steps):
         if reorder_every > 0 and n >= REORDER_MIN and (step0 + s) % reorder_every == 0:
             _reorder(n, pos, vel, species, internal_energy, ids, rgrid, work)
+            if listed:  # (perm and free scratch: see _reorder)
+                _pl_permute(n, work[1][n:2 * n], pl, work[1][0:n], work[0])
         # first-order reactions run only if some disc has a first-order channel: a scene
         # whose first-order species are absent pays this lookup, not a pass per substep
         uni_live = False
@@ -1103,10 +1369,12 @@ def advance(discs, n, n_steps, dt, bounds, tables, params, flags, rng, cnt, thre
         sub = 0
         while sub < k:
             icnt[IC_SUBSTEPS] += 1
-            _drift_and_bin(threads, n, h, pos, vel, species, sp_radius, bounds_kind,
-                           bounds_params, grid, sc, collide)
+            pl = _drift_and_bin(threads, n, h, pos, vel, species, sp_radius, bounds_kind,
+                                bounds_params, grid, sc, collide, pl, listed, full, big)
+            full = False
             left0 = icnt[IC_LEFT_OVERLAPPING]
-            H, size = _queue_initial(n, collide, sp_radius, pos, vel, species, sc, grid, H, icnt)
+            H, size = _queue_initial(n, collide, sp_radius, pos, vel, species, sc, grid, H, icnt,
+                                     pl, listed)
             # a substep is cut short (at a reaction, see _events) only while the step has
             # taken fewer than MAX_SUBSTEPS substeps and not shorter than the capped substep
             # dt / MAX_SUBSTEPS: a step of a finite number of substeps, each of them useful
@@ -1128,6 +1396,7 @@ def advance(discs, n, n_steps, dt, bounds, tables, params, flags, rng, cnt, thre
             # (a reactive collision may have made a species with first-order channels)
             if has_uni and (uni_live or icnt[IC_REACTIVE] != reactive0):
                 uni_live = True
+                n_before = n
                 grown, n, vfrag = _first_order(
                     n, hu, tables, Discs(pos, vel, species, internal_energy, ids, idctr),
                         fission_possible,
@@ -1143,7 +1412,13 @@ def advance(discs, n, n_steps, dt, bounds, tables, params, flags, rng, cnt, thre
                     ws = pos.shape[0]  # the next step's reordering
                     work = _fit_work(work, ws, nstart)
                     sc = _carve(work, ws, nstart)
+                    if listed:
+                        pl = _pl_resize(pl, ws, pl.pi.shape[0])
+                if listed:
+                    pl.listed[n_before:n] = 0  # fragments: listed at the next substep
             if n_dead:
+                if listed:
+                    _pl_compact(n, species, pl, pl.todo)
                 n = _compact(n, pos, vel, species, internal_energy, ids)
             sub += 1
             # Energy released in this substep may have made a disc faster than the remaining
@@ -1193,10 +1468,13 @@ def _first_split(vel, n, dt, maxdisp, icnt):
 
 @njit(cache=True)
 def _drift_and_bin(threads, n, h, pos, vel, species, sp_radius, bounds_kind, bounds_params, grid,
-                   sc, collide):
+                   sc, collide, pl, listed, full, big):
     """Phases 1 and 2 of a substep: the drift (and wall contacts), then, if ``collide``, the
-    discs sorted into their cells and the overlapping pairs found (in parallel over
-    ``threads`` chunks from PARALLEL_MIN discs); resets the per-disc event counts."""
+    discs sorted into their cells and the overlapping pairs found, by the pair list ``pl``
+    if ``listed`` (built anew if ``full``; ``big``: the scene has big discs), else by the
+    scan (in parallel over ``threads`` chunks from PARALLEL_MIN discs, as the drift);
+    resets the per-disc event counts.
+    Returns the pair list (a new one if it had to grow)."""
     par = threads > 1 and n >= PARALLEL_MIN
     if par:
         _drift_parallel(threads, n, h, pos, vel, species, sp_radius, bounds_kind, bounds_params,
@@ -1210,12 +1488,15 @@ def _drift_and_bin(threads, n, h, pos, vel, species, sp_radius, bounds_kind, bou
         ncy = int(grid[5])
         cell_start, cell_items = sc.cell_start, sc.cell_items
         _sort(n, sc.cell_of, cell_start, cell_items)
+        if listed:
+            return _pl_broad(n, pos, species, sp_radius, grid, sc, pl, full, big)
         if par:
             _broad_parallel(threads, n, ncy, grid, cell_start, cell_items, pos, species,
                             sp_radius, sc.sx, sc.sy, sc.sr, sc.ov_n, sc.ov_b)
         else:
             _gather(0, n, cell_items, pos, species, sp_radius, sc.sx, sc.sy, sc.sr)
             _scan_rows(0, ncy, grid, cell_start, sc.sx, sc.sy, sc.sr, sc.ov_n, sc.ov_b)
+    return pl
 
 
 @njit(cache=True)

@@ -121,6 +121,26 @@ class Scratch(NamedTuple):
     cell_start: np.ndarray  #: (cells + 2,) INDEX CSR offsets of the cells into cell_items
 
 
+class PairList(NamedTuple):
+    """The stepped integrator's pair (Verlet) list, kept across the substeps of one call
+    (``kernels.step``, "the pair list"): the pairs of small discs (radius <= the cell radius
+    rcell) whose reference positions are closer than 2 rcell + skin, each pair once.
+
+    Invariant at every broad phase, after the refresh: every small disc is listed and within
+    skin / 2 of its reference position, and every pair of them whose reference positions are
+    closer than 2 rcell + skin is in the list; so every overlapping pair of small discs is."""
+
+    ref: np.ndarray  #: (ws, 2) FLOAT a disc's reference position (where it was listed)
+    listed: np.ndarray  #: (ws,) INDEX 1 if the disc is listed (0: new, big, or list rebuilt)
+    mark: np.ndarray  #: (ws,) INDEX 1 if the disc is refreshed (its pairs dropped) this substep
+    todo: np.ndarray  #: (ws,) INDEX the discs refreshed in this substep (compact)
+    pi: np.ndarray  #: (cap,) INDEX first disc of each listed pair (capacity doubled when full)
+    pj: np.ndarray  #: (cap,) INDEX second disc
+    ovi: np.ndarray  #: (cap,) INDEX first disc of each pair found overlapping in the substep
+    ovj: np.ndarray  #: (cap,) INDEX second disc
+    count: np.ndarray  #: (2,) int64 listed pairs, overlapping pairs
+
+
 class RunConsts(NamedTuple):
     """What a stepped run reads from its scene and flags, once per call."""
 
