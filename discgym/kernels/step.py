@@ -268,24 +268,24 @@ def _scan_rows(r0, r1, grid, cell_start, sx, sy, sr, ov_n, ov_b):
             else:
                 lo2 = 0
                 hi2 = 0
-            k = 0
-            for b in range(a + 1, e1):
-                dx = sx[b] - xi
-                dy = sy[b] - yi
-                R = ri + sr[b]
-                if dx * dx + dy * dy < R * R:
-                    if k < OV_SLOTS:
-                        ov_b[a, k] = b
-                    k += 1
-            for b in range(lo2, hi2):
-                dx = sx[b] - xi
-                dy = sy[b] - yi
-                R = ri + sr[b]
-                if dx * dx + dy * dy < R * R:
-                    if k < OV_SLOTS:
-                        ov_b[a, k] = b
-                    k += 1
-            ov_n[a] = k
+            k = _overlaps_in(a, a + 1, e1, 0, xi, yi, ri, sx, sy, sr, ov_b)
+            ov_n[a] = _overlaps_in(a, lo2, hi2, k, xi, yi, ri, sx, sy, sr, ov_b)
+
+
+@njit(cache=True, inline="always")
+def _overlaps_in(a, lo, hi, k, xi, yi, ri, sx, sy, sr, ov_b):
+    """Note the sorted discs [lo, hi) overlapping disc ``a`` (at xi, yi, radius ri) in its
+    overlap slots from count ``k`` on; returns the new count (slots beyond OV_SLOTS are
+    counted, not stored)."""
+    for b in range(lo, hi):
+        dx = sx[b] - xi
+        dy = sy[b] - yi
+        R = ri + sr[b]
+        if dx * dx + dy * dy < R * R:
+            if k < OV_SLOTS:
+                ov_b[a, k] = b
+            k += 1
+    return k
 
 
 @njit(cache=True)
