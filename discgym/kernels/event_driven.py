@@ -941,15 +941,23 @@ def _first_predictions(n, fl, cells, queue, run, tables, rng, stats):
     stats[ST_PREDICTIONS] += n
 
 
-@njit(cache=True)
-def _events(n, state, fl, cells, queue, run, tables, rng, counters):
-    """Process events in time order until the end of the run or its event bound. Returns
-    ``(t, n, state, fl)``: the time reached (the first event not processed, at the bound),
-    and the arrays (new ones if a fission found them full)."""
+@njit(cache=True, _nrt=False)
+def _event_loop(n, events, state, fl, cells, queue, run, tables, rng, counters):
+    """Process events in time order until the end of the run, its event bound, or a
+    first-order reaction that may split a disc while the arrays are full (checked before
+    anything of that event is done). Returns ``(t, n, events, grow)``: the time reached (the
+    first event not processed, at the bound or the growth), the discs, the events processed
+    so far in the run, and whether the arrays must grow before the loop goes on.
+
+    Compiled without numba's reference counting (``_nrt=False``): every array here is
+    borrowed from the caller, which keeps it alive, nothing is allocated and none is
+    returned. With it, the handlers inlined here took and dropped a reference to each array
+    of the structs they are given (some 40 atomic updates per event, most of the time of
+    an event at 10^4 discs; numba's pruning of such pairs gives up on a loop this size).
+    The arithmetic is the same either way."""
     stats = counters.stats
     cap = fl.path.shape[0]
     t = 0.0
-    events = 0
     while True:
         d = queue.heap.disc[0]
         t = queue.heap.key[0]
@@ -958,9 +966,12 @@ def _events(n, state, fl, cells, queue, run, tables, rng, counters):
             break
         if events >= run.budget:  # (t: the event not processed)
             break
+        code = int(queue.event[d, NEXT_CODE])
+        # a fission needs a free slot: the caller makes one before anything is drawn
+        if code == EV_REACT and n >= cap and _may_split(fl.species[d], tables):
+            return t, n, events, True
         events += 1
         stats[ST_EVENTS] += 1
-        code = int(queue.event[d, NEXT_CODE])
         _advance(d, t, fl.path)
         p0 = d  # the discs to predict afresh after this event (-1: none)
         p1 = -1
@@ -979,11 +990,6 @@ def _events(n, state, fl, cells, queue, run, tables, rng, counters):
             else:
                 _wall_hit(d, fl, queue, run, counters, rng)
         elif code == EV_REACT:
-            # a fission needs a free slot: make one before drawing anything
-            if n >= cap and _may_split(fl.species[d], tables):
-                stats[ST_RESTARTS] += 1
-                cap = 2 * cap + 16
-                state, fl, cells, queue = _grow(cap, state, fl, cells, queue)
             newd = _first_order_event(d, n, t, fl, cells, state, run, tables, rng, counters)
             if newd >= 0:
                 n += 1
@@ -996,7 +1002,23 @@ def _events(n, state, fl, cells, queue, run, tables, rng, counters):
             if pd >= 0:
                 _predict(pd, t, fl, cells, queue, run, entered if q == 0 else 0)
                 stats[ST_PREDICTIONS] += 1
-    return t, n, state, fl
+    return t, n, events, False
+
+
+@njit(cache=True)
+def _events(n, state, fl, cells, queue, run, tables, rng, counters):
+    """Process events in time order until the end of the run or its event bound
+    (:func:`_event_loop`), growing the arrays when a fission finds them full. Returns
+    ``(t, n, state, fl)``: the time reached (the first event not processed, at the bound),
+    and the arrays (new ones if a fission found them full)."""
+    events = 0
+    while True:
+        t, n, events, grow = _event_loop(n, events, state, fl, cells, queue, run, tables, rng,
+                                         counters)
+        if not grow:
+            return t, n, state, fl
+        counters.stats[ST_RESTARTS] += 1
+        state, fl, cells, queue = _grow(2 * fl.path.shape[0] + 16, state, fl, cells, queue)
 
 
 @njit(cache=True)
