@@ -935,10 +935,16 @@ def _first_predictions(n, fl, cells, queue, run, tables, rng, stats):
             d = inv[e]
             if fl.species[d] >= 0:
                 _next_reaction(d, 0.0, fl, tables, rng, True, 0.0)
+    _predict_all(n, fl, cells, queue, run)
+    stats[ST_PREDICTIONS] += n
+
+
+@njit(cache=True, _nrt=False)
+def _predict_all(n, fl, cells, queue, run):
+    """Every disc's first event (without reference counting: see :func:`_event_loop`)."""
     for d in range(n):
         if fl.species[d] >= 0:
             _predict(d, 0.0, fl, cells, queue, run, 0)
-    stats[ST_PREDICTIONS] += n
 
 
 @njit(cache=True, _nrt=False)
