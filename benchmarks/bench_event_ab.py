@@ -10,9 +10,10 @@ OLD and NEW are checkouts (e.g. ``git worktree add --detach /tmp/old main``); ea
 separate process with ``PYTHONPATH`` set to its checkout (clear both numba caches after
 editing a kernel). A run equilibrates 200 steps of the time-stepped integrator, then times
 (``time.process_time``) ``--rounds`` event-driven runs of ``2e5 / N`` time units from that
-state (one call of ``step(k)``; with ``--per-step`` a quarter of that time in calls of ``step(1)``) and keeps the
-fastest. Pairs alternate which checkout goes first; prints each pair and, per N, the
-medians and the ratio new / old (median, min, max).
+state (one call of ``step(k)``; with ``--per-step`` a quarter of that time in calls of
+``step(1)``) and keeps the fastest. Pairs alternate which checkout goes first; prints each
+pair and, per N, the medians and the ratio new / old (median, min, max). (This script and
+bench_event.py, whose timing it uses, run from the checkout it is started in.)
 """
 
 from __future__ import annotations
@@ -22,10 +23,11 @@ import os
 import statistics
 import subprocess
 import sys
-import time
 
 
 def child(n: int, duration: float, rounds: int, per_step: bool) -> None:
+    from bench_event import _run  # (this script's folder is on the path)
+
     import discgym as dg
     from discgym.bench import bench_scene
 
@@ -36,14 +38,7 @@ def child(n: int, duration: float, rounds: int, per_step: bool) -> None:
     for _ in range(rounds):
         sim = dg.Simulation.from_arrays(bench_scene(n), base.positions, base.velocities,
                                         base.species, seed=2, integrator="event")
-        steps = round(duration / sim.scene.dt)
-        t0 = time.process_time()
-        if per_step:
-            for _ in range(steps):
-                sim.step(1)
-        else:
-            sim.step(steps)
-        cpu = time.process_time() - t0
+        cpu = _run(sim, duration, sim.scene.dt, per_step)
         best, coll = max(best, sim.collisions / cpu), sim.collisions
     print("RATE", best, coll)
 

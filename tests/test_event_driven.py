@@ -504,3 +504,14 @@ def test_event_statistics_and_restart_on_growth():
     assert stats[ev.ST_RESTARTS] >= 1 and n > 150 and pos.shape[0] >= n
     assert stats[ev.ST_EVENTS] >= stats[ev.ST_CROSSINGS] > 0
     assert (spc[:n] >= 0).all() and len(set(ids[:n].tolist())) == n
+
+
+def test_event_loop_is_compiled_without_reference_counting():
+    """The event loop and the first predictions borrow every array and allocate nothing, so
+    they are compiled without numba's reference counting (with it, the handlers inlined
+    there took and dropped a reference to each array of each struct they were given: most
+    of the time of an event; docs/performance.md, "The event-driven integrator's speed").
+    Growing the arrays stays outside, in _events."""
+    for f in (ev._event_loop, ev._predict_all):
+        assert f.targetoptions.get("_nrt") is False, f.__name__
+    assert ev._events.targetoptions.get("_nrt", True) is not False
