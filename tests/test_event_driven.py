@@ -507,11 +507,11 @@ def test_event_statistics_and_restart_on_growth():
 
 
 def test_event_loop_is_compiled_without_reference_counting():
-    """The event loop and the first predictions borrow every array and allocate nothing, so
-    they are compiled without numba's reference counting (with it, the handlers inlined
-    there took and dropped a reference to each array of each struct they were given: most
-    of the time of an event; docs/performance.md, "The event-driven integrator's speed").
-    Growing the arrays stays outside, in _events."""
-    for f in (ev._event_loop, ev._predict_all):
+    """The event loop, the first predictions and the loading of the discs borrow every array
+    and allocate nothing, so they are compiled without numba's reference counting (with it,
+    the handlers inlined there took and dropped a reference to each array of each struct
+    they were given: most of the time of an event; docs/performance.md, "The event-driven
+    integrator's speed"). Growing the arrays stays outside, in _events."""
+    for f in (ev._event_loop, ev._predict_all, ev._fill):
         assert f.targetoptions.get("_nrt") is False, f.__name__
     assert ev._events.targetoptions.get("_nrt", True) is not False

@@ -885,11 +885,22 @@ def _make_cells(n, cap, run, cells_per_disc):
 def _load(n, cap, state, cells, tables):
     """The discs in the integrator's numbering: live ones in cell order (dead ones last),
     so that neighbours are near in memory; each at time 0 and in its cell."""
+    perm = np.arange(cap).astype(INDEX)  # perm[a] = the caller's index of disc a
+    fl = Flights(np.zeros((cap, PATH_COLUMNS), dtype=FLOAT), np.full(cap, -1, dtype=INDEX),
+                 np.zeros(cap, dtype=FLOAT), np.zeros(cap, dtype=COUNT),
+                 np.full(cap, -INF, dtype=FLOAT), np.full(cap, INF, dtype=FLOAT),
+                 np.zeros(cap, dtype=FLOAT), np.zeros(cap, dtype=COUNT), perm)
+    _fill(n, state, cells, tables, fl, np.zeros(cells.ncx * cells.ncy + 2, dtype=INDEX))
+    return fl
+
+
+@njit(cache=True, _nrt=False)
+def _fill(n, state, cells, tables, fl, cstart):
+    """:func:`_load`'s loops (``cstart`` zeros, one more than the cells and the dead), without
+    reference counting (see :func:`_event_loop`)."""
     pos, vel, spc_ext = state.pos, state.vel, state.species
     ncells = cells.ncx * cells.ncy
-    cell = cells.cell
-    perm = np.arange(cap).astype(INDEX)  # perm[a] = the caller's index of disc a
-    cstart = np.zeros(ncells + 2, dtype=INDEX)
+    cell, perm, W = cells.cell, fl.perm, fl.path
     for e in range(n):
         c = _cell_of(pos[e, 0], pos[e, 1], cells) if spc_ext[e] >= 0 else ncells
         cell[e] = c  # scratch: reset below
@@ -900,11 +911,6 @@ def _load(n, cap, state, cells, tables):
         c = cell[e]
         perm[cstart[c]] = e
         cstart[c] += 1
-    fl = Flights(np.zeros((cap, PATH_COLUMNS), dtype=FLOAT), np.full(cap, -1, dtype=INDEX),
-                 np.zeros(cap, dtype=FLOAT), np.zeros(cap, dtype=COUNT),
-                 np.full(cap, -INF, dtype=FLOAT), np.full(cap, INF, dtype=FLOAT),
-                 np.zeros(cap, dtype=FLOAT), np.zeros(cap, dtype=COUNT), perm)
-    W = fl.path
     for d in range(n):
         e = perm[d]
         cell[d] = -1
@@ -920,7 +926,6 @@ def _load(n, cap, state, cells, tables):
         W[d, PT] = 0.0
         _set_kind(d, s, W, tables)
         _cell_insert(d, _cell_of(pos[e, 0], pos[e, 1], cells), cells)
-    return fl
 
 
 @njit(cache=True)
