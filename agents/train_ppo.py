@@ -5,8 +5,8 @@ One readable script in the spirit of CleanRL's: the arguments are a documented d
 style files (``hyperparams/<algo>.yml``, one entry per env id), and the rest is SB3's own
 machinery: ``VecMonitor`` (episode statistics, ``monitor.csv``), the entry's
 ``vec_env_wrapper`` if it names one (RL Zoo's key, e.g. ``discgym.sb3.SetpointHold``),
-``VecNormalize`` (saved and loaded with its statistics), ``EvalCallback`` on validation seeds (``evaluations.npz``, the
-best checkpoint) and SB3's logger (``progress.csv``).
+``VecNormalize`` (saved and loaded with its statistics), ``EvalCallback`` on validation
+seeds (``evaluations.npz``, the best checkpoint) and SB3's logger (``progress.csv``).
 
     python agents/train_ppo.py                               # the README's main demo
     python agents/train_ppo.py --env-id DiscKinetics-v0 --algo recurrent_ppo
@@ -71,7 +71,8 @@ class Args:
     torch_threads: int = 1
     """torch intra-op threads (the small networks here gain nothing from more)"""
     eval_freq: int = 50_000
-    """validate every this many agent steps (0: no EvalCallback, no best checkpoint)"""
+    """validate every this many env steps, summed over the reactors (0: no EvalCallback, no
+    best checkpoint)"""
     progress_bar: bool = True
     device: str = "cpu"
 
@@ -147,7 +148,17 @@ def make_vec_env(args: Args, n_envs: int, normalize: dict | bool, gamma: float,
     return venv
 
 
-def _callbacks(args: Args, out: Path, n_envs: int, normalize, gamma: float, wrappers=None):
+def env_steps_per_step(venv) -> int:
+    """Env steps per agent step of ``venv`` (a ``SetpointHold`` in it holds each decision)."""
+    hold = 1
+    while venv is not None:
+        hold *= vars(venv).get("hold", 1)  # (not getattr: VecEnvWrappers forward it)
+        venv = vars(venv).get("venv")
+    return hold
+
+
+def _callbacks(args: Args, out: Path, n_envs: int, normalize, gamma: float, wrappers=None,
+               hold: int = 1):
     """EvalCallback on the validation seeds (re-seeded before every evaluation, so that every
     checkpoint meets the same episodes), saving VecNormalize's statistics with the best model."""
     from stable_baselines3.common.callbacks import BaseCallback, EvalCallback
@@ -172,7 +183,7 @@ def _callbacks(args: Args, out: Path, n_envs: int, normalize, gamma: float, wrap
     if hasattr(eval_env, "training"):
         eval_env.training, eval_env.norm_reward = False, False
     return SeededEval(eval_env, n_eval_episodes=len(VALIDATION_SEEDS),
-                      eval_freq=max(1, args.eval_freq // n_envs),
+                      eval_freq=max(1, args.eval_freq // (n_envs * hold)),
                       best_model_save_path=str(out), log_path=str(out),
                       deterministic=True, callback_on_new_best=SaveVecNormalize(), verbose=0)
 
@@ -205,7 +216,8 @@ def train(args: Args) -> Path:
     venv = make_vec_env(args, n_envs, normalize, gamma, monitor=out / "monitor.csv",
                         wrappers=wrappers)
     venv.seed(args.seed)
-    callback = _callbacks(args, out, n_envs, normalize, gamma, wrappers)
+    hold = env_steps_per_step(venv)
+    callback = _callbacks(args, out, n_envs, normalize, gamma, wrappers, hold)
     cls = algo_class(args.algo)
     policy = policy or ("MlpLstmPolicy" if args.algo == "recurrent_ppo" else "MlpPolicy")
     model = cls(policy, venv, seed=args.seed, device=args.device, verbose=0, **hp)
@@ -214,10 +226,6 @@ def train(args: Args) -> Path:
     model.learn(total_timesteps=steps, callback=callback,
                 progress_bar=args.progress_bar and _has_progress_bar())
     wall, cpu = time.perf_counter() - t0, time.process_time() - c0
-    hold, v = 1, venv  # env steps per agent step (a SetpointHold wrapper holds decisions)
-    while v is not None:
-        hold *= vars(v).get("hold", 1)  # (not getattr: wrappers forward it)
-        v = vars(v).get("venv")
     model.save(out / "model.zip")
     if normalize:
         venv.save(str(out / "vecnormalize.pkl"))

@@ -145,6 +145,8 @@ def test_train_and_evaluate_through_the_wrapper(tmp_path):
                                          progress_bar=False))
     summary = json.loads((out / "train_summary.json").read_text())
     assert summary["timesteps"] == 64 and summary["env_steps"] == 256
+    # eval_freq counts env steps: 32 // (2 reactors x 4) = a validation every 4 decisions
+    assert len(np.load(out / "evaluations.npz")["timesteps"]) == 8
     # the validation episodes ran through the wrapper too; VecMonitor, under it, counts
     # their length in env steps
     ev = np.load(out / "evaluations.npz")
@@ -178,18 +180,22 @@ def test_a_wrapper_without_an_episode_policy_cannot_be_evaluated(tmp_path):
         evaluate.agent_factory(tmp_path, "final")
 
 
-def test_the_setpoint_variant_file_builds_its_model():
-    """hyperparams/setpoint/ppo.yml (docs/agents.md's setpoint run) builds PPO through the
-    wrapper, and its episodes are whole decisions."""
+def test_the_flagship_entry_trains_through_the_wrapper():
+    """hyperparams/ppo.yml's DiscReactor-v0 entry (the README's main run) builds PPO through
+    SetpointHold, and validates every 50,000 env steps = 781 calls of 16 x 4 env steps."""
     sys.path.insert(0, str(ROOT / "agents"))
     import train_ppo
 
-    args = train_ppo.Args(hyperparams=str(ROOT / "hyperparams" / "setpoint"), threads=1)
+    args = train_ppo.Args(threads=1)
     hp = train_ppo.load_hyperparams(args)
-    venv = train_ppo.make_vec_env(args, 2, hp.pop("normalize"), hp["gamma"],
-                                  wrappers=hp.pop("vec_env_wrapper"))
-    assert vars(venv.venv)["hold"] == 4  # VecNormalize over SetpointHold
+    assert hp["vec_env_wrapper"] == [{"discgym.sb3.SetpointHold": {"hold": 4}}]
+    wrappers = hp.pop("vec_env_wrapper")
+    venv = train_ppo.make_vec_env(args, 2, hp.pop("normalize"), hp["gamma"], wrappers=wrappers)
+    assert train_ppo.env_steps_per_step(venv) == 4
+    cb = train_ppo._callbacks(args, Path("unused"), 16, False, hp["gamma"], wrappers, 4)
+    assert cb.eval_freq == 781
     for key in ("n_envs", "n_timesteps", "policy"):
         hp.pop(key)
     train_ppo.algo_class("ppo")("MlpPolicy", venv, device="cpu", **hp)
     venv.close()
+    cb.eval_env.close()
