@@ -322,7 +322,11 @@ def table(res: dict) -> str:
         train = ""
         if r.get("train"):
             t = r["train"]
-            train = f"{t['timesteps']:,} steps, {t['wall_seconds']:.0f} s"
+            env_steps = t.get("env_steps", t["timesteps"])
+            train = (f"{t['timesteps']:,} steps, {t['wall_seconds']:.0f} s"
+                     if env_steps == t["timesteps"] else
+                     f"{t['timesteps']:,} decisions = {env_steps:,} env steps, "
+                     f"{t['wall_seconds']:.0f} s")
         label = f"**{r['label']}**" if "train" in r else r["label"]
         lines.append(f"| {label} | {_ci(r['mean'])} | {_ci(r['iqm'])} | {d} | {train} |")
     return "\n".join(lines)
@@ -351,7 +355,9 @@ def plot_curves(res: dict, path: Path) -> Path:
         npz = Path(r["run"]) / "evaluations.npz"
         if npz.exists():
             d = np.load(npz)
-            ax.plot(d["timesteps"], d["results"].mean(axis=1), marker="o", ms=3,
+            t = run_info(r["run"])["summary"] or {}
+            per = t.get("env_steps", 1) // max(t.get("timesteps", 1), 1)  # env steps/decision
+            ax.plot(d["timesteps"] * max(per, 1), d["results"].mean(axis=1), marker="o", ms=3,
                     label=f"{r['label']} (validation seeds)")
     ax.set_xlabel("environment steps")
     ax.set_ylabel("episode return")

@@ -199,3 +199,36 @@ def test_the_flagship_entry_trains_through_the_wrapper():
     train_ppo.algo_class("ppo")("MlpPolicy", venv, device="cpu", **hp)
     venv.close()
     cb.eval_env.close()
+
+
+def test_the_table_and_curve_count_env_steps_for_a_held_run(tmp_path):
+    """A run that decides every 4 env steps is reported in decisions and env steps, and its
+    learning curve is drawn against env steps, like the other runs'."""
+    sys.path.insert(0, str(ROOT / "agents"))
+    import evaluate
+
+    ci = {"value": 0.9, "low": 0.8, "high": 1.0}
+    run = tmp_path / "run"
+    run.mkdir()
+    (run / "args.json").write_text(json.dumps({"env_id": "DiscReactor-v0", "algo": "ppo"}))
+    summary = {"timesteps": 1000, "env_steps": 4000, "wall_seconds": 12.0}
+    (run / "train_summary.json").write_text(json.dumps(summary))
+    np.savez(run / "evaluations.npz", timesteps=np.array([500, 1000]),
+             results=np.array([[0.5, 0.6], [0.7, 0.8]]))
+    base = {k: {"label": k, "mean": ci, "iqm": ci}
+            for k in ("random", "best constant", "hand-written")}
+    res = {"env_id": "DiscReactor-v0", "eval_seeds": [1000, 1001], "policies": {
+        **base, "agent": {"label": "ppo", "mean": ci, "iqm": ci, "minus_hand_written": ci,
+                          "train": summary, "run": str(run)}}}
+    assert "1,000 decisions = 4,000 env steps, 12 s" in evaluate.table(res)
+    import matplotlib.pyplot as plt
+
+    plotted = []
+    real = plt.Axes.plot
+    plt.Axes.plot = lambda self, x, *a, **k: plotted.append(np.asarray(x)) or real(
+        self, x, *a, **k)
+    try:
+        evaluate.plot_curves(res, tmp_path / "curve.png")
+    finally:
+        plt.Axes.plot = real
+    np.testing.assert_array_equal(plotted[0], [2000, 4000])
