@@ -38,7 +38,7 @@ from typing import Literal
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from train_ppo import algo_class  # noqa: E402
+from train_ppo import algo_class, vec_env_wrappers  # noqa: E402
 
 LADDER = ("random", "best constant", "hand-written", "mpc", "oracle")
 
@@ -94,7 +94,9 @@ def agent_factory(run: Path, checkpoint: str = "best", deterministic: bool = Tru
     torch's generator seeded from the episode's first observation, so that a seed gives the
     same episode however the seeds are spread over workers), its VecNormalize statistics
     (``VecNormalize.load``) applied to the observations, an LSTM's state reset at each
-    episode (a factory is called once per episode)."""
+    episode (a factory is called once per episode), and the action interface the run trained
+    through (its ``vec_env_wrapper``, e.g. :class:`discgym.sb3.SetpointHold`, applied to the
+    one env by the wrapper's ``episode_policy``)."""
     import gymnasium as gym
     import torch
     from stable_baselines3.common.vec_env import DummyVecEnv, VecNormalize
@@ -104,6 +106,14 @@ def agent_factory(run: Path, checkpoint: str = "best", deterministic: bool = Tru
     torch.set_num_threads(1)
     run = Path(run)
     info = run_info(run)
+    hp_path = run / "hyperparams.json"
+    hp = json.loads(hp_path.read_text()) if hp_path.exists() else {}
+    wrappers = vec_env_wrappers(hp.get("vec_env_wrapper"))
+    for cls, _ in wrappers:
+        if not hasattr(cls, "episode_policy"):
+            raise ValueError(f"run: {run} was trained through {cls.__name__}, which has no "
+                             f"episode_policy to apply it to one env")
+
     prefix = "best_" if checkpoint == "best" and (run / "best_model.zip").exists() else ""
     model = algo_class(info["algo"]).load(run / f"{prefix}model.zip", device="cpu")
     vn = None
@@ -127,6 +137,9 @@ def agent_factory(run: Path, checkpoint: str = "best", deterministic: bool = Tru
             start = np.zeros(1, dtype=bool)
             return act[0]
 
+        # the training env's action interfaces: the outermost one asks the model
+        for cls, kwargs in reversed(wrappers):
+            policy = cls.episode_policy(env, policy, **kwargs)
         return policy
 
     factory.checkpoint = f"{prefix}model.zip"
@@ -309,7 +322,11 @@ def table(res: dict) -> str:
         train = ""
         if r.get("train"):
             t = r["train"]
-            train = f"{t['timesteps']:,} steps, {t['wall_seconds']:.0f} s"
+            env_steps = t.get("env_steps", t["timesteps"])
+            train = (f"{t['timesteps']:,} steps, {t['wall_seconds']:.0f} s"
+                     if env_steps == t["timesteps"] else
+                     f"{t['timesteps']:,} decisions = {env_steps:,} env steps, "
+                     f"{t['wall_seconds']:.0f} s")
         label = f"**{r['label']}**" if "train" in r else r["label"]
         lines.append(f"| {label} | {_ci(r['mean'])} | {_ci(r['iqm'])} | {d} | {train} |")
     return "\n".join(lines)
@@ -338,7 +355,9 @@ def plot_curves(res: dict, path: Path) -> Path:
         npz = Path(r["run"]) / "evaluations.npz"
         if npz.exists():
             d = np.load(npz)
-            ax.plot(d["timesteps"], d["results"].mean(axis=1), marker="o", ms=3,
+            t = run_info(r["run"])["summary"] or {}
+            per = t.get("env_steps", 1) // max(t.get("timesteps", 1), 1)  # env steps/decision
+            ax.plot(d["timesteps"] * max(per, 1), d["results"].mean(axis=1), marker="o", ms=3,
                     label=f"{r['label']} (validation seeds)")
     ax.set_xlabel("environment steps")
     ax.set_ylabel("episode return")

@@ -3,9 +3,10 @@
 One readable script in the spirit of CleanRL's: the arguments are a documented dataclass
 (parsed by tyro, so every field is a flag), the hyperparameters of each task live in RL Zoo
 style files (``hyperparams/<algo>.yml``, one entry per env id), and the rest is SB3's own
-machinery: ``VecMonitor`` (episode statistics, ``monitor.csv``), ``VecNormalize`` (saved and
-loaded with its statistics), ``EvalCallback`` on validation seeds (``evaluations.npz``, the
-best checkpoint) and SB3's logger (``progress.csv``).
+machinery: ``VecMonitor`` (episode statistics, ``monitor.csv``), the entry's
+``vec_env_wrapper`` if it names one (RL Zoo's key, e.g. ``discgym.sb3.SetpointHold``),
+``VecNormalize`` (saved and loaded with its statistics), ``EvalCallback`` on validation
+seeds (``evaluations.npz``, the best checkpoint) and SB3's logger (``progress.csv``).
 
     python agents/train_ppo.py                               # the README's main demo
     python agents/train_ppo.py --env-id DiscKinetics-v0 --algo recurrent_ppo
@@ -51,7 +52,8 @@ class Args:
     algo: Literal["ppo", "sac", "recurrent_ppo"] = "ppo"
     """SB3's PPO, SB3's SAC, or sb3-contrib's RecurrentPPO (an LSTM policy)"""
     total_timesteps: int | None = None
-    """environment steps summed over all reactors (default: the file's ``n_timesteps``)"""
+    """agent steps summed over all reactors (default: the file's ``n_timesteps``): env steps,
+    or decisions of ``hold`` env steps each with a ``SetpointHold`` ``vec_env_wrapper``"""
     seed: int = 0
     """seed of the policy initialisation, of the algorithm's sampling and of the reactors"""
     out: str | None = None
@@ -69,7 +71,8 @@ class Args:
     torch_threads: int = 1
     """torch intra-op threads (the small networks here gain nothing from more)"""
     eval_freq: int = 50_000
-    """validate every this many environment steps (0: no EvalCallback, no best checkpoint)"""
+    """validate every this many env steps, summed over the reactors (0: no EvalCallback, no
+    best checkpoint)"""
     progress_bar: bool = True
     device: str = "cpu"
 
@@ -108,9 +111,23 @@ def load_hyperparams(args: Args) -> dict:
     return hp
 
 
+def vec_env_wrappers(spec) -> list:
+    """RL Zoo's ``vec_env_wrapper`` entry (``"module.Class"``, or a list of those and of
+    ``{"module.Class": {kwargs}}``) as a list of ``(class, kwargs)``."""
+    import importlib
+
+    out = []
+    for item in ([] if spec is None else [spec] if isinstance(spec, (str, dict)) else spec):
+        for path, kwargs in (item.items() if isinstance(item, dict) else [(item, None)]):
+            module, _, name = str(path).rpartition(".")
+            out.append((getattr(importlib.import_module(module), name), dict(kwargs or {})))
+    return out
+
+
 def make_vec_env(args: Args, n_envs: int, normalize: dict | bool, gamma: float,
-                 monitor: Path | None = None):
-    """The SB3 VecEnv: ``n_envs`` reactors of the task, VecMonitor, then VecNormalize."""
+                 monitor: Path | None = None, wrappers=None):
+    """The SB3 VecEnv: ``n_envs`` reactors of the task, VecMonitor, the hyperparameters'
+    ``vec_env_wrapper`` (:func:`vec_env_wrappers`), then VecNormalize."""
     from stable_baselines3.common.vec_env import VecMonitor, VecNormalize
 
     from discgym.sb3 import DiscReactorSB3VecEnv
@@ -122,6 +139,8 @@ def make_vec_env(args: Args, n_envs: int, normalize: dict | bool, gamma: float,
     kw = {**TASKS[args.env_id][0].defaults, **args.env_kwargs()}
     venv = VecMonitor(DiscReactorSB3VecEnv(num_envs=n_envs, threads=args.threads, **kw),
                       filename=None if monitor is None else str(monitor))
+    for cls, kwargs in vec_env_wrappers(wrappers):
+        venv = cls(venv, **kwargs)
     if normalize:
         opts = {"norm_obs": True, "norm_reward": False}
         opts.update(normalize if isinstance(normalize, dict) else {})
@@ -129,7 +148,17 @@ def make_vec_env(args: Args, n_envs: int, normalize: dict | bool, gamma: float,
     return venv
 
 
-def _callbacks(args: Args, out: Path, n_envs: int, normalize, gamma: float):
+def env_steps_per_step(venv) -> int:
+    """Env steps per agent step of ``venv`` (a ``SetpointHold`` in it holds each decision)."""
+    hold = 1
+    while venv is not None:
+        hold *= vars(venv).get("hold", 1)  # (not getattr: VecEnvWrappers forward it)
+        venv = vars(venv).get("venv")
+    return hold
+
+
+def _callbacks(args: Args, out: Path, n_envs: int, normalize, gamma: float, wrappers=None,
+               hold: int = 1):
     """EvalCallback on the validation seeds (re-seeded before every evaluation, so that every
     checkpoint meets the same episodes), saving VecNormalize's statistics with the best model."""
     from stable_baselines3.common.callbacks import BaseCallback, EvalCallback
@@ -150,11 +179,11 @@ def _callbacks(args: Args, out: Path, n_envs: int, normalize, gamma: float):
                 self.eval_env.seed(VALIDATION_SEEDS[0])
             return super()._on_step()
 
-    eval_env = make_vec_env(args, len(VALIDATION_SEEDS), normalize, gamma)
+    eval_env = make_vec_env(args, len(VALIDATION_SEEDS), normalize, gamma, wrappers=wrappers)
     if hasattr(eval_env, "training"):
         eval_env.training, eval_env.norm_reward = False, False
     return SeededEval(eval_env, n_eval_episodes=len(VALIDATION_SEEDS),
-                      eval_freq=max(1, args.eval_freq // n_envs),
+                      eval_freq=max(1, args.eval_freq // (n_envs * hold)),
                       best_model_save_path=str(out), log_path=str(out),
                       deterministic=True, callback_on_new_best=SaveVecNormalize(), verbose=0)
 
@@ -182,10 +211,13 @@ def train(args: Args) -> Path:
     torch.set_num_threads(args.torch_threads)
     n_envs, steps = int(hp.pop("n_envs")), hp.pop("n_timesteps")
     normalize, policy = hp.pop("normalize", False), hp.pop("policy", None)
+    wrappers = hp.pop("vec_env_wrapper", None)
     gamma = hp.get("gamma", 0.99)
-    venv = make_vec_env(args, n_envs, normalize, gamma, monitor=out / "monitor.csv")
+    venv = make_vec_env(args, n_envs, normalize, gamma, monitor=out / "monitor.csv",
+                        wrappers=wrappers)
     venv.seed(args.seed)
-    callback = _callbacks(args, out, n_envs, normalize, gamma)
+    hold = env_steps_per_step(venv)
+    callback = _callbacks(args, out, n_envs, normalize, gamma, wrappers, hold)
     cls = algo_class(args.algo)
     policy = policy or ("MlpLstmPolicy" if args.algo == "recurrent_ppo" else "MlpPolicy")
     model = cls(policy, venv, seed=args.seed, device=args.device, verbose=0, **hp)
@@ -200,7 +232,8 @@ def train(args: Args) -> Path:
     venv.close()
     (out / "train_summary.json").write_text(json.dumps(
         {"env_id": args.env_id, "algo": args.algo, "wall_seconds": wall, "cpu_seconds": cpu,
-         "timesteps": int(model.num_timesteps), "n_envs": n_envs,
+         "timesteps": int(model.num_timesteps), "env_steps": int(model.num_timesteps) * hold,
+         "n_envs": n_envs,
          "best_checkpoint": (out / "best_model.zip").exists()}, indent=2))
     return out
 

@@ -15,7 +15,7 @@ import math
 import numpy as np
 
 __all__ = ["Thermostat", "AdaptiveThermostat", "BandThermostat",
-           "JacketThermostat", "flow_thermostat", "controller_for"]
+           "JacketThermostat", "flow_thermostat", "controller_for", "SetpointActions"]
 
 
 class _Slots:
@@ -37,6 +37,10 @@ class _Slots:
 
     def temperature(self, o: np.ndarray) -> float:
         return float((o[self.frac] * o[self.kT]).sum())
+
+    def temperatures(self, o: np.ndarray) -> np.ndarray:
+        """:meth:`temperature` of each observation of a batch (R, D)."""
+        return (o[:, self.frac] * o[:, self.kT]).sum(axis=1)
 
     def heat_toward(self, o: np.ndarray, target: float) -> float:
         """The heat action that takes the reactor's kT to ``target`` (clipped to [-1, 1])."""
@@ -220,3 +224,73 @@ def controller_for(env, **kwargs):
            "DiscEconomic-v0": BandThermostat, "DiscJacket-v0": JacketThermostat,
            "DiscFlow-v0": flow_thermostat}[env_id]
     return cls(env, **kwargs)
+
+
+class SetpointActions:
+    """An agent's action interface: a kT setpoint instead of a heating factor, decided every
+    ``hold`` env steps.
+
+    The agent's action has the env's shape and range, ``[-1, 1]`` per component; component 0
+    is read as a setpoint, log-spaced over ``[kT_low, kT_high]`` (-1 the lowest, 0 their
+    geometric mean, +1 the highest), and at every env step the heat action that takes the
+    reactor's observed kT there is computed as the controllers compute it (the env's own
+    heating law inverted, ``log(setpoint / kT) / log(heat_rate)``, clipped to [-1, 1]). The
+    other components (wall, feeds) pass through unchanged. The agent decides once per
+    ``hold`` env steps; its setpoint, wall and feeds are held in between, while the heat
+    action is recomputed from each new observation.
+
+    Why: a policy that sets the heating factor directly must invert the heating law itself
+    from a noisy temperature, and PPO's policies did so coarsely (kT swinging 1.1-2.4 from
+    step to step on DiscReactor-v0, where the thermostat stays within 1.55-1.72;
+    docs/agents.md). Fewer decisions also shorten the horizon over which credit must be
+    assigned (25 instead of 100 per episode at ``hold`` = 4).
+
+    Used by :class:`discgym.sb3.SetpointHold` (training, a whole batch) and by
+    :meth:`policy` (one env, as ``agents/evaluate.py`` runs it); both go through
+    :meth:`env_actions`, so training and evaluation apply the same law.
+    """
+
+    def __init__(self, env, hold: int = 4, kT_low: float = 0.8, kT_high: float = 3.2):
+        if isinstance(hold, bool) or not isinstance(hold, (int, np.integer)) or hold < 1:
+            raise ValueError(f"hold: expected an int >= 1, got {hold!r}")
+        if not (0 < float(kT_low) < float(kT_high) < math.inf):
+            raise ValueError(f"kT_low, kT_high: expected 0 < kT_low < kT_high < inf, got "
+                             f"{kT_low!r}, {kT_high!r}")
+        self.s = _Slots(env)
+        self.hold = int(hold)
+        self.kT_low, self.kT_high = float(kT_low), float(kT_high)
+
+    def setpoint(self, a0) -> np.ndarray:
+        """The kT setpoint of action component(s) ``a0`` (clipped to [-1, 1] first)."""
+        u = (np.clip(np.asarray(a0, dtype=np.float64), -1.0, 1.0) + 1.0) / 2.0
+        return self.kT_low * (self.kT_high / self.kT_low) ** u
+
+    def env_actions(self, actions, obs) -> np.ndarray:
+        """The env's actions (R, A) (or (A,)) for the agent's ``actions`` and the current raw
+        (unnormalised) observations ``obs`` (R, D) (or (D,))."""
+        a = np.array(actions, dtype=np.float32)
+        o = np.asarray(obs, dtype=np.float64)
+        one = a.ndim == 1
+        a, o = np.atleast_2d(a), np.atleast_2d(o)
+        if a.shape[0] != o.shape[0]:
+            raise ValueError(f"actions, obs: {a.shape[0]} actions for {o.shape[0]} "
+                             f"observations")
+        T = np.maximum(self.s.temperatures(o), 1e-6)
+        heat = np.log(self.setpoint(a[:, 0]) / T) / self.s.log_rate
+        a[:, 0] = np.clip(heat, -1.0, 1.0)
+        return a[0] if one else a
+
+    def policy(self, decide):
+        """A policy for one env (obs -> env action) from ``decide`` (obs -> agent action),
+        which it calls at the episode's first step and every ``hold`` steps after. Make one
+        per episode (it counts the episode's steps)."""
+        step, held = 0, None
+
+        def act(obs):
+            nonlocal step, held
+            if step % self.hold == 0:
+                held = np.asarray(decide(obs), dtype=np.float32)
+            step += 1
+            return self.env_actions(held, obs)
+
+        return act

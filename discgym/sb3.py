@@ -28,7 +28,7 @@ import numpy as np
 from gymnasium.vector import AutoresetMode
 
 try:
-    from stable_baselines3.common.vec_env.base_vec_env import VecEnv
+    from stable_baselines3.common.vec_env.base_vec_env import VecEnv, VecEnvWrapper
 except ImportError as exc:  # pragma: no cover - exercised only without SB3
     raise ImportError(
         "discgym.sb3 needs stable-baselines3: pip install torch==2.13.0 'discgym[agents]'"
@@ -36,7 +36,7 @@ except ImportError as exc:  # pragma: no cover - exercised only without SB3
 
 from .vector import DiscReactorVectorEnv
 
-__all__ = ["DiscReactorSB3VecEnv"]
+__all__ = ["DiscReactorSB3VecEnv", "SetpointHold"]
 
 
 class DiscReactorSB3VecEnv(VecEnv):
@@ -217,3 +217,72 @@ def _row(info: dict, i: int) -> dict:
             continue
         out[k] = v[i].item() if isinstance(v, np.ndarray) and v.dtype != object else v[i]
     return out
+
+
+class SetpointHold(VecEnvWrapper):
+    """The agent sets a kT setpoint, the wall and the feeds once every ``hold`` env steps
+    (:class:`discgym.controllers.SetpointActions`: the heat action that reaches the setpoint
+    is recomputed at every env step from the raw observation).
+
+    One agent step is ``hold`` env steps: its reward is their sum, its observation the last
+    one's, and ``infos`` are the last env step's. Put it under ``VecNormalize`` (it needs the
+    raw observations) and over ``VecMonitor`` (whose episodes are then counted in env steps).
+    Every reactor's episode must end at the same env step, a multiple of ``hold`` (the
+    suite's tasks never terminate and truncate after ``episode_steps``); an episode that
+    ends inside a held block raises ``RuntimeError``, as the reactors already reset would
+    otherwise run the rest of the block on the old decision. In the hyperparameter files
+    (RL Zoo's ``vec_env_wrapper`` key)::
+
+        vec_env_wrapper:
+          - discgym.sb3.SetpointHold: {hold: 4}
+    """
+
+    def __init__(self, venv, hold: int = 4, kT_low: float = 0.8, kT_high: float = 3.2):
+        super().__init__(venv)
+        from .controllers import SetpointActions
+
+        self.actions_law = SetpointActions(venv.get_attr("unwrapped", [0])[0], hold=hold,
+                                           kT_low=kT_low, kT_high=kT_high)
+        self.hold = self.actions_law.hold
+        steps = venv.get_attr("config", [0])[0].episode_steps
+        if steps % self.hold:
+            raise ValueError(f"hold: {self.hold} does not divide the episode's "
+                             f"{steps} env steps")
+        self._obs = None
+        self._actions = None
+
+    @staticmethod
+    def episode_policy(env, decide, hold: int = 4, kT_low: float = 0.8,
+                       kT_high: float = 3.2):
+        """The same interface for one episode of one env (``agents/evaluate.py``): obs ->
+        env action, asking ``decide`` (raw obs -> agent action) every ``hold`` steps."""
+        from .controllers import SetpointActions
+
+        return SetpointActions(env, hold=hold, kT_low=kT_low, kT_high=kT_high).policy(decide)
+
+    def reset(self) -> np.ndarray:
+        self._obs = self.venv.reset()
+        return self._obs
+
+    def step_async(self, actions: np.ndarray) -> None:
+        a = np.asarray(actions)
+        if a.shape != (self.num_envs,) + self.action_space.shape:
+            raise ValueError(f"actions: expected shape "
+                             f"{(self.num_envs,) + self.action_space.shape}, got {a.shape}")
+        self._actions = a
+
+    def step_wait(self):
+        total = np.zeros(self.num_envs, dtype=np.float32)
+        for k in range(self.hold):
+            self.venv.step_async(self.actions_law.env_actions(self._actions, self._obs))
+            obs, rewards, dones, infos = self.venv.step_wait()
+            total += rewards
+            self._obs = obs
+            if dones.any():
+                if not dones.all() or k != self.hold - 1:
+                    raise RuntimeError(
+                        f"SetpointHold: reactors {np.flatnonzero(dones).tolist()} ended their "
+                        f"episode at env step {k + 1} of a held block of {self.hold}: the "
+                        f"episodes must end together, at a multiple of hold")
+                break
+        return obs, total, dones, infos

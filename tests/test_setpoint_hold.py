@@ -1,0 +1,234 @@
+"""The agents' setpoint interface (discgym.controllers.SetpointActions) and its two users: the
+SB3 wrapper that trains through it (discgym.sb3.SetpointHold) and the one-env policy that
+agents/evaluate.py evaluates through it; they must apply the same law."""
+
+import json
+import sys
+from pathlib import Path
+
+import gymnasium as gym
+import numpy as np
+import pytest
+import yaml
+
+pytest.importorskip("stable_baselines3")
+
+from discgym.baselines import run_episodes  # noqa: E402
+from discgym.controllers import SetpointActions, _Slots  # noqa: E402
+from discgym.sb3 import DiscReactorSB3VecEnv, SetpointHold  # noqa: E402
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+@pytest.fixture(scope="module")
+def env():
+    e = gym.make("DiscReactor-v0", episode_steps=8)
+    yield e
+    e.close()
+
+
+def _decide(obs):
+    """A fixed, deterministic agent: some function of the observation in [-1, 1]."""
+    o = np.asarray(obs, dtype=np.float64)
+    w = np.cos(np.arange(o.shape[-1] * 4)).reshape(o.shape[-1], 4)
+    return np.tanh(o @ w).astype(np.float32)
+
+
+def test_setpoint_scale_is_log_spaced_over_the_range(env):
+    sa = SetpointActions(env, kT_low=0.8, kT_high=3.2)
+    np.testing.assert_allclose(sa.setpoint([-1.0, 0.0, 1.0, 5.0, -5.0]),
+                               [0.8, 1.6, 3.2, 3.2, 0.8])
+
+
+def test_heat_is_the_controllers_law_and_the_rest_passes_through(env):
+    obs, _ = env.reset(seed=1)
+    sa = SetpointActions(env)
+    a = np.array([0.0, 0.3, -0.5, 1.0], dtype=np.float32)
+    out = sa.env_actions(a, obs)
+    assert out.shape == (4,) and out.dtype == np.float32
+    assert out[0] == np.float32(_Slots(env).heat_toward(obs, 1.6))  # kT 0.36-0.84 -> heat
+    assert 0 < out[0] <= 1
+    np.testing.assert_array_equal(out[1:], a[1:])
+    batch = sa.env_actions(np.stack([a, a]), np.stack([obs, obs]))
+    np.testing.assert_array_equal(batch, np.stack([out, out]))
+    np.testing.assert_array_equal(a, np.float32([0.0, 0.3, -0.5, 1.0]))  # input untouched
+
+
+@pytest.mark.parametrize("kw, match", [
+    (dict(hold=0), "hold"), (dict(hold=2.0), "hold"), (dict(hold=True), "hold"),
+    (dict(kT_low=2.0, kT_high=1.0), "kT_low"), (dict(kT_low=0.0), "kT_low"),
+    (dict(kT_high=float("inf")), "kT_low"),
+])
+def test_bad_arguments_name_what_is_wrong(env, kw, match):
+    with pytest.raises(ValueError, match=match):
+        SetpointActions(env, **kw)
+
+
+def test_batch_size_mismatch_is_refused(env):
+    obs, _ = env.reset(seed=1)
+    with pytest.raises(ValueError, match="2 actions for 3 observations"):
+        SetpointActions(env).env_actions(np.zeros((2, 4)), np.stack([obs] * 3))
+
+
+def test_one_agent_step_is_hold_env_steps_of_the_same_law():
+    """The wrapper against the same reactors stepped by hand, env step by env step."""
+    kw = dict(num_envs=3, episode_steps=8, threads=1)
+    w, ref = SetpointHold(DiscReactorSB3VecEnv(**kw), hold=4), DiscReactorSB3VecEnv(**kw)
+    w.seed(7)
+    ref.seed(7)
+    obs_w, obs_r = w.reset(), ref.reset()
+    law = SetpointActions(ref.get_attr("unwrapped", [0])[0], hold=4)
+    rng = np.random.default_rng(0)
+    for k in range(2):  # two agent steps: the 8-step episode
+        a = rng.uniform(-1, 1, (3, 4)).astype(np.float32)
+        obs_w, r_w, done_w, info_w = w.step(a)
+        total = np.zeros(3, dtype=np.float32)
+        for _ in range(4):
+            obs_r, r, done_r, info_r = ref.step(law.env_actions(a, obs_r))
+            total += r
+        np.testing.assert_array_equal(obs_w, obs_r)
+        np.testing.assert_array_equal(r_w, total)
+        np.testing.assert_array_equal(done_w, done_r)
+        assert done_w.all() == (k == 1)
+    np.testing.assert_array_equal(info_w[0]["terminal_observation"],
+                                  info_r[0]["terminal_observation"])
+
+
+def test_hold_must_divide_the_episode():
+    with pytest.raises(ValueError, match="hold: 3 does not divide the episode's 8"):
+        SetpointHold(DiscReactorSB3VecEnv(num_envs=2, episode_steps=8, threads=1), hold=3)
+
+
+def test_wrong_batch_shape_is_refused():
+    w = SetpointHold(DiscReactorSB3VecEnv(num_envs=2, episode_steps=8, threads=1), hold=4)
+    w.reset()
+    with pytest.raises(ValueError, match=r"expected shape \(2, 4\), got \(4,\)"):
+        w.step_async(np.zeros(4, dtype=np.float32))
+
+
+def test_evaluation_policy_plays_the_training_wrappers_episodes():
+    """What evaluate.py runs on one env is what the wrapper trained on: same returns."""
+    venv = SetpointHold(DiscReactorSB3VecEnv(num_envs=2, episode_steps=8, threads=1), hold=4)
+    venv.seed(11)
+    obs, total = venv.reset(), np.zeros(2)
+    for _ in range(2):
+        obs, r, done, _ = venv.step(_decide(obs))
+        total += r
+    assert done.all()
+    calls = []
+
+    def factory(env):
+        def decide(o):
+            calls.append(1)
+            return _decide(o)
+        return SetpointHold.episode_policy(env, decide, hold=4)
+
+    res = run_episodes("DiscReactor-v0", factory, [11, 12], {"episode_steps": 8})
+    np.testing.assert_allclose(res.returns, total, rtol=1e-5, atol=1e-6)
+    assert len(calls) == 4  # two decisions per 8-step episode
+
+
+def test_train_and_evaluate_through_the_wrapper(tmp_path):
+    """A tiny run with RL Zoo's vec_env_wrapper key; evaluate.py applies the interface."""
+    sys.path.insert(0, str(ROOT / "agents"))
+    import evaluate
+    import train_ppo
+
+    entry = {"n_envs": 2, "n_timesteps": 64, "policy": "MlpPolicy", "n_steps": 16,
+             "batch_size": 32, "n_epochs": 1, "gamma": 0.98,
+             "normalize": "{'norm_obs': True, 'norm_reward': False}",
+             "policy_kwargs": "dict(net_arch=[16, 16])",
+             "vec_env_wrapper": [{"discgym.sb3.SetpointHold": {"hold": 4}}]}
+    (tmp_path / "ppo.yml").write_text(yaml.safe_dump({"DiscReactor-v0": entry}))
+    out = train_ppo.train(train_ppo.Args(hyperparams=str(tmp_path), out=str(tmp_path / "run"),
+                                         episode_steps=20, threads=1, eval_freq=32,
+                                         progress_bar=False))
+    summary = json.loads((out / "train_summary.json").read_text())
+    assert summary["timesteps"] == 64 and summary["env_steps"] == 256
+    # eval_freq counts env steps: 32 // (2 reactors x 4) = a validation every 4 decisions
+    assert len(np.load(out / "evaluations.npz")["timesteps"]) == 8
+    # the validation episodes ran through the wrapper too; VecMonitor, under it, counts
+    # their length in env steps
+    ev = np.load(out / "evaluations.npz")
+    assert (ev["ep_lengths"] == 20).all()
+    from stable_baselines3 import PPO
+    from stable_baselines3.common.vec_env import DummyVecEnv, VecNormalize
+
+    env = gym.make("DiscReactor-v0", episode_steps=20)
+    policy = evaluate.agent_factory(out, "final")(env)
+    vn = VecNormalize.load(str(out / "vecnormalize.pkl"),
+                           DummyVecEnv([lambda: gym.make("DiscReactor-v0")]))
+    model = PPO.load(out / "model.zip")
+    obs, _ = env.reset(seed=0)
+    decision, _ = model.predict(vn.normalize_obs(obs[None]), deterministic=True)
+    sa = SetpointActions(env)
+    a0 = policy(obs)
+    np.testing.assert_array_equal(a0, sa.env_actions(decision[0], obs))
+    obs2, *_ = env.step(a0)
+    a1 = policy(obs2)  # still the first block: the same decision, the heat law re-applied
+    np.testing.assert_array_equal(a1, sa.env_actions(decision[0], obs2))
+
+
+def test_a_wrapper_without_an_episode_policy_cannot_be_evaluated(tmp_path):
+    sys.path.insert(0, str(ROOT / "agents"))
+    import evaluate
+
+    (tmp_path / "args.json").write_text(json.dumps({"env_id": "DiscReactor-v0", "algo": "ppo"}))
+    (tmp_path / "hyperparams.json").write_text(json.dumps(
+        {"vec_env_wrapper": ["stable_baselines3.common.vec_env.VecFrameStack"]}))
+    with pytest.raises(ValueError, match="VecFrameStack, which has no episode_policy"):
+        evaluate.agent_factory(tmp_path, "final")
+
+
+def test_the_flagship_entry_trains_through_the_wrapper():
+    """hyperparams/ppo.yml's DiscReactor-v0 entry (the README's main run) builds PPO through
+    SetpointHold, and validates every 50,000 env steps = 781 calls of 16 x 4 env steps."""
+    sys.path.insert(0, str(ROOT / "agents"))
+    import train_ppo
+
+    args = train_ppo.Args(threads=1)
+    hp = train_ppo.load_hyperparams(args)
+    assert hp["vec_env_wrapper"] == [{"discgym.sb3.SetpointHold": {"hold": 4}}]
+    wrappers = hp.pop("vec_env_wrapper")
+    venv = train_ppo.make_vec_env(args, 2, hp.pop("normalize"), hp["gamma"], wrappers=wrappers)
+    assert train_ppo.env_steps_per_step(venv) == 4
+    cb = train_ppo._callbacks(args, Path("unused"), 16, False, hp["gamma"], wrappers, 4)
+    assert cb.eval_freq == 781
+    for key in ("n_envs", "n_timesteps", "policy"):
+        hp.pop(key)
+    train_ppo.algo_class("ppo")("MlpPolicy", venv, device="cpu", **hp)
+    venv.close()
+    cb.eval_env.close()
+
+
+def test_the_table_and_curve_count_env_steps_for_a_held_run(tmp_path):
+    """A run that decides every 4 env steps is reported in decisions and env steps, and its
+    learning curve is drawn against env steps, like the other runs'."""
+    sys.path.insert(0, str(ROOT / "agents"))
+    import evaluate
+
+    ci = {"value": 0.9, "low": 0.8, "high": 1.0}
+    run = tmp_path / "run"
+    run.mkdir()
+    (run / "args.json").write_text(json.dumps({"env_id": "DiscReactor-v0", "algo": "ppo"}))
+    summary = {"timesteps": 1000, "env_steps": 4000, "wall_seconds": 12.0}
+    (run / "train_summary.json").write_text(json.dumps(summary))
+    np.savez(run / "evaluations.npz", timesteps=np.array([500, 1000]),
+             results=np.array([[0.5, 0.6], [0.7, 0.8]]))
+    base = {k: {"label": k, "mean": ci, "iqm": ci}
+            for k in ("random", "best constant", "hand-written")}
+    res = {"env_id": "DiscReactor-v0", "eval_seeds": [1000, 1001], "policies": {
+        **base, "agent": {"label": "ppo", "mean": ci, "iqm": ci, "minus_hand_written": ci,
+                          "train": summary, "run": str(run)}}}
+    assert "1,000 decisions = 4,000 env steps, 12 s" in evaluate.table(res)
+    import matplotlib.pyplot as plt
+
+    plotted = []
+    real = plt.Axes.plot
+    plt.Axes.plot = lambda self, x, *a, **k: plotted.append(np.asarray(x)) or real(
+        self, x, *a, **k)
+    try:
+        evaluate.plot_curves(res, tmp_path / "curve.png")
+    finally:
+        plt.Axes.plot = real
+    np.testing.assert_array_equal(plotted[0], [2000, 4000])
