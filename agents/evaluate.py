@@ -119,6 +119,8 @@ def agent_factory(run: Path, checkpoint: str = "best", deterministic: bool = Tru
     vn = None
     if (run / f"{prefix}vecnormalize.pkl").exists():
         dummy = DummyVecEnv([lambda: gym.make(info["env_id"], **env_kwargs_of(run))])
+        for cls, kwargs in wrappers:  # what the agent observed (and VecNormalize normalised)
+            dummy = cls(dummy, **kwargs)
         vn = VecNormalize.load(str(run / f"{prefix}vecnormalize.pkl"), dummy)
         vn.training, vn.norm_reward = False, False
 

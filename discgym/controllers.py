@@ -245,20 +245,57 @@ class SetpointActions:
     docs/agents.md). Fewer decisions also shorten the horizon over which credit must be
     assigned (25 instead of 100 per episode at ``hold`` = 4).
 
+    With ``average`` (a weight in (0, 1)) the agent observes, besides the observation, its
+    running mean over the episode, updated at every env step (``average x mean + (1 -
+    average) x obs``, the first observation itself at the start): a memory of the steps
+    between two decisions and before them, without which a policy that decides every
+    ``hold`` steps sees one step's reaction counts in ``hold`` (DiscKinetics-v0's hidden
+    kinetics show only in those counts, a handful of reactions per step).
+
     Used by :class:`discgym.sb3.SetpointHold` (training, a whole batch) and by
     :meth:`policy` (one env, as ``agents/evaluate.py`` runs it); both go through
     :meth:`env_actions`, so training and evaluation apply the same law.
     """
 
-    def __init__(self, env, hold: int = 4, kT_low: float = 0.8, kT_high: float = 3.2):
+    def __init__(self, env, hold: int = 4, kT_low: float = 0.8, kT_high: float = 3.2,
+                 average: float | None = None):
         if isinstance(hold, bool) or not isinstance(hold, (int, np.integer)) or hold < 1:
             raise ValueError(f"hold: expected an int >= 1, got {hold!r}")
         if not (0 < float(kT_low) < float(kT_high) < math.inf):
             raise ValueError(f"kT_low, kT_high: expected 0 < kT_low < kT_high < inf, got "
                              f"{kT_low!r}, {kT_high!r}")
+        if average is not None and (isinstance(average, bool)
+                                    or not isinstance(average, (int, float))
+                                    or not 0.0 < float(average) < 1.0):
+            raise ValueError(f"average: expected None or a weight in (0, 1), got {average!r}")
         self.s = _Slots(env)
         self.hold = int(hold)
         self.kT_low, self.kT_high = float(kT_low), float(kT_high)
+        self.average = None if average is None else float(average)
+
+    def observation_bounds(self, low, high):
+        """The bounds of what the agent observes, given the env's: with ``average`` the
+        observation is followed by its running mean (a convex combination of observations,
+        so within the same bounds)."""
+        if self.average is None:
+            return low, high
+        return np.concatenate([low, low]), np.concatenate([high, high])
+
+    def update_mean(self, mean, obs):
+        """The running mean after observation(s) ``obs``: ``obs`` itself if ``mean`` is None
+        (an episode's first observation), else ``average x mean + (1 - average) x obs``.
+        Updated at every env step, so that no step's reactions are missed between two
+        decisions."""
+        o = np.asarray(obs, dtype=np.float64)
+        return o.copy() if mean is None else self.average * mean + (1.0 - self.average) * o
+
+    def agent_obs(self, obs, mean) -> np.ndarray:
+        """What the agent sees: the observation(s), followed by their running mean(s) when
+        ``average`` is set."""
+        o = np.asarray(obs, dtype=np.float32)
+        if self.average is None:
+            return o
+        return np.concatenate([o, np.asarray(mean, dtype=np.float32)], axis=-1)
 
     def setpoint(self, a0) -> np.ndarray:
         """The kT setpoint of action component(s) ``a0`` (clipped to [-1, 1] first)."""
@@ -282,14 +319,16 @@ class SetpointActions:
 
     def policy(self, decide):
         """A policy for one env (obs -> env action) from ``decide`` (obs -> agent action),
-        which it calls at the episode's first step and every ``hold`` steps after. Make one
-        per episode (it counts the episode's steps)."""
-        step, held = 0, None
+        which it calls at the episode's first step and every ``hold`` steps after, with
+        :meth:`agent_obs`. Make one per episode (it counts the episode's steps)."""
+        step, held, mean = 0, None, None
 
         def act(obs):
-            nonlocal step, held
+            nonlocal step, held, mean
+            if self.average is not None:
+                mean = self.update_mean(mean if step else None, obs)
             if step % self.hold == 0:
-                held = np.asarray(decide(obs), dtype=np.float32)
+                held = np.asarray(decide(self.agent_obs(obs, mean)), dtype=np.float32)
             step += 1
             return self.env_actions(held, obs)
 

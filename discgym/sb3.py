@@ -225,7 +225,8 @@ class SetpointHold(VecEnvWrapper):
     is recomputed at every env step from the raw observation).
 
     One agent step is ``hold`` env steps: its reward is their sum, its observation the last
-    one's, and ``infos`` are the last env step's. Put it under ``VecNormalize`` (it needs the
+    one's (followed by the running mean of every env step's observation with ``average``;
+    ``terminal_observation`` likewise), and ``infos`` are the last env step's. Put it under ``VecNormalize`` (it needs the
     raw observations) and over ``VecMonitor`` (whose episodes are then counted in env steps).
     Every reactor's episode must end at the same env step, a multiple of ``hold`` (the
     suite's tasks never terminate and truncate after ``episode_steps``); an episode that
@@ -237,32 +238,43 @@ class SetpointHold(VecEnvWrapper):
           - discgym.sb3.SetpointHold: {hold: 4}
     """
 
-    def __init__(self, venv, hold: int = 4, kT_low: float = 0.8, kT_high: float = 3.2):
-        super().__init__(venv)
+    def __init__(self, venv, hold: int = 4, kT_low: float = 0.8, kT_high: float = 3.2,
+                 average: float | None = None):
+        from gymnasium import spaces
+
         from .controllers import SetpointActions
 
-        self.actions_law = SetpointActions(venv.get_attr("unwrapped", [0])[0], hold=hold,
-                                           kT_low=kT_low, kT_high=kT_high)
-        self.hold = self.actions_law.hold
+        law = SetpointActions(venv.get_attr("unwrapped", [0])[0], hold=hold, kT_low=kT_low,
+                              kT_high=kT_high, average=average)
+        space = venv.observation_space
+        low, high = law.observation_bounds(space.low, space.high)
+        super().__init__(venv, observation_space=spaces.Box(low, high, dtype=space.dtype))
+        self.actions_law = law
+        self.hold = law.hold
         steps = venv.get_attr("config", [0])[0].episode_steps
         if steps % self.hold:
             raise ValueError(f"hold: {self.hold} does not divide the episode's "
                              f"{steps} env steps")
         self._obs = None
+        self._mean = None
         self._actions = None
 
     @staticmethod
     def episode_policy(env, decide, hold: int = 4, kT_low: float = 0.8,
-                       kT_high: float = 3.2):
+                       kT_high: float = 3.2, average: float | None = None):
         """The same interface for one episode of one env (``agents/evaluate.py``): obs ->
-        env action, asking ``decide`` (raw obs -> agent action) every ``hold`` steps."""
+        env action, asking ``decide`` (what the agent observes -> agent action) every
+        ``hold`` steps."""
         from .controllers import SetpointActions
 
-        return SetpointActions(env, hold=hold, kT_low=kT_low, kT_high=kT_high).policy(decide)
+        return SetpointActions(env, hold=hold, kT_low=kT_low, kT_high=kT_high,
+                               average=average).policy(decide)
 
     def reset(self) -> np.ndarray:
         self._obs = self.venv.reset()
-        return self._obs
+        law = self.actions_law
+        self._mean = law.update_mean(None, self._obs) if law.average is not None else None
+        return law.agent_obs(self._obs, self._mean)
 
     def step_async(self, actions: np.ndarray) -> None:
         a = np.asarray(actions)
@@ -272,9 +284,10 @@ class SetpointHold(VecEnvWrapper):
         self._actions = a
 
     def step_wait(self):
+        law = self.actions_law
         total = np.zeros(self.num_envs, dtype=np.float32)
         for k in range(self.hold):
-            self.venv.step_async(self.actions_law.env_actions(self._actions, self._obs))
+            self.venv.step_async(law.env_actions(self._actions, self._obs))
             obs, rewards, dones, infos = self.venv.step_wait()
             total += rewards
             self._obs = obs
@@ -284,5 +297,14 @@ class SetpointHold(VecEnvWrapper):
                         f"SetpointHold: reactors {np.flatnonzero(dones).tolist()} ended their "
                         f"episode at env step {k + 1} of a held block of {self.hold}: the "
                         f"episodes must end together, at a multiple of hold")
+                if law.average is not None:
+                    # the last observation of each episode, as the agent would have seen it
+                    for i, info in enumerate(infos):
+                        last = info["terminal_observation"]
+                        info["terminal_observation"] = law.agent_obs(
+                            last, law.update_mean(self._mean[i], last))
+                    self._mean = law.update_mean(None, obs)
                 break
-        return obs, total, dones, infos
+            if law.average is not None:
+                self._mean = law.update_mean(self._mean, obs)
+        return law.agent_obs(obs, self._mean), total, dones, infos

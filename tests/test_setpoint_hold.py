@@ -58,6 +58,8 @@ def test_heat_is_the_controllers_law_and_the_rest_passes_through(env):
     (dict(hold=0), "hold"), (dict(hold=2.0), "hold"), (dict(hold=True), "hold"),
     (dict(kT_low=2.0, kT_high=1.0), "kT_low"), (dict(kT_low=0.0), "kT_low"),
     (dict(kT_high=float("inf")), "kT_low"),
+    (dict(average=1.0), "average"), (dict(average=0.0), "average"),
+    (dict(average=True), "average"), (dict(average="0.8"), "average"),
 ])
 def test_bad_arguments_name_what_is_wrong(env, kw, match):
     with pytest.raises(ValueError, match=match):
@@ -70,13 +72,20 @@ def test_batch_size_mismatch_is_refused(env):
         SetpointActions(env).env_actions(np.zeros((2, 4)), np.stack([obs] * 3))
 
 
-def test_one_agent_step_is_hold_env_steps_of_the_same_law():
-    """The wrapper against the same reactors stepped by hand, env step by env step."""
+@pytest.mark.parametrize("average", [None, 0.75])
+def test_one_agent_step_is_hold_env_steps_of_the_same_law(average):
+    """The wrapper against the same reactors stepped by hand, env step by env step (and,
+    with ``average``, the running mean of the observations computed by hand)."""
     kw = dict(num_envs=3, episode_steps=8, threads=1)
-    w, ref = SetpointHold(DiscReactorSB3VecEnv(**kw), hold=4), DiscReactorSB3VecEnv(**kw)
+    w = SetpointHold(DiscReactorSB3VecEnv(**kw), hold=4, average=average)
+    ref = DiscReactorSB3VecEnv(**kw)
     w.seed(7)
     ref.seed(7)
     obs_w, obs_r = w.reset(), ref.reset()
+    mean = obs_r.astype(np.float64)
+    width = obs_r.shape[1]
+    assert w.observation_space.shape == ((2 if average else 1) * width,)
+    assert w.observation_space.contains(obs_w[0])
     law = SetpointActions(ref.get_attr("unwrapped", [0])[0], hold=4)
     rng = np.random.default_rng(0)
     for k in range(2):  # two agent steps: the 8-step episode
@@ -85,13 +94,26 @@ def test_one_agent_step_is_hold_env_steps_of_the_same_law():
         total = np.zeros(3, dtype=np.float32)
         for _ in range(4):
             obs_r, r, done_r, info_r = ref.step(law.env_actions(a, obs_r))
+            last = info_r[0]["terminal_observation"] if done_r.all() else obs_r
+            if average:
+                mean = average * mean + (1 - average) * np.asarray(
+                    [i["terminal_observation"] for i in info_r] if done_r.all() else obs_r,
+                    dtype=np.float64)
             total += r
-        np.testing.assert_array_equal(obs_w, obs_r)
+        np.testing.assert_array_equal(obs_w[:, :width], obs_r)
         np.testing.assert_array_equal(r_w, total)
         np.testing.assert_array_equal(done_w, done_r)
         assert done_w.all() == (k == 1)
-    np.testing.assert_array_equal(info_w[0]["terminal_observation"],
-                                  info_r[0]["terminal_observation"])
+        if average and k == 0:
+            np.testing.assert_array_equal(obs_w[:, width:], mean.astype(np.float32))
+    np.testing.assert_array_equal(info_w[0]["terminal_observation"][:width], last)
+    if average:
+        # the episode's last observation with its mean; the next episode's starts afresh
+        np.testing.assert_array_equal(info_w[0]["terminal_observation"][width:],
+                                      mean[0].astype(np.float32))
+        np.testing.assert_array_equal(obs_w[:, width:], obs_r)
+    else:
+        assert info_w[0]["terminal_observation"].shape == (width,)
 
 
 def test_hold_must_divide_the_episode():
@@ -106,9 +128,11 @@ def test_wrong_batch_shape_is_refused():
         w.step_async(np.zeros(4, dtype=np.float32))
 
 
-def test_evaluation_policy_plays_the_training_wrappers_episodes():
+@pytest.mark.parametrize("average", [None, 0.75])
+def test_evaluation_policy_plays_the_training_wrappers_episodes(average):
     """What evaluate.py runs on one env is what the wrapper trained on: same returns."""
-    venv = SetpointHold(DiscReactorSB3VecEnv(num_envs=2, episode_steps=8, threads=1), hold=4)
+    venv = SetpointHold(DiscReactorSB3VecEnv(num_envs=2, episode_steps=8, threads=1), hold=4,
+                        average=average)
     venv.seed(11)
     obs, total = venv.reset(), np.zeros(2)
     for _ in range(2):
@@ -121,15 +145,17 @@ def test_evaluation_policy_plays_the_training_wrappers_episodes():
         def decide(o):
             calls.append(1)
             return _decide(o)
-        return SetpointHold.episode_policy(env, decide, hold=4)
+        return SetpointHold.episode_policy(env, decide, hold=4, average=average)
 
     res = run_episodes("DiscReactor-v0", factory, [11, 12], {"episode_steps": 8})
     np.testing.assert_allclose(res.returns, total, rtol=1e-5, atol=1e-6)
     assert len(calls) == 4  # two decisions per 8-step episode
 
 
-def test_train_and_evaluate_through_the_wrapper(tmp_path):
-    """A tiny run with RL Zoo's vec_env_wrapper key; evaluate.py applies the interface."""
+@pytest.mark.parametrize("average", [None, 0.8])
+def test_train_and_evaluate_through_the_wrapper(tmp_path, average):
+    """A tiny run with RL Zoo's vec_env_wrapper key; evaluate.py applies the interface (and,
+    with ``average``, normalises the wider observation with the run's statistics)."""
     sys.path.insert(0, str(ROOT / "agents"))
     import evaluate
     import train_ppo
@@ -138,7 +164,7 @@ def test_train_and_evaluate_through_the_wrapper(tmp_path):
              "batch_size": 32, "n_epochs": 1, "gamma": 0.98,
              "normalize": "{'norm_obs': True, 'norm_reward': False}",
              "policy_kwargs": "dict(net_arch=[16, 16])",
-             "vec_env_wrapper": [{"discgym.sb3.SetpointHold": {"hold": 4}}]}
+             "vec_env_wrapper": [{"discgym.sb3.SetpointHold": {"hold": 4, "average": average}}]}
     (tmp_path / "ppo.yml").write_text(yaml.safe_dump({"DiscReactor-v0": entry}))
     out = train_ppo.train(train_ppo.Args(hyperparams=str(tmp_path), out=str(tmp_path / "run"),
                                          episode_steps=20, threads=1, eval_freq=32,
@@ -156,12 +182,14 @@ def test_train_and_evaluate_through_the_wrapper(tmp_path):
 
     env = gym.make("DiscReactor-v0", episode_steps=20)
     policy = evaluate.agent_factory(out, "final")(env)
-    vn = VecNormalize.load(str(out / "vecnormalize.pkl"),
-                           DummyVecEnv([lambda: gym.make("DiscReactor-v0")]))
+    vn = VecNormalize.load(str(out / "vecnormalize.pkl"), SetpointHold(
+        DummyVecEnv([lambda: gym.make("DiscReactor-v0")]), hold=4, average=average))
+    assert vn.obs_rms.mean.shape == ((2 if average else 1) * env.observation_space.shape[0],)
     model = PPO.load(out / "model.zip")
     obs, _ = env.reset(seed=0)
-    decision, _ = model.predict(vn.normalize_obs(obs[None]), deterministic=True)
-    sa = SetpointActions(env)
+    sa = SetpointActions(env, average=average)
+    seen = sa.agent_obs(obs, sa.update_mean(None, obs) if average else None)
+    decision, _ = model.predict(vn.normalize_obs(seen[None]), deterministic=True)
     a0 = policy(obs)
     np.testing.assert_array_equal(a0, sa.env_actions(decision[0], obs))
     obs2, *_ = env.step(a0)
