@@ -226,8 +226,9 @@ class SetpointHold(VecEnvWrapper):
 
     One agent step is ``hold`` env steps: its reward is their sum, its observation the last
     one's (followed by the running mean of every env step's observation with ``average``;
-    ``terminal_observation`` likewise), and ``infos`` are the last env step's. Put it under ``VecNormalize`` (it needs the
-    raw observations) and over ``VecMonitor`` (whose episodes are then counted in env steps).
+    ``terminal_observation`` likewise), and ``infos`` are the last env step's. Put it under
+    ``VecNormalize`` (it needs the raw observations) and over ``VecMonitor`` (whose episodes
+    are then counted in env steps).
     Every reactor's episode must end at the same env step, a multiple of ``hold`` (the
     suite's tasks never terminate and truncate after ``episode_steps``); an episode that
     ends inside a held block raises ``RuntimeError``, as the reactors already reset would

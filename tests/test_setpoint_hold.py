@@ -260,3 +260,30 @@ def test_the_table_and_curve_count_env_steps_for_a_held_run(tmp_path):
     finally:
         plt.Axes.plot = real
     np.testing.assert_array_equal(plotted[0], [2000, 4000])
+
+
+def test_kinetics_room_probe_prints_the_room_and_the_policys_reading(tmp_path, capsys):
+    """benchmarks/kinetics_room.py: the informed thermostat's kT follows s exactly, and a
+    trained run's row appears beside it (a tiny run, short episodes)."""
+    sys.path.insert(0, str(ROOT / "benchmarks"))
+    sys.path.insert(0, str(ROOT / "agents"))
+    import kinetics_room
+    import train_ppo
+
+    entry = {"n_envs": 2, "n_timesteps": 32, "policy": "MlpPolicy", "n_steps": 16,
+             "batch_size": 32, "n_epochs": 1, "gamma": 0.98,
+             "normalize": "{'norm_obs': True, 'norm_reward': False}",
+             "policy_kwargs": "dict(net_arch=[8, 8])",
+             "vec_env_wrapper": [{"discgym.sb3.SetpointHold": {"hold": 4, "average": 0.8}}]}
+    (tmp_path / "ppo.yml").write_text(yaml.safe_dump({"DiscKinetics-v0": entry}))
+    out = train_ppo.train(train_ppo.Args(env_id="DiscKinetics-v0", hyperparams=str(tmp_path),
+                                         out=str(tmp_path / "run"), episode_steps=48,
+                                         threads=1, eval_freq=0, progress_bar=False))
+    kinetics_room.main(["--seeds", "4", "--episode-steps", "48", "--exponents", "1",
+                        "--run", str(out)])
+    lines = capsys.readouterr().out.splitlines()
+    rows = {ln.split(" | ")[0].lstrip("| "): ln.split(" | ") for ln in lines if ln.startswith("| ")}
+    assert set(rows) >= {"adaptive thermostat (the task's controller)",
+                         "informed thermostat, setpoints 1.8 s^1, 1.6 s^1", f"policy of {out}"}
+    # the informed thermostat's early kT is 1.8 s (its hot phase, reached by step 10)
+    assert float(rows["informed thermostat, setpoints 1.8 s^1, 1.6 s^1"][3]) > 0.9

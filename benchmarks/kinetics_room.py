@@ -1,0 +1,108 @@
+"""How much room DiscKinetics-v0 leaves above its adaptive thermostat, and whether a trained
+policy reads the hidden kinetics.
+
+DiscKinetics-v0 draws each episode's activation energies as the nominal ones times one factor
+s in [0.5, 1.5] and does not reveal it. Over the evaluation seeds this prints:
+
+- the adaptive thermostat (``discgym.controllers.AdaptiveThermostat``, the task's
+  hand-written controller, which infers the kinetics from the reactions it sees);
+- an *informed* thermostat, told s: the scheduled thermostat of DiscReactor-v0 with its two
+  setpoints scaled with the kinetics (``t_hot x s^a``, ``t_cold x s^a``, for each exponent a
+  given), and its paired difference to the adaptive one (95% BCa interval,
+  ``scipy.stats.bootstrap``): the room a policy could take if it inferred s perfectly;
+- with ``--run`` (a folder of ``agents/train_ppo.py``), the trained policy's return, its
+  paired difference to the adaptive thermostat, and for both the mean kT over env steps 10-39
+  and 40-99 against s (the correlation of the early kT with s: a policy that reads the
+  kinetics heats more where they are slower).
+
+Run:  python benchmarks/kinetics_room.py                               (~30 s)
+      python benchmarks/kinetics_room.py --run runs/DiscKinetics-v0_ppo --seeds 100
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+import gymnasium as gym
+import numpy as np
+
+import discgym  # noqa: F401  (registers the tasks)
+from discgym.baselines import paired_difference
+from discgym.controllers import AdaptiveThermostat, Thermostat, _Slots
+
+ENV_ID = "DiscKinetics-v0"
+
+
+def activation_factor(env) -> float:
+    """The episode's hidden factor s: A + B -> C's activation energy over its nominal 4."""
+    reactions = env.unwrapped.simulation.scene.reactions
+    return next(r for r in reactions if hasattr(r, "activation_energy")).activation_energy / 4.0
+
+
+def episode(seed: int, make_policy, episode_steps=None):
+    """(return, s, mean kT over steps 10-39, mean kT over steps 40-) of one episode."""
+    kw = {} if episode_steps is None else {"episode_steps": episode_steps}
+    env = gym.make(ENV_ID, **kw)
+    obs, _ = env.reset(seed=seed)
+    s, slots = activation_factor(env), _Slots(env)
+    policy = make_policy(env, s)
+    total, temps = 0.0, []
+    done = False
+    while not done:
+        obs, r, term, trunc, _ = env.step(policy(obs))
+        total += float(r)
+        temps.append(slots.temperature(obs))
+        done = term or trunc
+    env.close()
+    t = np.asarray(temps)
+    return total, s, float(t[10:40].mean()) if len(t) > 10 else np.nan, \
+        float(t[40:].mean()) if len(t) > 40 else np.nan
+
+
+def main(argv=None) -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
+                                 formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--seeds", type=int, default=20, help="evaluation seeds (default 20)")
+    ap.add_argument("--first-seed", type=int, default=1000)
+    ap.add_argument("--exponents", type=float, nargs="*", default=[1.0, 0.8],
+                    help="a in the informed setpoints 1.8 s^a, 1.6 s^a")
+    ap.add_argument("--run", default=None, help="a trained run's folder (agents/train_ppo.py)")
+    ap.add_argument("--episode-steps", type=int, default=None, help="(tests) shorter episodes")
+    a = ap.parse_args(argv)
+    seeds = range(a.first_seed, a.first_seed + a.seeds)
+
+    def table(make_policy):
+        return np.array([episode(k, make_policy, a.episode_steps) for k in seeds])
+
+    ad = table(lambda env, s: AdaptiveThermostat(env))
+    rows = [("adaptive thermostat (the task's controller)", ad)]
+    for x in a.exponents:
+        rows.append((f"informed thermostat, setpoints 1.8 s^{x:g}, 1.6 s^{x:g}",
+                     table(lambda env, s, x=x: Thermostat(env, t_hot=1.8 * s ** x,
+                                                          t_cold=1.6 * s ** x))))
+    if a.run is not None:
+        sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "agents"))
+        import evaluate
+
+        factory = evaluate.agent_factory(a.run, "best")
+        rows.append((f"policy of {a.run}", table(lambda env, s: factory(env))))
+
+    print(f"{ENV_ID}, seeds {seeds[0]}-{seeds[-1]}; s = the hidden activation factor; "
+          f"kT means over env steps 10-39 and 40-")
+    print()
+    print("| policy | mean return | minus adaptive [95% CI] | corr(s, early kT) | "
+          "early kT at s < 0.8 / s > 1.2 |")
+    print("|---|---:|---:|---:|---:|")
+    for name, t in rows:
+        d = "" if t is ad else "{:+.3f} [{:+.3f}, {:+.3f}]".format(
+            *(lambda r: (r.value, r.low, r.high))(paired_difference(t[:, 0], ad[:, 0])))
+        lo, hi = t[:, 1] < 0.8, t[:, 1] > 1.2
+        ends = " / ".join(f"{t[m, 2].mean():.2f}" if m.any() else "-" for m in (lo, hi))
+        corr = np.corrcoef(t[:, 1], t[:, 2])[0, 1] if len(t) > 2 else np.nan
+        print(f"| {name} | {t[:, 0].mean():.3f} | {d} | {corr:.2f} | {ends} |")
+
+
+if __name__ == "__main__":
+    main()
