@@ -91,6 +91,19 @@ def test_evaluate_table_has_every_policy_and_paired_differences(ppo_run):
     assert png.stat().st_size > 0
 
 
+def test_oracles_on_the_first_seeds_only_are_compared_on_those(ppo_run):
+    res = evaluate.evaluate_task("DiscReactor-v0", [ppo_run], [1000, 1001, 1002], [0],
+                                 {"episode_steps": 20}, workers=1, oracle=True, mpc=False,
+                                 oracle_seeds=2, log=lambda s: None)
+    orc, hw = res["policies"]["oracle"], res["policies"]["hand-written"]
+    assert len(orc["returns"]) == 2 and orc["seeds"] == [1000, 1001]
+    assert len(hw["returns"]) == 3 and "seeds" not in hw
+    d = np.array(orc["returns"]) - np.array(hw["returns"][:2])
+    assert orc["minus_hand_written"]["value"] == pytest.approx(d.mean())
+    assert "| oracle (rollout MPC" in evaluate.table(res)
+    assert "(seeds 1000-1001 only)" in evaluate.table(res)
+
+
 def test_evaluation_does_not_depend_on_the_worker_count(ppo_run):
     kw = dict(env_id="DiscReactor-v0", runs=[ppo_run], seeds=[1000, 1001, 1002],
               search_seeds=[0], env_kwargs={"episode_steps": 20}, oracle=False,
