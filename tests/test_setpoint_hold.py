@@ -208,15 +208,19 @@ def test_a_wrapper_without_an_episode_policy_cannot_be_evaluated(tmp_path):
         evaluate.agent_factory(tmp_path, "final")
 
 
-def test_the_flagship_entry_trains_through_the_wrapper():
-    """hyperparams/ppo.yml's DiscReactor-v0 entry (the README's main run) builds PPO through
-    SetpointHold, and validates every 50,000 env steps = 781 calls of 16 x 4 env steps."""
+@pytest.mark.parametrize("env_id, wrapper", [
+    ("DiscKinetics-v0", {"hold": 4, "average": 0.8}),  # the README's main run
+    ("DiscReactor-v0", {"hold": 4}),
+])
+def test_the_setpoint_entries_train_through_the_wrapper(env_id, wrapper):
+    """hyperparams/ppo.yml's setpoint entries build PPO through SetpointHold, and validate
+    every 50,000 env steps = 781 calls of 16 x 4 env steps."""
     sys.path.insert(0, str(ROOT / "agents"))
     import train_ppo
 
-    args = train_ppo.Args(threads=1)
+    args = train_ppo.Args(env_id=env_id, threads=1)
     hp = train_ppo.load_hyperparams(args)
-    assert hp["vec_env_wrapper"] == [{"discgym.sb3.SetpointHold": {"hold": 4}}]
+    assert hp["vec_env_wrapper"] == [{"discgym.sb3.SetpointHold": wrapper}]
     wrappers = hp.pop("vec_env_wrapper")
     venv = train_ppo.make_vec_env(args, 2, hp.pop("normalize"), hp["gamma"], wrappers=wrappers)
     assert train_ppo.env_steps_per_step(venv) == 4
