@@ -15,13 +15,20 @@ s in [0.5, 1.5] and does not reveal it. Over the evaluation seeds this prints:
   and 40-99 against s (the correlation of the early kT with s: a policy that reads the
   kinetics heats more where they are slower).
 
+With ``--search``, also the best of a grid of the adaptive thermostat's own settings
+(``x_target`` x ``band`` x ``step`` x ``t_start``, 108 settings), chosen on the tuning seeds
+500-539 (``--search-seeds``) and evaluated on the evaluation seeds: whether the task's
+controller, tuned, would be a stronger hand-written baseline.
+
 Run:  python benchmarks/kinetics_room.py                               (~30 s)
       python benchmarks/kinetics_room.py --run runs/DiscKinetics-v0_ppo --seeds 100
+      python benchmarks/kinetics_room.py --search --seeds 100          (~5 min)
 """
 
 from __future__ import annotations
 
 import argparse
+import itertools
 import sys
 from pathlib import Path
 
@@ -70,6 +77,11 @@ def main(argv=None) -> None:
                     help="a in the informed setpoints 1.8 s^a, 1.6 s^a")
     ap.add_argument("--run", default=None, help="a trained run's folder (agents/train_ppo.py)")
     ap.add_argument("--episode-steps", type=int, default=None, help="(tests) shorter episodes")
+    ap.add_argument("--search", action="store_true",
+                    help="tune the adaptive thermostat on the search seeds first")
+    ap.add_argument("--search-seeds", type=int, nargs=2, default=[500, 540],
+                    metavar=("FIRST", "END"), help="tuning seeds FIRST..END-1 (default 500 540)")
+    ap.add_argument("--grid", type=int, default=None, help="(tests) the first N settings only")
     a = ap.parse_args(argv)
     seeds = range(a.first_seed, a.first_seed + a.seeds)
 
@@ -82,6 +94,27 @@ def main(argv=None) -> None:
         rows.append((f"informed thermostat, setpoints 1.8 s^{x:g}, 1.6 s^{x:g}",
                      table(lambda env, s, x=x: Thermostat(env, t_hot=1.8 * s ** x,
                                                           t_cold=1.6 * s ** x))))
+    if a.search:
+        grid = list(itertools.product((0.08, 0.10, 0.12, 0.15), (1.2, 1.3, 1.5),
+                                      (1.03, 1.05, 1.08), (1.4, 1.6, 1.8)))[:a.grid]
+        tune = range(*a.search_seeds)
+        if set(tune) & set(seeds):
+            raise SystemExit("--search-seeds: must not overlap the evaluation seeds")
+        scores = []
+        for x, band, step, t0 in grid:
+            kw = dict(x_target=x, band=band, step=step, t_start=t0)
+            scores.append(np.mean([episode(k, lambda env, s, kw=kw: AdaptiveThermostat(
+                env, **kw), a.episode_steps)[0] for k in tune]))
+        x, band, step, t0 = grid[int(np.argmax(scores))]
+        best = dict(x_target=x, band=band, step=step, t_start=t0)
+        nominal = (0.12, 1.3, 1.05, 1.6)
+        default = grid.index(nominal) if nominal in grid else None
+        print(f"best of {len(grid)} adaptive settings on seeds {tune[0]}-{tune[-1]}: {best}, "
+              f"{max(scores):.3f} there"
+              + ("" if default is None else f" (the default: {scores[default]:.3f})"),
+              flush=True)
+        rows.append((f"adaptive thermostat, tuned ({x}, {band}, {step}, {t0})",
+                     table(lambda env, s: AdaptiveThermostat(env, **best))))
     if a.run is not None:
         sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "agents"))
         import evaluate
