@@ -82,6 +82,9 @@ def main(argv=None) -> None:
     ap.add_argument("--search-seeds", type=int, nargs=2, default=[500, 540],
                     metavar=("FIRST", "END"), help="tuning seeds FIRST..END-1 (default 500 540)")
     ap.add_argument("--grid", type=int, default=None, help="(tests) the first N settings only")
+    ap.add_argument("--tuned", type=float, nargs=4, default=None,
+                    metavar=("X_TARGET", "BAND", "STEP", "T_START"),
+                    help="a tuned adaptive thermostat's settings (skips --search)")
     a = ap.parse_args(argv)
     seeds = range(a.first_seed, a.first_seed + a.seeds)
 
@@ -94,7 +97,10 @@ def main(argv=None) -> None:
         rows.append((f"informed thermostat, setpoints 1.8 s^{x:g}, 1.6 s^{x:g}",
                      table(lambda env, s, x=x: Thermostat(env, t_hot=1.8 * s ** x,
                                                           t_cold=1.6 * s ** x))))
-    if a.search:
+    tuned = None
+    if a.tuned is not None:
+        tuned = tuple(a.tuned)
+    elif a.search:
         grid = list(itertools.product((0.08, 0.10, 0.12, 0.15), (1.2, 1.3, 1.5),
                                       (1.03, 1.05, 1.08), (1.4, 1.6, 1.8)))[:a.grid]
         tune = range(*a.search_seeds)
@@ -105,15 +111,17 @@ def main(argv=None) -> None:
             kw = dict(x_target=x, band=band, step=step, t_start=t0)
             scores.append(np.mean([episode(k, lambda env, s, kw=kw: AdaptiveThermostat(
                 env, **kw), a.episode_steps)[0] for k in tune]))
-        x, band, step, t0 = grid[int(np.argmax(scores))]
-        best = dict(x_target=x, band=band, step=step, t_start=t0)
+        tuned = grid[int(np.argmax(scores))]
         nominal = (0.12, 1.3, 1.05, 1.6)
         default = grid.index(nominal) if nominal in grid else None
-        print(f"best of {len(grid)} adaptive settings on seeds {tune[0]}-{tune[-1]}: {best}, "
+        print(f"best of {len(grid)} adaptive settings (x_target, band, step, t_start) on "
+              f"seeds {tune[0]}-{tune[-1]}: {tuned}, "
               f"{max(scores):.3f} there"
               + ("" if default is None else f" (the default: {scores[default]:.3f})"),
               flush=True)
-        rows.append((f"adaptive thermostat, tuned ({x}, {band}, {step}, {t0})",
+    if tuned is not None:
+        best = dict(zip(("x_target", "band", "step", "t_start"), tuned))
+        rows.append((f"adaptive thermostat, tuned {tuned}",
                      table(lambda env, s: AdaptiveThermostat(env, **best))))
     if a.run is not None:
         sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "agents"))
@@ -125,16 +133,26 @@ def main(argv=None) -> None:
     print(f"{ENV_ID}, seeds {seeds[0]}-{seeds[-1]}; s = the hidden activation factor; "
           f"kT means over env steps 10-39 and 40-")
     print()
-    print("| policy | mean return | minus adaptive [95% CI] | corr(s, early kT) | "
-          "early kT at s < 0.8 / s > 1.2 |")
-    print("|---|---:|---:|---:|---:|")
+    ref = {"adaptive": ad}
+    if tuned is not None:
+        ref["tuned adaptive"] = next(t for n, t in rows if n.startswith("adaptive thermostat, "
+                                                                       "tuned"))
+
+    def diff(t, r):
+        if t is r:
+            return ""
+        d = paired_difference(t[:, 0], r[:, 0])
+        return f"{d.value:+.3f} [{d.low:+.3f}, {d.high:+.3f}]"
+
+    print("| policy | mean return | " + "".join(f"minus {k} [95% CI] | " for k in ref)
+          + "corr(s, early kT) | early kT at s < 0.8 / s > 1.2 |")
+    print("|---|---:|" + "---:|" * len(ref) + "---:|---:|")
     for name, t in rows:
-        d = "" if t is ad else "{:+.3f} [{:+.3f}, {:+.3f}]".format(
-            *(lambda r: (r.value, r.low, r.high))(paired_difference(t[:, 0], ad[:, 0])))
         lo, hi = t[:, 1] < 0.8, t[:, 1] > 1.2
         ends = " / ".join(f"{t[m, 2].mean():.2f}" if m.any() else "-" for m in (lo, hi))
         corr = np.corrcoef(t[:, 1], t[:, 2])[0, 1] if len(t) > 2 else np.nan
-        print(f"| {name} | {t[:, 0].mean():.3f} | {d} | {corr:.2f} | {ends} |")
+        print(f"| {name} | {t[:, 0].mean():.3f} | "
+              + "".join(f"{diff(t, r)} | " for r in ref.values()) + f"{corr:.2f} | {ends} |")
 
 
 if __name__ == "__main__":
