@@ -66,6 +66,11 @@ class Args:
     """built-in scene name or TOML path, replacing the task's scene"""
     episode_steps: int | None = None
     """env steps per episode, replacing the task's (tests use short episodes)"""
+    train_integrator: Literal["step", "event"] | None = None
+    """integrator of the training reactors only (default: the task's); validation and
+    ``evaluate.py`` keep the task's own, so the policy is chosen and scored on the task as
+    registered. ``"event"``, the exact one, costs about 0.6x the stepped one per env step
+    (docs/performance.md)"""
     threads: int | None = None
     """numba threads of the vector env (None: all cores)"""
     torch_threads: int = 1
@@ -111,23 +116,29 @@ def load_hyperparams(args: Args) -> dict:
     return hp
 
 
+def import_name(path: str):
+    """The object a dotted name (``"module.Class"``) names."""
+    import importlib
+
+    module, _, name = str(path).rpartition(".")
+    return getattr(importlib.import_module(module), name)
+
+
 def vec_env_wrappers(spec) -> list:
     """RL Zoo's ``vec_env_wrapper`` entry (``"module.Class"``, or a list of those and of
     ``{"module.Class": {kwargs}}``) as a list of ``(class, kwargs)``."""
-    import importlib
-
     out = []
     for item in ([] if spec is None else [spec] if isinstance(spec, (str, dict)) else spec):
         for path, kwargs in (item.items() if isinstance(item, dict) else [(item, None)]):
-            module, _, name = str(path).rpartition(".")
-            out.append((getattr(importlib.import_module(module), name), dict(kwargs or {})))
+            out.append((import_name(path), dict(kwargs or {})))
     return out
 
 
 def make_vec_env(args: Args, n_envs: int, normalize: dict | bool, gamma: float,
-                 monitor: Path | None = None, wrappers=None):
-    """The SB3 VecEnv: ``n_envs`` reactors of the task, VecMonitor, the hyperparameters'
-    ``vec_env_wrapper`` (:func:`vec_env_wrappers`), then VecNormalize."""
+                 monitor: Path | None = None, wrappers=None, training: bool = False):
+    """The SB3 VecEnv: ``n_envs`` reactors of the task (on ``args.train_integrator`` if
+    ``training``), VecMonitor, the hyperparameters' ``vec_env_wrapper``
+    (:func:`vec_env_wrappers`), then VecNormalize."""
     from stable_baselines3.common.vec_env import VecMonitor, VecNormalize
 
     from discgym.sb3 import DiscReactorSB3VecEnv
@@ -137,6 +148,8 @@ def make_vec_env(args: Args, n_envs: int, normalize: dict | bool, gamma: float,
         raise ValueError(f"env_id: {args.env_id!r} is not a task of discgym.tasks.TASKS "
                          f"({', '.join(sorted(TASKS))})")
     kw = {**TASKS[args.env_id][0].defaults, **args.env_kwargs()}
+    if training and args.train_integrator is not None:
+        kw["integrator"] = args.train_integrator
     venv = VecMonitor(DiscReactorSB3VecEnv(num_envs=n_envs, threads=args.threads, **kw),
                       filename=None if monitor is None else str(monitor))
     for cls, kwargs in vec_env_wrappers(wrappers):
@@ -188,6 +201,14 @@ def _callbacks(args: Args, out: Path, n_envs: int, normalize, gamma: float, wrap
                       deterministic=True, callback_on_new_best=SaveVecNormalize(), verbose=0)
 
 
+def policy_of(name: str | None, algo: str):
+    """The hyperparameters' ``policy``: an SB3 alias (``"MlpPolicy"``), a class by its dotted
+    name (``"discgym.sb3_recurrent.SequenceLstmPolicy"``), or the algorithm's MLP policy if
+    None."""
+    name = name or ("MlpLstmPolicy" if algo == "recurrent_ppo" else "MlpPolicy")
+    return import_name(name) if "." in name else name
+
+
 def algo_class(name: str):
     if name == "recurrent_ppo":
         from sb3_contrib import RecurrentPPO
@@ -214,13 +235,13 @@ def train(args: Args) -> Path:
     wrappers = hp.pop("vec_env_wrapper", None)
     gamma = hp.get("gamma", 0.99)
     venv = make_vec_env(args, n_envs, normalize, gamma, monitor=out / "monitor.csv",
-                        wrappers=wrappers)
+                        wrappers=wrappers, training=True)
     venv.seed(args.seed)
     hold = env_steps_per_step(venv)
     callback = _callbacks(args, out, n_envs, normalize, gamma, wrappers, hold)
     cls = algo_class(args.algo)
-    policy = policy or ("MlpLstmPolicy" if args.algo == "recurrent_ppo" else "MlpPolicy")
-    model = cls(policy, venv, seed=args.seed, device=args.device, verbose=0, **hp)
+    model = cls(policy_of(policy, args.algo), venv, seed=args.seed, device=args.device,
+                verbose=0, **hp)
     model.set_logger(configure(str(out), ["csv"]))
     t0, c0 = time.perf_counter(), time.process_time()
     model.learn(total_timesteps=steps, callback=callback,

@@ -40,6 +40,9 @@ from discgym.baselines import paired_difference
 from discgym.controllers import AdaptiveThermostat, Thermostat, _Slots
 
 ENV_ID = "DiscKinetics-v0"
+#: --search's grid of AdaptiveThermostat settings: every combination of these values.
+GRID = {"x_target": (0.08, 0.10, 0.12, 0.15), "band": (1.2, 1.3, 1.5),
+        "step": (1.03, 1.05, 1.08), "t_start": (1.4, 1.6, 1.8), "memory": (0.8,)}
 
 
 def activation_factor(env) -> float:
@@ -81,9 +84,16 @@ def main(argv=None) -> None:
                     help="tune the adaptive thermostat on the search seeds first")
     ap.add_argument("--search-seeds", type=int, nargs=2, default=[500, 540],
                     metavar=("FIRST", "END"), help="tuning seeds FIRST..END-1 (default 500 540)")
+    ap.add_argument("--refine", type=int, nargs=2, default=[0, 0], metavar=("K", "N"),
+                    help="re-score --search's best K settings on N further tuning seeds "
+                         "(from END on) and keep the best over all its tuning seeds: the "
+                         "first stage's winner is partly luck (default 0 0: no refinement)")
     ap.add_argument("--grid", type=int, default=None, help="(tests) the first N settings only")
-    ap.add_argument("--tuned", type=float, nargs=4, default=None,
-                    metavar=("X_TARGET", "BAND", "STEP", "T_START"),
+    for key, flag in zip(GRID, ("x-targets", "bands", "steps", "t-starts", "memories")):
+        ap.add_argument(f"--{flag}", type=float, nargs="+", default=GRID[key], dest=key,
+                        help=f"--search's values of {key} (default {GRID[key]})")
+    ap.add_argument("--tuned", type=float, nargs="+", default=None,
+                    metavar="X_TARGET BAND STEP T_START [MEMORY]",
                     help="a tuned adaptive thermostat's settings (skips --search)")
     a = ap.parse_args(argv)
     seeds = range(a.first_seed, a.first_seed + a.seeds)
@@ -99,28 +109,47 @@ def main(argv=None) -> None:
                                                           t_cold=1.6 * s ** x))))
     tuned = None
     if a.tuned is not None:
-        tuned = tuple(a.tuned)
+        if len(a.tuned) not in (4, 5):
+            raise SystemExit("--tuned: expected X_TARGET BAND STEP T_START [MEMORY]")
+        tuned = tuple(a.tuned) + (0.8,) * (5 - len(a.tuned))
     elif a.search:
-        grid = list(itertools.product((0.08, 0.10, 0.12, 0.15), (1.2, 1.3, 1.5),
-                                      (1.03, 1.05, 1.08), (1.4, 1.6, 1.8)))[:a.grid]
+        grid = list(itertools.product(*(getattr(a, k) for k in GRID)))[:a.grid]
         tune = range(*a.search_seeds)
         if set(tune) & set(seeds):
             raise SystemExit("--search-seeds: must not overlap the evaluation seeds")
         scores = []
-        for x, band, step, t0 in grid:
-            kw = dict(x_target=x, band=band, step=step, t_start=t0)
+        for values in grid:
+            kw = dict(zip(GRID, values))
             scores.append(np.mean([episode(k, lambda env, s, kw=kw: AdaptiveThermostat(
                 env, **kw), a.episode_steps)[0] for k in tune]))
         tuned = grid[int(np.argmax(scores))]
-        nominal = (0.12, 1.3, 1.05, 1.6)
+        for i in np.argsort(scores)[::-1][:5]:
+            print(f"  {grid[i]}: {scores[i]:.4f}")
+        k, n = a.refine
+        if k > 0 and n > 0:
+            more = range(tune[-1] + 1, tune[-1] + 1 + n)
+            if set(more) & set(seeds):
+                raise SystemExit("--refine: its seeds must not overlap the evaluation seeds")
+            top = [int(i) for i in np.argsort(scores)[::-1][:k]]
+            both = {}
+            for i in top:
+                kw = dict(zip(GRID, grid[i]))
+                extra = np.mean([episode(j, lambda env, s, kw=kw: AdaptiveThermostat(
+                    env, **kw), a.episode_steps)[0] for j in more])
+                both[i] = (scores[i] * len(tune) + extra * n) / (len(tune) + n)
+                print(f"  refined {grid[i]}: {extra:.4f} on seeds {more[0]}-{more[-1]}, "
+                      f"{both[i]:.4f} on all {len(tune) + n}", flush=True)
+            tuned = grid[max(both, key=both.get)]
+        nominal = (0.12, 1.3, 1.05, 1.6, 0.8)
         default = grid.index(nominal) if nominal in grid else None
-        print(f"best of {len(grid)} adaptive settings (x_target, band, step, t_start) on "
-              f"seeds {tune[0]}-{tune[-1]}: {tuned}, "
-              f"{max(scores):.3f} there"
+        print(f"best of {len(grid)} adaptive settings ({', '.join(GRID)}) on "
+              f"seeds {tune[0]}-{tune[-1]}"
+              + (f" (refined on {a.refine[1]} more)" if min(a.refine) > 0 else "")
+              + f": {tuned}, {scores[grid.index(tuned)]:.3f} on the first stage's seeds"
               + ("" if default is None else f" (the default: {scores[default]:.3f})"),
               flush=True)
     if tuned is not None:
-        best = dict(zip(("x_target", "band", "step", "t_start"), tuned))
+        best = dict(zip(GRID, tuned))
         rows.append((f"adaptive thermostat, tuned {tuned}",
                      table(lambda env, s: AdaptiveThermostat(env, **best))))
     if a.run is not None:

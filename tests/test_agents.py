@@ -191,7 +191,7 @@ def test_every_task_has_hyperparameters_that_build_a_model(algo):
         venv = train_ppo.make_vec_env(args, n_envs, hp.pop("normalize", False),
                                       hp.get("gamma", 0.99),
                                       wrappers=hp.pop("vec_env_wrapper", None))
-        policy = hp.pop("policy", "MlpLstmPolicy" if algo == "recurrent_ppo" else "MlpPolicy")
+        policy = train_ppo.policy_of(hp.pop("policy", None), algo)
         train_ppo.algo_class(algo)(policy, venv, device="cpu", **hp)
         venv.close()
 

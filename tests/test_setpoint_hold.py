@@ -291,3 +291,29 @@ def test_kinetics_room_probe_prints_the_room_and_the_policys_reading(tmp_path, c
                          "informed thermostat, setpoints 1.8 s^1, 1.6 s^1", f"policy of {out}"}
     # the informed thermostat's early kT is 1.8 s (its hot phase, reached by step 10)
     assert float(rows["informed thermostat, setpoints 1.8 s^1, 1.6 s^1"][3]) > 0.9
+
+
+def test_kinetics_room_search_refines_its_best_settings_on_more_seeds(capsys):
+    """--search over a given grid, --refine re-scores the best K on N more tuning seeds; the
+    winner becomes the table's tuned row; --tuned takes 4 or 5 values."""
+    sys.path.insert(0, str(ROOT / "benchmarks"))
+    import kinetics_room
+
+    kinetics_room.main(["--seeds", "2", "--episode-steps", "24", "--exponents", "1",
+                        "--search", "--search-seeds", "500", "502", "--x-targets", "0.08", "0.2",
+                        "--bands", "1.2", "--steps", "1.03", "--t-starts", "1.4",
+                        "--memories", "0.8", "--refine", "2", "2"])
+    out = capsys.readouterr().out
+    assert out.count("  refined (") == 2 and "seeds 502-503" in out
+    assert "best of 2 adaptive settings" in out and "(refined on 2 more)" in out
+    assert "| adaptive thermostat, tuned (0.08, 1.2, 1.03, 1.4, 0.8) |" in out \
+        or "| adaptive thermostat, tuned (0.2, 1.2, 1.03, 1.4, 0.8) |" in out
+    kinetics_room.main(["--seeds", "2", "--episode-steps", "8", "--exponents", "1",
+                        "--tuned", "0.08", "1.2", "1.03", "1.4"])
+    assert "| adaptive thermostat, tuned (0.08, 1.2, 1.03, 1.4, 0.8) |" in capsys.readouterr().out
+    with pytest.raises(SystemExit):
+        kinetics_room.main(["--seeds", "1", "--tuned", "0.08", "1.2", "1.03"])
+    with pytest.raises(SystemExit):  # refinement seeds must not reach the evaluation seeds
+        kinetics_room.main(["--seeds", "1", "--first-seed", "503", "--search", "--grid", "1",
+                            "--search-seeds", "500", "502", "--refine", "1", "5",
+                            "--episode-steps", "8"])
