@@ -5,7 +5,9 @@ DiscKinetics-v0 draws each episode's activation energies as the nominal ones tim
 s in [0.5, 1.5] and does not reveal it. Over the evaluation seeds this prints:
 
 - the adaptive thermostat (``discgym.controllers.AdaptiveThermostat``, the task's
-  hand-written controller, which infers the kinetics from the reactions it sees);
+  hand-written controller, which infers the kinetics from the reactions it sees), with its
+  defaults (tuned as ``--search`` below does) and with its first version's hand-picked
+  settings;
 - an *informed* thermostat, told s: the scheduled thermostat of DiscReactor-v0 with its two
   setpoints scaled with the kinetics (``t_hot x s^a``, ``t_cold x s^a``, for each exponent a
   given), and its paired difference to the adaptive one (95% BCa interval,
@@ -16,9 +18,12 @@ s in [0.5, 1.5] and does not reveal it. Over the evaluation seeds this prints:
   kinetics heats more where they are slower).
 
 With ``--search``, also the best of a grid of the adaptive thermostat's own settings
-(``x_target`` x ``band`` x ``step`` x ``t_start``, 108 settings), chosen on the tuning seeds
-500-539 (``--search-seeds``) and evaluated on the evaluation seeds: whether the task's
-controller, tuned, would be a stronger hand-written baseline.
+(``x_target`` x ``band`` x ``step`` x ``t_start`` x ``memory``, the values given by flags),
+chosen on the tuning seeds 500-539 (``--search-seeds``; ``--refine K N`` re-scores the best
+K on N more) and evaluated on the evaluation seeds. The thermostat's defaults were chosen so:
+
+    python benchmarks/kinetics_room.py --search --seeds 300 --x-targets 0.065 0.08 0.10 \
+        --bands 1.1 1.2 1.3 --steps 1.02 1.03 1.04 --t-starts 1.2 1.4 1.6 --refine 10 200
 
 Run:  python benchmarks/kinetics_room.py                               (~30 s)
       python benchmarks/kinetics_room.py --run runs/DiscKinetics-v0_ppo --seeds 100
@@ -40,6 +45,8 @@ from discgym.baselines import paired_difference
 from discgym.controllers import AdaptiveThermostat, Thermostat, _Slots
 
 ENV_ID = "DiscKinetics-v0"
+#: The first version's hand-picked AdaptiveThermostat settings (its defaults until 2026-12-02).
+FIRST_VERSION = {"x_target": 0.12, "band": 1.3, "step": 1.05, "t_start": 1.6, "memory": 0.8}
 #: --search's grid of AdaptiveThermostat settings: every combination of these values.
 GRID = {"x_target": (0.08, 0.10, 0.12, 0.15), "band": (1.2, 1.3, 1.5),
         "step": (1.03, 1.05, 1.08), "t_start": (1.4, 1.6, 1.8), "memory": (0.8,)}
@@ -102,7 +109,9 @@ def main(argv=None) -> None:
         return np.array([episode(k, make_policy, a.episode_steps) for k in seeds])
 
     ad = table(lambda env, s: AdaptiveThermostat(env))
-    rows = [("adaptive thermostat (the task's controller)", ad)]
+    rows = [("adaptive thermostat (the task's controller)", ad),
+            ("adaptive thermostat, first version's settings",
+             table(lambda env, s: AdaptiveThermostat(env, **FIRST_VERSION)))]
     for x in a.exponents:
         rows.append((f"informed thermostat, setpoints 1.8 s^{x:g}, 1.6 s^{x:g}",
                      table(lambda env, s, x=x: Thermostat(env, t_hot=1.8 * s ** x,
@@ -140,7 +149,10 @@ def main(argv=None) -> None:
                 print(f"  refined {grid[i]}: {extra:.4f} on seeds {more[0]}-{more[-1]}, "
                       f"{both[i]:.4f} on all {len(tune) + n}", flush=True)
             tuned = grid[max(both, key=both.get)]
-        nominal = (0.12, 1.3, 1.05, 1.6, 0.8)
+        import inspect
+
+        init = inspect.signature(AdaptiveThermostat).parameters
+        nominal = tuple(init[k].default for k in GRID)
         default = grid.index(nominal) if nominal in grid else None
         print(f"best of {len(grid)} adaptive settings ({', '.join(GRID)}) on "
               f"seeds {tune[0]}-{tune[-1]}"

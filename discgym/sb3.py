@@ -229,6 +229,9 @@ class SetpointHold(VecEnvWrapper):
     ``terminal_observation`` likewise), and ``infos`` are the last env step's. Put it under
     ``VecNormalize`` (it needs the raw observations) and over ``VecMonitor`` (whose episodes
     are then counted in env steps).
+    With ``base`` (a controller class's dotted name) the agent corrects that controller:
+    one instance per reactor, reset with the reactor's episode
+    (:class:`~discgym.controllers.SetpointActions`).
     Every reactor's episode must end at the same env step, a multiple of ``hold`` (the
     suite's tasks never terminate and truncate after ``episode_steps``); an episode that
     ends inside a held block raises ``RuntimeError``, as the reactors already reset would
@@ -240,13 +243,13 @@ class SetpointHold(VecEnvWrapper):
     """
 
     def __init__(self, venv, hold: int = 4, kT_low: float = 0.8, kT_high: float = 3.2,
-                 average: float | None = None):
+                 average: float | None = None, base: str | None = None, span: float = 1.5):
         from gymnasium import spaces
 
         from .controllers import SetpointActions
 
         law = SetpointActions(venv.get_attr("unwrapped", [0])[0], hold=hold, kT_low=kT_low,
-                              kT_high=kT_high, average=average)
+                              kT_high=kT_high, average=average, base=base, span=span)
         space = venv.observation_space
         low, high = law.observation_bounds(space.low, space.high)
         super().__init__(venv, observation_space=spaces.Box(low, high, dtype=space.dtype))
@@ -259,21 +262,24 @@ class SetpointHold(VecEnvWrapper):
         self._obs = None
         self._mean = None
         self._actions = None
+        self._bases = None
 
     @staticmethod
     def episode_policy(env, decide, hold: int = 4, kT_low: float = 0.8,
-                       kT_high: float = 3.2, average: float | None = None):
+                       kT_high: float = 3.2, average: float | None = None,
+                       base: str | None = None, span: float = 1.5):
         """The same interface for one episode of one env (``agents/evaluate.py``): obs ->
         env action, asking ``decide`` (what the agent observes -> agent action) every
         ``hold`` steps."""
         from .controllers import SetpointActions
 
         return SetpointActions(env, hold=hold, kT_low=kT_low, kT_high=kT_high,
-                               average=average).policy(decide)
+                               average=average, base=base, span=span).policy(decide)
 
     def reset(self) -> np.ndarray:
         self._obs = self.venv.reset()
         law = self.actions_law
+        self._bases = law.new_bases(self.num_envs)
         self._mean = law.update_mean(None, self._obs) if law.average is not None else None
         return law.agent_obs(self._obs, self._mean)
 
@@ -288,7 +294,7 @@ class SetpointHold(VecEnvWrapper):
         law = self.actions_law
         total = np.zeros(self.num_envs, dtype=np.float32)
         for k in range(self.hold):
-            self.venv.step_async(law.env_actions(self._actions, self._obs))
+            self.venv.step_async(law.env_actions(self._actions, self._obs, self._bases))
             obs, rewards, dones, infos = self.venv.step_wait()
             total += rewards
             self._obs = obs
@@ -298,6 +304,9 @@ class SetpointHold(VecEnvWrapper):
                         f"SetpointHold: reactors {np.flatnonzero(dones).tolist()} ended their "
                         f"episode at env step {k + 1} of a held block of {self.hold}: the "
                         f"episodes must end together, at a multiple of hold")
+                if self._bases is not None:
+                    for c in self._bases:
+                        c.reset()
                 if law.average is not None:
                     # the last observation of each episode, as the agent would have seen it
                     for i, info in enumerate(infos):

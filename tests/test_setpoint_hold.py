@@ -317,3 +317,78 @@ def test_kinetics_room_search_refines_its_best_settings_on_more_seeds(capsys):
         kinetics_room.main(["--seeds", "1", "--first-seed", "503", "--search", "--grid", "1",
                             "--search-seeds", "500", "502", "--refine", "1", "5",
                             "--episode-steps", "8"])
+
+
+ADAPTIVE = "discgym.controllers.AdaptiveThermostat"
+
+
+def test_residual_zero_is_the_controller_bit_for_bit():
+    """With ``base``, an agent that always answers 0 plays the hand-written controller's
+    episode exactly; another action moves its setpoint by span**a0 and adds to the rest."""
+    from discgym.controllers import AdaptiveThermostat
+
+    env = gym.make("DiscKinetics-v0", episode_steps=24)
+    law = SetpointActions(env, hold=4, average=0.8, base=ADAPTIVE, span=1.5)
+    res = [run_episodes("DiscKinetics-v0", lambda e: SetpointActions(
+        e, hold=4, base=ADAPTIVE).policy(lambda o: np.zeros(4, np.float32)), [3, 4],
+        {"episode_steps": 24}),
+        run_episodes("DiscKinetics-v0", AdaptiveThermostat, [3, 4], {"episode_steps": 24})]
+    np.testing.assert_array_equal(res[0].returns, res[1].returns)
+    obs, _ = env.reset(seed=5)
+    ref, bases = AdaptiveThermostat(env), law.new_bases(1)
+    a = law.env_actions(np.array([0.5, 0.4, -0.5, 0.2], np.float32), obs, bases)
+    b = ref(obs)
+    T = _Slots(env).temperature(obs)
+    sp = bases[0].setpoint * 1.5 ** 0.5
+    assert bases[0].setpoint == ref.setpoint
+    assert a[0] == pytest.approx(np.clip(np.log(sp / T) / _Slots(env).log_rate, -1, 1),
+                                 abs=1e-6)
+    np.testing.assert_allclose(a[1:], np.clip(b[1:] + [0.4, -0.5, 0.2], -1, 1), atol=1e-7)
+    env.close()
+
+
+def test_residual_wrapper_resets_its_controllers_and_matches_the_episode_policy():
+    """SetpointHold with ``base`` keeps one controller per reactor, reset with each episode:
+    two episodes in a row of the wrapper give the one-env policy's returns on their seeds."""
+    venv = SetpointHold(DiscReactorSB3VecEnv(num_envs=2, episode_steps=8, threads=1,
+                                             **_kinetics()), hold=4, average=0.8, base=ADAPTIVE)
+    venv.seed(21)
+    obs, total, firsts = venv.reset(), np.zeros(2), []
+    for k in range(4):  # two 8-step episodes per reactor; the second starts from autoreset
+        obs, r, done, _ = venv.step(_decide(obs))
+        total += r
+        if k == 1:
+            firsts, total = total.copy(), np.zeros(2)
+            assert done.all()  # the controllers start the next episodes afresh
+            assert [c.setpoint for c in venv._bases] == [c.t_start for c in venv._bases]
+    seeds = [21, 22]
+
+    def factory(env):
+        return SetpointHold.episode_policy(env, _decide, hold=4, average=0.8, base=ADAPTIVE)
+
+    res = run_episodes("DiscKinetics-v0", factory, seeds, {"episode_steps": 8})
+    np.testing.assert_allclose(res.returns, firsts, rtol=1e-5, atol=1e-6)
+    assert venv._bases[0] is not venv._bases[1] and np.all(np.isfinite(total))
+
+
+def _kinetics():
+    from discgym.tasks import TASKS
+
+    kw = dict(TASKS["DiscKinetics-v0"][0].defaults)
+    kw.pop("episode_steps", None)
+    return kw
+
+
+@pytest.mark.parametrize("kw, match", [
+    (dict(base="discgym.controllers.NoSuchController"), "base: cannot import"),
+    (dict(base="discgym.controllers.BandThermostat"), "keeps no setpoint"),
+    (dict(base=ADAPTIVE, span=1.0), "span"), (dict(base=ADAPTIVE, span=True), "span"),
+])
+def test_bad_residual_arguments_name_what_is_wrong(kw, match):
+    env = gym.make("DiscKinetics-v0")
+    with pytest.raises(ValueError, match=match):
+        SetpointActions(env, **kw)
+    law = SetpointActions(env, base=ADAPTIVE)
+    obs, _ = env.reset(seed=0)
+    with pytest.raises(ValueError, match="bases: expected 1 controllers"):
+        law.env_actions(np.zeros(4), obs)
