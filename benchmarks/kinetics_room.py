@@ -86,6 +86,8 @@ def main(argv=None) -> None:
     ap.add_argument("--exponents", type=float, nargs="*", default=[1.0, 0.8],
                     help="a in the informed setpoints 1.8 s^a, 1.6 s^a")
     ap.add_argument("--run", default=None, help="a trained run's folder (agents/train_ppo.py)")
+    ap.add_argument("--checkpoint", choices=("best", "final"), default="best",
+                    help="the run's best validation checkpoint (default) or its final policy")
     ap.add_argument("--episode-steps", type=int, default=None, help="(tests) shorter episodes")
     ap.add_argument("--search", action="store_true",
                     help="tune the adaptive thermostat on the search seeds first")
@@ -168,8 +170,8 @@ def main(argv=None) -> None:
         sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "agents"))
         import evaluate
 
-        factory = evaluate.agent_factory(a.run, "best")
-        rows.append((f"policy of {a.run}", table(lambda env, s: factory(env))))
+        factory = evaluate.agent_factory(a.run, a.checkpoint)
+        rows.append((f"policy of {a.run}" + (" (final)" if a.checkpoint == "final" else ""), table(lambda env, s: factory(env))))
 
     print(f"{ENV_ID}, seeds {seeds[0]}-{seeds[-1]}; s = the hidden activation factor; "
           f"kT means over env steps 10-39 and 40-")

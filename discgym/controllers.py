@@ -267,7 +267,8 @@ class SetpointActions:
     and the agent's component 0 multiplies its setpoint by ``span ** a0`` (``a0`` in [-1, 1]:
     a factor in [1/span, span]), its other components are added to the controller's wall and
     feeds (the sum clipped to [-1, 1]). An action of 0 is the controller itself. ``kT_low``
-    and ``kT_high`` are then unused.
+    and ``kT_high`` are then unused. With ``correct="setpoint"`` the agent's action is that
+    one factor only (shape (1,)): the wall and the feeds are the controller's.
 
     Used by :class:`discgym.sb3.SetpointHold` (training, a whole batch) and by
     :meth:`policy` (one env, as ``agents/evaluate.py`` runs it); both go through
@@ -275,7 +276,8 @@ class SetpointActions:
     """
 
     def __init__(self, env, hold: int = 4, kT_low: float = 0.8, kT_high: float = 3.2,
-                 average: float | None = None, base: str | None = None, span: float = 1.5):
+                 average: float | None = None, base: str | None = None, span: float = 1.5,
+                 correct: str = "all"):
         if isinstance(hold, bool) or not isinstance(hold, (int, np.integer)) or hold < 1:
             raise ValueError(f"hold: expected an int >= 1, got {hold!r}")
         if not (0 < float(kT_low) < float(kT_high) < math.inf):
@@ -292,7 +294,10 @@ class SetpointActions:
         self.hold = int(hold)
         self.kT_low, self.kT_high = float(kT_low), float(kT_high)
         self.average = None if average is None else float(average)
-        self.env, self.base, self.span = env, base, float(span)
+        if correct not in ("all", "setpoint") or (correct == "setpoint" and base is None):
+            raise ValueError(f"correct: expected 'all', or 'setpoint' with a base, got "
+                             f"{correct!r}")
+        self.env, self.base, self.span, self.correct = env, base, float(span), correct
         self._base_cls = None
         if base is not None:
             import importlib
@@ -358,7 +363,13 @@ class SetpointActions:
             b = np.array([c(oi) for c, oi in zip(bases, o)], dtype=np.float32)
             sp = np.array([c.setpoint for c in bases], dtype=np.float64)
             setpoint = sp * self.span ** np.clip(a[:, 0].astype(np.float64), -1.0, 1.0)
-            a[:, 1:] = np.clip(b[:, 1:] + a[:, 1:], -1.0, 1.0)
+            if self.correct == "setpoint":
+                if a.shape[1] != 1:
+                    raise ValueError(f"actions: correct='setpoint' takes one component per "
+                                     f"reactor, got {a.shape[1]}")
+                a = b
+            else:
+                a[:, 1:] = np.clip(b[:, 1:] + a[:, 1:], -1.0, 1.0)
         T = np.maximum(self.s.temperatures(o), 1e-6)
         heat = np.log(setpoint / T) / self.s.log_rate
         a[:, 0] = np.clip(heat, -1.0, 1.0)

@@ -243,16 +243,21 @@ class SetpointHold(VecEnvWrapper):
     """
 
     def __init__(self, venv, hold: int = 4, kT_low: float = 0.8, kT_high: float = 3.2,
-                 average: float | None = None, base: str | None = None, span: float = 1.5):
+                 average: float | None = None, base: str | None = None, span: float = 1.5,
+                 correct: str = "all"):
         from gymnasium import spaces
 
         from .controllers import SetpointActions
 
         law = SetpointActions(venv.get_attr("unwrapped", [0])[0], hold=hold, kT_low=kT_low,
-                              kT_high=kT_high, average=average, base=base, span=span)
+                              kT_high=kT_high, average=average, base=base, span=span,
+                              correct=correct)
         space = venv.observation_space
         low, high = law.observation_bounds(space.low, space.high)
-        super().__init__(venv, observation_space=spaces.Box(low, high, dtype=space.dtype))
+        actions = venv.action_space if correct == "all" else spaces.Box(
+            -1.0, 1.0, (1,), dtype=venv.action_space.dtype)
+        super().__init__(venv, observation_space=spaces.Box(low, high, dtype=space.dtype),
+                         action_space=actions)
         self.actions_law = law
         self.hold = law.hold
         steps = venv.get_attr("config", [0])[0].episode_steps
@@ -267,14 +272,15 @@ class SetpointHold(VecEnvWrapper):
     @staticmethod
     def episode_policy(env, decide, hold: int = 4, kT_low: float = 0.8,
                        kT_high: float = 3.2, average: float | None = None,
-                       base: str | None = None, span: float = 1.5):
+                       base: str | None = None, span: float = 1.5, correct: str = "all"):
         """The same interface for one episode of one env (``agents/evaluate.py``): obs ->
         env action, asking ``decide`` (what the agent observes -> agent action) every
         ``hold`` steps."""
         from .controllers import SetpointActions
 
         return SetpointActions(env, hold=hold, kT_low=kT_low, kT_high=kT_high,
-                               average=average, base=base, span=span).policy(decide)
+                               average=average, base=base, span=span,
+                               correct=correct).policy(decide)
 
     def reset(self) -> np.ndarray:
         self._obs = self.venv.reset()

@@ -383,6 +383,7 @@ def _kinetics():
     (dict(base="discgym.controllers.NoSuchController"), "base: cannot import"),
     (dict(base="discgym.controllers.BandThermostat"), "keeps no setpoint"),
     (dict(base=ADAPTIVE, span=1.0), "span"), (dict(base=ADAPTIVE, span=True), "span"),
+    (dict(correct="setpoint"), "correct"), (dict(base=ADAPTIVE, correct="heat"), "correct"),
 ])
 def test_bad_residual_arguments_name_what_is_wrong(kw, match):
     env = gym.make("DiscKinetics-v0")
@@ -392,3 +393,40 @@ def test_bad_residual_arguments_name_what_is_wrong(kw, match):
     obs, _ = env.reset(seed=0)
     with pytest.raises(ValueError, match="bases: expected 1 controllers"):
         law.env_actions(np.zeros(4), obs)
+
+
+def test_setpoint_only_correction_keeps_the_controllers_wall_and_feeds():
+    """correct='setpoint': the agent's action is one factor on the controller's setpoint; the
+    wrapper's action space is (1,), the env gets the controller's wall and feeds, and the
+    one-env policy plays the wrapper's episodes."""
+    from discgym.controllers import AdaptiveThermostat
+
+    env = gym.make("DiscKinetics-v0", episode_steps=8)
+    law = SetpointActions(env, base=ADAPTIVE, correct="setpoint", span=2.0)
+    obs, _ = env.reset(seed=2)
+    a = law.env_actions(np.array([1.0], np.float32), obs, law.new_bases(1))
+    b = AdaptiveThermostat(env)(obs)
+    np.testing.assert_array_equal(a[1:], b[1:])
+    T = _Slots(env).temperature(obs)
+    assert a[0] == pytest.approx(np.clip(np.log(2.0 * 1.2 / T) / _Slots(env).log_rate, -1, 1),
+                                 abs=1e-6)
+    with pytest.raises(ValueError, match="one component"):
+        law.env_actions(np.zeros(4, np.float32), obs, law.new_bases(1))
+    venv = SetpointHold(DiscReactorSB3VecEnv(num_envs=2, episode_steps=8, threads=1,
+                                             **_kinetics()), hold=4, average=0.8, base=ADAPTIVE,
+                        correct="setpoint")
+    assert venv.action_space.shape == (1,)
+    venv.seed(31)
+    o, total = venv.reset(), np.zeros(2)
+
+    def decide(x):
+        return np.tanh(_decide(x)[..., :1])
+
+    for _ in range(2):
+        o, r, done, _ = venv.step(decide(o))
+        total += r
+    res = run_episodes("DiscKinetics-v0", lambda e: SetpointHold.episode_policy(
+        e, decide, hold=4, average=0.8, base=ADAPTIVE, correct="setpoint"), [31, 32],
+        {"episode_steps": 8})
+    np.testing.assert_allclose(res.returns, total, rtol=1e-5, atol=1e-6)
+    env.close()
