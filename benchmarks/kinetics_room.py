@@ -171,7 +171,8 @@ def main(argv=None) -> None:
         import evaluate
 
         factory = evaluate.agent_factory(a.run, a.checkpoint)
-        rows.append((f"policy of {a.run}" + (" (final)" if a.checkpoint == "final" else ""), table(lambda env, s: factory(env))))
+        name = f"policy of {a.run}" + (" (final)" if a.checkpoint == "final" else "")
+        rows.append((name, table(lambda env, s: factory(env))))
 
     print(f"{ENV_ID}, seeds {seeds[0]}-{seeds[-1]}; s = the hidden activation factor; "
           f"kT means over env steps 10-39 and 40-")
