@@ -208,17 +208,20 @@ def test_a_wrapper_without_an_episode_policy_cannot_be_evaluated(tmp_path):
         evaluate.agent_factory(tmp_path, "final")
 
 
-@pytest.mark.parametrize("env_id, wrapper", [
-    ("DiscKinetics-v0", {"hold": 4, "average": 0.8}),  # the README's main run
-    ("DiscReactor-v0", {"hold": 4}),
+@pytest.mark.parametrize("folder, env_id, wrapper", [
+    ("hyperparams", "DiscKinetics-v0", {"hold": 4, "average": 0.8}),  # the README's main run
+    ("hyperparams", "DiscReactor-v0", {"hold": 4}),
+    ("hyperparams/residual", "DiscKinetics-v0", {
+        "hold": 4, "average": 0.8, "base": "discgym.controllers.AdaptiveThermostat",
+        "span": 1.5, "correct": "setpoint"}),
 ])
-def test_the_setpoint_entries_train_through_the_wrapper(env_id, wrapper):
-    """hyperparams/ppo.yml's setpoint entries build PPO through SetpointHold, and validate
-    every 50,000 env steps = 781 calls of 16 x 4 env steps."""
+def test_the_setpoint_entries_train_through_the_wrapper(folder, env_id, wrapper):
+    """hyperparams/ppo.yml's setpoint entries (and the residual one) build PPO through
+    SetpointHold, and validate every 50,000 env steps = 781 calls of 16 x 4 env steps."""
     sys.path.insert(0, str(ROOT / "agents"))
     import train_ppo
 
-    args = train_ppo.Args(env_id=env_id, threads=1)
+    args = train_ppo.Args(env_id=env_id, threads=1, hyperparams=str(ROOT / folder))
     hp = train_ppo.load_hyperparams(args)
     assert hp["vec_env_wrapper"] == [{"discgym.sb3.SetpointHold": wrapper}]
     wrappers = hp.pop("vec_env_wrapper")
