@@ -214,6 +214,9 @@ def test_a_wrapper_without_an_episode_policy_cannot_be_evaluated(tmp_path):
     ("hyperparams/residual", "DiscKinetics-v0", {
         "hold": 4, "average": 0.8, "base": "discgym.controllers.AdaptiveThermostat",
         "span": 1.5, "correct": "setpoint"}),
+    ("hyperparams/fixed_feed", "DiscKinetics-v0", {
+        "hold": 4, "average": 0.8, "base": "discgym.controllers.Thermostat", "span": 2.0,
+        "correct": "setpoint"}),
 ])
 def test_the_setpoint_entries_train_through_the_wrapper(folder, env_id, wrapper):
     """hyperparams/ppo.yml's setpoint entries (and the residual one) build PPO through
