@@ -360,13 +360,15 @@ class SetpointActions:
             if bases is None or len(bases) != a.shape[0]:
                 raise ValueError(f"bases: expected {a.shape[0]} controllers of {self.base}, "
                                  f"got {None if bases is None else len(bases)}")
+            if self.correct == "setpoint" and a.shape[1] != 1:
+                raise ValueError(f"actions: correct='setpoint' takes one component per "
+                                 f"reactor, got {a.shape[1]}")
+            # (checked before the controllers are called: a refused call leaves them as
+            # they were)
             b = np.array([c(oi) for c, oi in zip(bases, o)], dtype=np.float32)
             sp = np.array([c.setpoint for c in bases], dtype=np.float64)
             setpoint = sp * self.span ** np.clip(a[:, 0].astype(np.float64), -1.0, 1.0)
             if self.correct == "setpoint":
-                if a.shape[1] != 1:
-                    raise ValueError(f"actions: correct='setpoint' takes one component per "
-                                     f"reactor, got {a.shape[1]}")
                 a = b
             else:
                 a[:, 1:] = np.clip(b[:, 1:] + a[:, 1:], -1.0, 1.0)

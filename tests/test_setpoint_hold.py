@@ -416,8 +416,11 @@ def test_setpoint_only_correction_keeps_the_controllers_wall_and_feeds():
     T = _Slots(env).temperature(obs)
     assert a[0] == pytest.approx(np.clip(np.log(2.0 * 1.2 / T) / _Slots(env).log_rate, -1, 1),
                                  abs=1e-6)
+    bases = law.new_bases(1)
+    bases[0].setpoint = 2.5
     with pytest.raises(ValueError, match="one component"):
-        law.env_actions(np.zeros(4, np.float32), obs, law.new_bases(1))
+        law.env_actions(np.zeros(4, np.float32), obs, bases)
+    assert bases[0].setpoint == 2.5  # refused before the controller was called
     venv = SetpointHold(DiscReactorSB3VecEnv(num_envs=2, episode_steps=8, threads=1,
                                              **_kinetics()), hold=4, average=0.8, base=ADAPTIVE,
                         correct="setpoint")
