@@ -217,10 +217,12 @@ def test_a_wrapper_without_an_episode_policy_cannot_be_evaluated(tmp_path):
     ("hyperparams/fixed_feed", "DiscKinetics-v0", {
         "hold": 4, "average": 0.8, "base": "discgym.controllers.Thermostat", "span": 2.0,
         "correct": "setpoint"}),
+    ("hyperparams", "DiscFlow-v0", {"hold": 1, "kT_low": 1.5, "kT_high": 6.0, "average": 0.8}),
 ])
 def test_the_setpoint_entries_train_through_the_wrapper(folder, env_id, wrapper):
     """hyperparams/ppo.yml's setpoint entries (and the residual one) build PPO through
-    SetpointHold, and validate every 50,000 env steps = 781 calls of 16 x 4 env steps."""
+    SetpointHold, and validate every 50,000 env steps (781 calls of 16 x 4 env steps at hold
+    4)."""
     sys.path.insert(0, str(ROOT / "agents"))
     import train_ppo
 
@@ -229,9 +231,10 @@ def test_the_setpoint_entries_train_through_the_wrapper(folder, env_id, wrapper)
     assert hp["vec_env_wrapper"] == [{"discgym.sb3.SetpointHold": wrapper}]
     wrappers = hp.pop("vec_env_wrapper")
     venv = train_ppo.make_vec_env(args, 2, hp.pop("normalize"), hp["gamma"], wrappers=wrappers)
-    assert train_ppo.env_steps_per_step(venv) == 4
-    cb = train_ppo._callbacks(args, Path("unused"), 16, False, hp["gamma"], wrappers, 4)
-    assert cb.eval_freq == 781
+    hold = wrapper["hold"]
+    assert train_ppo.env_steps_per_step(venv) == hold
+    cb = train_ppo._callbacks(args, Path("unused"), 16, False, hp["gamma"], wrappers, hold)
+    assert cb.eval_freq == 50_000 // (16 * hold)
     for key in ("n_envs", "n_timesteps", "policy"):
         hp.pop(key)
     train_ppo.algo_class("ppo")("MlpPolicy", venv, device="cpu", **hp)
