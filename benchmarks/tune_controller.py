@@ -47,13 +47,13 @@ def score(env_id: str, kwargs: dict, seeds, env_kwargs=None) -> np.ndarray:
     return run_episodes(env_id, partial(_factory, kwargs), seeds, env_kwargs).returns
 
 
-def parse_grid(items) -> dict:
+def parse_grid(items, flag="--grid") -> dict:
     """``["a=1,2", "b=x"]`` -> ``{"a": (1.0, 2.0), "b": ("x",)}`` (numbers where they parse)."""
     grid = {}
     for item in items:
         name, sep, values = item.partition("=")
         if not sep or not name or not values:
-            raise SystemExit(f"--grid: expected name=v1,v2,..., got {item!r}")
+            raise SystemExit(f"{flag}: expected name=v1,v2,..., got {item!r}")
         vals = []
         for v in values.split(","):
             try:
@@ -87,6 +87,10 @@ def main(argv=None) -> int:
     p.add_argument("--episode-steps", type=int, default=None, help="(tests) shorter episodes")
     a = p.parse_args(argv)
     grid = parse_grid(a.grid)
+    against = parse_grid(a.against, "--against")
+    if any(len(v) != 1 for v in against.values()):
+        raise SystemExit(f"--against: one value per argument, got {a.against}")
+    against = {k: v[0] for k, v in against.items()}
     k_best, n_more = a.refine
     if a.seeds < 1 or k_best < 1 or n_more < 0 or a.eval_seeds < 2:
         raise SystemExit("--seeds, --refine K must be >= 1, N >= 0, --eval-seeds >= 2")
@@ -115,7 +119,6 @@ def main(argv=None) -> int:
     else:
         pick = settings[top[0]]
     ev = list(range(EVAL_FIRST, EVAL_FIRST + a.eval_seeds))
-    against = {k: v[0] for k, v in parse_grid(a.against).items()}
     new, old = _score_all(a.env, [pick, against], ev, a.workers, env_kwargs)
     print(f"pick {pick}; on evaluation seeds {ev[0]}-{ev[-1]}:")
     print(f"  pick     {mean_ci(new).text()}")

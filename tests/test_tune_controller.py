@@ -72,6 +72,10 @@ def test_bad_arguments_exit_with_a_message():
                               "400", "--refine", "1", "200"])
     with pytest.raises(SystemExit):
         tune_controller.main(["--env", "NoSuchTask-v0", "--grid", "setpoint=3"])
+    assert tune_controller.parse_grid(["a=1,x", "b=2"]) == {"a": (1.0, "x"), "b": (2.0,)}
+    with pytest.raises(SystemExit, match="--against: one value"):  # before any episode
+        tune_controller.main(["--env", "DiscFlow-v0", "--grid", "setpoint=3", "--against",
+                              "setpoint=3,4", "--workers", "0"])
 
 
 def test_refinement_overrules_a_lucky_first_stage(capsys, monkeypatch):
