@@ -19,7 +19,8 @@ It writes into ``--out`` (default ``runs/<env-id>_<algo>``): ``model.zip`` and
 ``train_summary.json``. Evaluate with ``python agents/evaluate.py --run <out>``.
 
 Seeds: training reactors start from ``seed``, ``seed + 1``, ...; the validation episodes of
-``EvalCallback`` use :data:`VALIDATION_SEEDS`, disjoint from the seeds ``evaluate.py`` reports
+``EvalCallback`` use :data:`VALIDATION_SEEDS` (``--eval-episodes`` of them from seed 500),
+disjoint from the seeds ``evaluate.py`` reports
 (1000-1019) and from the constant-action search (0-9 are the *search* seeds of the baselines;
 training reactors reuse them, which is harmless: they are not the reported seeds).
 """
@@ -38,6 +39,8 @@ import yaml
 ROOT = Path(__file__).resolve().parent.parent
 #: Seeds of the validation episodes EvalCallback runs during training (not the reported ones).
 VALIDATION_SEEDS = range(500, 510)
+#: The most validation episodes: their seeds stay below evaluate.py's first (1000).
+MAX_EVAL_EPISODES = 500
 #: The algorithm classes by name, and the policy each one uses when the hyperparameters do not
 #: name one.
 ALGOS = ("ppo", "sac", "recurrent_ppo")
@@ -78,6 +81,9 @@ class Args:
     eval_freq: int = 50_000
     """validate every this many env steps, summed over the reactors (0: no EvalCallback, no
     best checkpoint)"""
+    eval_episodes: int = len(VALIDATION_SEEDS)
+    """validation episodes per evaluation, on seeds 500, 501, ... (at most 500): returns that
+    spread by more than the checkpoints differ need more of them to pick the best checkpoint"""
     progress_bar: bool = True
     device: str = "cpu"
 
@@ -192,10 +198,15 @@ def _callbacks(args: Args, out: Path, n_envs: int, normalize, gamma: float, wrap
                 self.eval_env.seed(VALIDATION_SEEDS[0])
             return super()._on_step()
 
-    eval_env = make_vec_env(args, len(VALIDATION_SEEDS), normalize, gamma, wrappers=wrappers)
+    n = args.eval_episodes
+    if isinstance(n, bool) or not isinstance(n, int) or not 1 <= n <= MAX_EVAL_EPISODES:
+        raise ValueError(f"eval_episodes: expected an int in [1, {MAX_EVAL_EPISODES}], got "
+                         f"{n!r}")
+    # one reactor per episode: every checkpoint meets the same n episodes, seeds 500 .. 500 + n - 1
+    eval_env = make_vec_env(args, n, normalize, gamma, wrappers=wrappers)
     if hasattr(eval_env, "training"):
         eval_env.training, eval_env.norm_reward = False, False
-    return SeededEval(eval_env, n_eval_episodes=len(VALIDATION_SEEDS),
+    return SeededEval(eval_env, n_eval_episodes=n,
                       eval_freq=max(1, args.eval_freq // (n_envs * hold)),
                       best_model_save_path=str(out), log_path=str(out),
                       deterministic=True, callback_on_new_best=SaveVecNormalize(), verbose=0)

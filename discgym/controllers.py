@@ -274,8 +274,11 @@ class SetpointActions:
     and the agent's component 0 multiplies its setpoint by ``span ** a0`` (``a0`` in [-1, 1]:
     a factor in [1/span, span]), its other components are added to the controller's wall and
     feeds (the sum clipped to [-1, 1]). An action of 0 is the controller itself. ``kT_low``
-    and ``kT_high`` are then unused. With ``correct="setpoint"`` the agent's action is that
-    one factor only (shape (1,)): the wall and the feeds are the controller's.
+    and ``kT_high`` are then unused. ``correct`` names which of the controller's actions the
+    agent corrects, ``"all"`` or a comma-separated subset of ``setpoint``, ``wall`` and
+    ``feeds``, e.g. ``"setpoint"`` (an action of shape (1,): the wall and the feeds are the
+    controller's) or ``"setpoint,wall"`` (shape (2,)); the agent's action holds the corrected
+    components in the env action's order, the others are the controller's.
 
     Used by :class:`discgym.sb3.SetpointHold` (training, a whole batch) and by
     :meth:`policy` (one env, as ``agents/evaluate.py`` runs it); both go through
@@ -301,10 +304,12 @@ class SetpointActions:
         self.hold = int(hold)
         self.kT_low, self.kT_high = float(kT_low), float(kT_high)
         self.average = None if average is None else float(average)
-        if correct not in ("all", "setpoint") or (correct == "setpoint" and base is None):
-            raise ValueError(f"correct: expected 'all', or 'setpoint' with a base, got "
-                             f"{correct!r}")
+        self.parts = self._parts(correct, base)
         self.env, self.base, self.span, self.correct = env, base, float(span), correct
+        # the env action's components the agent's action holds, in order
+        n_act = 2 + self.s.n_feed
+        cols = {"setpoint": [0], "wall": [1], "feeds": list(range(2, n_act))}
+        self.columns = np.array([k for p in self.parts for k in cols[p]], dtype=np.intp)
         self._base_cls = None
         if base is not None:
             import importlib
@@ -316,6 +321,26 @@ class SetpointActions:
                 raise ValueError(f"base: cannot import {base!r} ({exc})") from exc
             if not hasattr(self.new_bases(1)[0], "setpoint"):
                 raise ValueError(f"base: {base} keeps no setpoint to correct")
+
+    PARTS = ("setpoint", "wall", "feeds")
+
+    @classmethod
+    def _parts(cls, correct, base) -> tuple:
+        """The components ``correct`` names, in the env action's order."""
+        if correct == "all":
+            return cls.PARTS
+        names = str(correct).split(",") if isinstance(correct, str) else []
+        names = [n.strip() for n in names]
+        if base is None or not names or len(set(names)) != len(names) \
+                or not set(names) <= set(cls.PARTS):
+            raise ValueError(f"correct: expected 'all', or with a base a comma-separated "
+                             f"subset of {', '.join(cls.PARTS)}, got {correct!r}")
+        return tuple(p for p in cls.PARTS if p in names)
+
+    @property
+    def action_dim(self) -> int:
+        """Components of the agent's action."""
+        return len(self.columns)
 
     def new_bases(self, n: int) -> list | None:
         """``n`` fresh instances of the ``base`` controller (one per reactor), or None."""
@@ -367,18 +392,19 @@ class SetpointActions:
             if bases is None or len(bases) != a.shape[0]:
                 raise ValueError(f"bases: expected {a.shape[0]} controllers of {self.base}, "
                                  f"got {None if bases is None else len(bases)}")
-            if self.correct == "setpoint" and a.shape[1] != 1:
-                raise ValueError(f"actions: correct='setpoint' takes one component per "
-                                 f"reactor, got {a.shape[1]}")
+            if a.shape[1] != self.action_dim:
+                raise ValueError(f"actions: correct={self.correct!r} takes "
+                                 f"{self.action_dim} component(s) per reactor, got "
+                                 f"{a.shape[1]}")
             # (checked before the controllers are called: a refused call leaves them as
             # they were)
             b = np.array([c(oi) for c, oi in zip(bases, o)], dtype=np.float32)
             sp = np.array([c.setpoint for c in bases], dtype=np.float64)
-            setpoint = sp * self.span ** np.clip(a[:, 0].astype(np.float64), -1.0, 1.0)
-            if self.correct == "setpoint":
-                a = b
-            else:
-                a[:, 1:] = np.clip(b[:, 1:] + a[:, 1:], -1.0, 1.0)
+            full = np.zeros_like(b)
+            full[:, self.columns] = a
+            setpoint = sp * self.span ** np.clip(full[:, 0].astype(np.float64), -1.0, 1.0)
+            a = b
+            a[:, 1:] = np.clip(b[:, 1:] + full[:, 1:], -1.0, 1.0)
         T = np.maximum(self.s.temperatures(o), 1e-6)
         heat = np.log(setpoint / T) / self.s.log_rate
         a[:, 0] = np.clip(heat, -1.0, 1.0)

@@ -255,7 +255,7 @@ class SetpointHold(VecEnvWrapper):
         space = venv.observation_space
         low, high = law.observation_bounds(space.low, space.high)
         actions = venv.action_space if correct == "all" else spaces.Box(
-            -1.0, 1.0, (1,), dtype=venv.action_space.dtype)
+            -1.0, 1.0, (law.action_dim,), dtype=venv.action_space.dtype)
         super().__init__(venv, observation_space=spaces.Box(low, high, dtype=space.dtype),
                          action_space=actions)
         self.actions_law = law

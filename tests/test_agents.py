@@ -222,3 +222,17 @@ def test_evaluate_main_writes_the_table_with_date_and_machine(ppo_run, tmp_path)
 
     with Image.open(out / "episode.gif") as im:
         assert im.n_frames >= 4 and im.size[0] > im.size[1]
+
+
+@pytest.mark.parametrize("n", [0, -1, 501, True, 2.0])
+def test_bad_eval_episodes_is_refused_before_training(hp_dir, tmp_path, n):
+    with pytest.raises(ValueError, match="eval_episodes"):
+        train_ppo.train(_args(hp_dir, tmp_path / "run", eval_episodes=n))
+
+
+def test_eval_episodes_sets_the_validation_batch(hp_dir, tmp_path):
+    """--eval-episodes n: every validation runs n episodes, one reactor each, seeded from 500."""
+    cb = train_ppo._callbacks(_args(hp_dir, tmp_path, eval_episodes=3), tmp_path, 2,
+                              {"norm_obs": True}, 0.99)
+    assert cb.n_eval_episodes == 3 and cb.eval_env.num_envs == 3
+    cb.eval_env.close()

@@ -393,6 +393,9 @@ def _kinetics():
     (dict(base="discgym.controllers.BandThermostat"), "keeps no setpoint"),
     (dict(base=ADAPTIVE, span=1.0), "span"), (dict(base=ADAPTIVE, span=True), "span"),
     (dict(correct="setpoint"), "correct"), (dict(base=ADAPTIVE, correct="heat"), "correct"),
+    (dict(base=ADAPTIVE, correct="wall,wall"), "correct"),
+    (dict(base=ADAPTIVE, correct=""), "correct"), (dict(base=ADAPTIVE, correct=1), "correct"),
+    (dict(base=ADAPTIVE, correct="setpoint,heat"), "correct"),
 ])
 def test_bad_residual_arguments_name_what_is_wrong(kw, match):
     env = gym.make("DiscKinetics-v0")
@@ -421,7 +424,7 @@ def test_setpoint_only_correction_keeps_the_controllers_wall_and_feeds():
                                  abs=1e-6)
     bases = law.new_bases(1)
     bases[0].setpoint = 2.5
-    with pytest.raises(ValueError, match="one component"):
+    with pytest.raises(ValueError, match="takes 1 component"):
         law.env_actions(np.zeros(4, np.float32), obs, bases)
     assert bases[0].setpoint == 2.5  # refused before the controller was called
     venv = SetpointHold(DiscReactorSB3VecEnv(num_envs=2, episode_steps=8, threads=1,
@@ -441,4 +444,43 @@ def test_setpoint_only_correction_keeps_the_controllers_wall_and_feeds():
         e, decide, hold=4, average=0.8, base=ADAPTIVE, correct="setpoint"), [31, 32],
         {"episode_steps": 8})
     np.testing.assert_allclose(res.returns, total, rtol=1e-5, atol=1e-6)
+    env.close()
+
+
+FLOW_BASE = "discgym.controllers.flow_thermostat"
+
+
+@pytest.mark.parametrize("correct, columns", [
+    ("wall", [1]), ("setpoint,wall", [0, 1]), ("wall, setpoint", [0, 1]), ("feeds", [2, 3]),
+    ("all", [0, 1, 2, 3]),
+])
+def test_a_correction_of_some_components_leaves_the_others_to_the_controller(correct,
+                                                                              columns):
+    """correct names a subset of setpoint, wall and feeds: the agent's action holds those
+    components in the env action's order, and the env gets the controller's value of the
+    others (DiscFlow-v0's flow thermostat, whose action has two feeds)."""
+    from discgym.controllers import flow_thermostat
+
+    env = gym.make("DiscFlow-v0", episode_steps=8)
+    law = SetpointActions(env, base=FLOW_BASE, correct=correct, span=2.0)
+    assert law.action_dim == len(columns)
+    obs, _ = env.reset(seed=3)
+    a = np.full(len(columns), -0.5, np.float32)
+    got = law.env_actions(a, obs, law.new_bases(1))
+    ref = flow_thermostat(env)(obs)
+    slots = _Slots(env)
+    setpoint = 3.8 * (2.0 ** -0.5 if 0 in columns else 1.0)
+    heat = np.clip(np.log(setpoint / slots.temperature(obs)) / slots.log_rate, -1, 1)
+    assert got[0] == pytest.approx(heat, abs=1e-6)
+    for k in range(1, 4):
+        assert got[k] == pytest.approx(ref[k] - 0.5 if k in columns else ref[k])
+    from discgym.tasks import TASKS
+
+    kw = dict(TASKS["DiscFlow-v0"][0].defaults, episode_steps=8)
+    venv = SetpointHold(DiscReactorSB3VecEnv(num_envs=2, threads=1, **kw), hold=1,
+                        base=FLOW_BASE, correct=correct)
+    assert venv.action_space.shape == (len(columns),)
+    venv.reset()
+    with pytest.raises(ValueError, match="actions: expected shape"):
+        venv.step(np.zeros((2, len(columns) + 1), np.float32))
     env.close()
