@@ -28,6 +28,44 @@ def test_flow_thermostat_setpoint_and_overrides():
         flow_thermostat(env, setpiont=3.0)
 
 
+def _obs_at(env, time_left):
+    from discgym.controllers import _Slots
+
+    obs, _ = env.reset(seed=0)
+    obs = obs.copy()
+    obs[_Slots(env).i_time] = time_left
+    return obs
+
+
+def test_flow_thermostat_reads_the_clock():
+    """The setpoint is the thermostat's until ramp_from of the episode has passed, then rises
+    linearly to (1 + ramp) x at the end; ramp=0 is the thermostat without the clock, action
+    for action."""
+    env = gym.make("DiscFlow-v0")
+    c = flow_thermostat(env)
+    assert (c.ramp, c.ramp_from) == (0.7, 0.6)
+    c = flow_thermostat(env, setpoint=3.0, ramp=0.5, ramp_from=0.6)
+    for time_left, sp in ((1.0, 3.0), (0.5, 3.0), (0.4, 3.0), (0.2, 3.75), (0.0, 4.5)):
+        a = c(_obs_at(env, time_left))
+        assert c.setpoint == pytest.approx(sp, rel=1e-6), time_left  # (a float32 clock)
+        plain = Thermostat(env, t_hot=c.setpoint, t_cold=c.setpoint, wall=1.0, inject=1.0)
+        np.testing.assert_array_equal(a, plain(_obs_at(env, time_left)))
+    off = flow_thermostat(env, ramp=0.0)
+    plain = Thermostat(env, t_hot=3.8, t_cold=3.8, wall=1.0, inject=1.0)
+    for time_left in (1.0, 0.3, 0.0):
+        np.testing.assert_array_equal(off(_obs_at(env, time_left)),
+                                      plain(_obs_at(env, time_left)))
+        assert off.setpoint == 3.8
+
+
+@pytest.mark.parametrize("kw", [dict(ramp=-0.1), dict(ramp=float("nan")), dict(ramp=True),
+                                dict(ramp_from=1.0), dict(ramp_from=-0.1),
+                                dict(ramp_from="0.5")])
+def test_flow_thermostat_refuses_a_bad_clock(kw):
+    with pytest.raises(ValueError, match=next(iter(kw))):
+        flow_thermostat(gym.make("DiscFlow-v0"), **kw)
+
+
 def test_search_picks_the_best_refined_setting(capsys, monkeypatch):
     """The pick is the refined setting with the best mean over all its tuning seeds, and the
     evaluation compares it with --against on seeds from 1000."""
