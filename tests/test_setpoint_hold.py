@@ -218,6 +218,9 @@ def test_a_wrapper_without_an_episode_policy_cannot_be_evaluated(tmp_path):
         "hold": 4, "average": 0.8, "base": "discgym.controllers.Thermostat", "span": 2.0,
         "correct": "setpoint"}),
     ("hyperparams", "DiscFlow-v0", {"hold": 1, "kT_low": 1.5, "kT_high": 6.0, "average": 0.8}),
+    ("hyperparams/residual", "DiscFlow-v0", {
+        "hold": 4, "average": 0.8, "base": "discgym.controllers.flow_thermostat", "span": 1.3,
+        "correct": "setpoint,wall"}),
 ])
 def test_the_setpoint_entries_train_through_the_wrapper(folder, env_id, wrapper):
     """hyperparams/ppo.yml's setpoint entries (and the residual one) build PPO through
