@@ -15,7 +15,8 @@ import math
 import numpy as np
 
 __all__ = ["Thermostat", "AdaptiveThermostat", "BandThermostat",
-           "JacketThermostat", "FlowThermostat", "flow_thermostat", "controller_for", "SetpointActions"]
+           "JacketThermostat", "FlowThermostat", "flow_thermostat", "controller_for",
+           "SetpointActions"]
 
 
 class _Slots:
