@@ -209,7 +209,7 @@ def test_a_wrapper_without_an_episode_policy_cannot_be_evaluated(tmp_path):
 
 
 @pytest.mark.parametrize("folder, env_id, wrapper", [
-    ("hyperparams", "DiscKinetics-v0", {"hold": 4, "average": 0.8}),  # the README's main run
+    ("hyperparams", "DiscKinetics-v0", {"hold": 4, "average": 0.8}),  # the flagship until 12-03
     ("hyperparams", "DiscReactor-v0", {"hold": 4}),
     ("hyperparams/residual", "DiscKinetics-v0", {
         "hold": 4, "average": 0.8, "base": "discgym.controllers.AdaptiveThermostat",
@@ -218,7 +218,7 @@ def test_a_wrapper_without_an_episode_policy_cannot_be_evaluated(tmp_path):
         "hold": 4, "average": 0.8, "base": "discgym.controllers.Thermostat", "span": 2.0,
         "correct": "setpoint"}),
     ("hyperparams", "DiscFlow-v0", {"hold": 1, "kT_low": 1.5, "kT_high": 6.0, "average": 0.8}),
-    ("hyperparams/residual", "DiscFlow-v0", {
+    ("hyperparams/residual", "DiscFlow-v0", {  # the README's main run
         "hold": 4, "average": 0.8, "base": "discgym.controllers.flow_thermostat", "span": 1.3,
         "correct": "setpoint,wall"}),
 ])
