@@ -263,6 +263,77 @@ def test_balance_splits_the_active_reactors_into_even_consecutive_work_lists():
             assert max(abs(x - share) for x in loads) <= cost[active].max() + 1e-12
 
 
+def test_step_lists_runs_every_list_at_once_and_raises_after_all_have_finished(monkeypatch):
+    """The work lists run on separate threads at the same time (each list waits here until
+    every list has started), and an error in one list is raised only once the others are
+    done (none is still writing into the batch when the caller sees it)."""
+    import threading
+    import time
+
+    import discgym.vector as vmod
+
+    T = 3
+    started = threading.Barrier(T, timeout=10)
+    done, threads = [], set()
+
+    def fake(*args):
+        order, lo, hi = args[-3:]
+        threads.add(threading.get_ident())
+        started.wait()  # (a deadlock, not a pass, if the lists ran one after the other)
+        if lo == 0:
+            raise ValueError("list 0 failed")
+        time.sleep(0.05)
+        done.append(order[lo:hi].tolist())
+
+    monkeypatch.setattr(vmod, "env_step", fake)
+    order = np.arange(6, dtype=np.int64)
+    with pytest.raises(ValueError, match="list 0 failed"):
+        vmod.step_lists(("args",), order, [0, 2, 4, 6])
+    assert sorted(done) == [[2, 3], [4, 5]] and len(threads) == T
+
+    def fail_late(*args):
+        if args[-2] == 4:
+            time.sleep(0.05)
+            raise RuntimeError("list 2 failed")
+
+    monkeypatch.setattr(vmod, "env_step", fail_late)
+    with pytest.raises(RuntimeError, match="list 2 failed"):
+        vmod.step_lists(("args",), order, [0, 2, 4, 6])
+    # empty lists are not submitted; one list runs on the calling thread alone
+    calls = []
+    monkeypatch.setattr(vmod, "env_step", lambda *a: calls.append(
+        (threading.get_ident(), a[-2], a[-1])))
+    vmod.step_lists(("args",), order, [0, 6, 6])
+    vmod.step_lists(("args",), order, [0, 6])
+    assert calls == [(threading.get_ident(), 0, 6)] * 2
+
+
+def test_a_forked_child_steps_on_threads_of_its_own():
+    """After a fork the parent's pool threads do not exist in the child: the child builds
+    its own pool (a reused one would never run the child's lists) and gets the parent's
+    bits."""
+    import multiprocessing as mp
+
+    R, n = 4, 5
+    acts = actions(n, R)
+    venv = DiscReactorVectorEnv(num_envs=R, threads=2, **KW)
+    venv.reset(seed=5)
+    for k in range(n):
+        obs = venv.step(acts[k])[0]  # (the parent's pool exists now)
+    ctx = mp.get_context("fork")
+    with ctx.Pool(1) as pool:
+        child = pool.apply_async(_steps_in_child, (R, n, acts)).get(timeout=60)
+    assert np.array_equal(child, obs)
+
+
+def _steps_in_child(R, n, acts):
+    venv = DiscReactorVectorEnv(num_envs=R, threads=2, **KW)
+    venv.reset(seed=5)
+    for k in range(n):
+        obs = venv.step(acts[k])[0]
+    return obs
+
+
 def test_reactors_changed_through_their_simulations_are_followed_or_refused():
     # count_jitter 0.5: the capacity plan holds up to 1.5x the scene's counts, so a reactor
     # drawn with fewer has room for a few more discs

@@ -1022,7 +1022,7 @@ def _events(n, state, fl, cells, queue, run, tables, rng, counters):
     (:func:`_event_loop`), growing the arrays when a fission finds them full. Returns
     ``(t, n, state, fl)``: the time reached (the first event not processed, at the bound),
     and the arrays (new ones if a fission found them full)."""
-    events = 0
+    events = np.int64(0)  # (not the literal 0: numba would compile _event_loop for it too)
     while True:
         t, n, events, grow = _event_loop(n, events, state, fl, cells, queue, run, tables, rng,
                                          counters)
@@ -1114,12 +1114,15 @@ def run_steps(state, n, n_steps, dt, bounds, tables, params, flags, rng, counter
         counters.icnt[IC_EVENTS_CAPPED] += 1
         cnt = StepCounters(counters.icnt, counters.fsum, counters.ch_count, counters.outflow)
         whole = min(int(rest / dt), n_steps)
+        # int64, not literals, for n_steps, step0 and reorder_every: the signature of the
+        # batch's call (kernels.batch.reactor_step), so that numba compiles advance once
+        zero = np.int64(0)
         if whole > 0:
             state, n, _w = advance(state, n, whole, dt, bounds, tables, params, flags, rng, cnt,
-                                   1, 0, 0, empty_work())
+                                   1, zero, zero, empty_work())
         if rest - whole * dt > 0.0:
-            state, n, _w = advance(state, n, 1, rest - whole * dt, bounds, tables, params,
-                                   flags, rng, cnt, 1, 0, 0, empty_work())
+            state, n, _w = advance(state, n, np.int64(1), rest - whole * dt, bounds, tables,
+                                   params, flags, rng, cnt, 1, zero, zero, empty_work())
     return state, n
 
 
