@@ -143,10 +143,9 @@ def bench_single(steps: int, policy: str = "random") -> dict:
 
 
 def _time_vector_kernels(vmod, spent: list) -> dict:
-    """Wrap the vector env's compiled step (``step_lists``: every work list, on the calling
-    thread and the pool's) so that its wall time adds up in ``spent[0]``; returns the
-    originals (to put back)."""
-    saved = {"step_lists": vmod.step_lists}
+    """Wrap the vector env's compiled step (serial and parallel) so that its time adds up
+    in ``spent[0]``; returns the originals (to put back)."""
+    saved = {name: getattr(vmod, name) for name in ("env_step", "env_step_parallel")}
 
     def wrap(orig):
         def timed(*args):

@@ -149,7 +149,6 @@ _SLOT_BYTES_SINGLE = 192
 SLOT_BYTES_BATCH = 64
 
 _ONE = np.ones(1, dtype=bool)  # the "active" mask of a batch of one reactor
-_ONLY = np.zeros(1, dtype=np.int64)  # its work list: reactor 0
 _NON_INTERACTIVE = {"agg", "cairo", "pdf", "pgf", "ps", "svg", "template"}
 
 
@@ -1348,7 +1347,7 @@ class DiscReactorEnv(gym.Env):
                             outflow[None], sim.kernel_walls()[None])
         # (the structs as plain tuples of their fields: see kernels.batch.env_step)
         self._args = (tuple(self._rx), tuple(self._ep), tuple(cfg.tables), cs.params, cs.flags,
-                      tuple(cfg.consts), sim.kernel_rngs, self._act, _ONLY, 0, 1)
+                      tuple(cfg.consts), sim.kernel_rngs, _ONE, self._act)
 
     def _observe(self) -> np.ndarray:
         # the simulation's own arrays (padded; the kernel reads discs [0, n)): no copies

@@ -8,23 +8,23 @@ the same actions (``tests/test_vector.py`` checks it; ``tests/test_env_event.py`
 :mod:`discgym.env`, and the kernel of each reactor is the same
 (:func:`discgym.kernels.step.advance`, or :func:`discgym.kernels.event_driven.run_steps`).
 
-How it works: the state of all reactors lives in padded arrays ``(R, C, 2)`` / ``(R, C)`` with
-a capacity ``C = capacity_for_discs(max_discs)`` that can never run out (``max_discs``: the
-initial contents at their largest plus every feed budget), so one compiled function,
-:func:`discgym.kernels.batch.env_step` (called once per thread, each on a list of reactors of
-about equal cost, without the GIL: :func:`step_lists`), applies every reactor's action (heat,
-wall, injection), advances it and observes it, in place. It runs for each reactor the same
-:func:`~discgym.kernels.batch.reactor_step` as the single env, whose controls are the kernels
-of :mod:`discgym.kernels.controls` that ``Simulation.scale_temperature``, ``resize`` and
-``inject`` call (``tests/test_env.py`` checks the two paths agree to the bit; the differences:
-heating stops at the speed limit where ``scale_temperature`` refuses, and a refused wall move
-or injection has drawn from the generator). Each reactor keeps a real ``Simulation``, which
-moves its state arrays and counters into row r of those arrays (``Simulation.move_into``) and,
-after each step, books its disc count, step count, clocks, energy input and bounds
-(``Simulation.book_env_step``). ``env.simulations[r]`` is reactor r's ``Simulation``: its
-controls and ``set_state`` may be used between steps (the next step reads the disc count,
-clocks and bounds back); more discs than the capacity plan holds, or state arrays replaced,
-raise ``RuntimeError`` at the next step. Do not keep it across a reset, which builds a new one.
+How it works: the state of all reactors lives in padded arrays ``(R, C, 2)`` / ``(R, C)``
+with a capacity ``C = capacity_for_discs(max_discs)`` that can never run out (``max_discs``:
+the initial contents at their largest plus every feed budget), so one compiled call,
+:func:`discgym.kernels.batch.env_step_parallel` (a ``prange`` over reactors), applies every
+reactor's action (heat, wall, injection), advances it and observes it, in place. It runs
+for each reactor the same :func:`~discgym.kernels.batch.reactor_step` as the single env,
+whose controls are the kernels of :mod:`discgym.kernels.controls` that
+``Simulation.scale_temperature``, ``resize`` and ``inject`` call (``tests/test_env.py`` checks
+the two paths agree to the bit; the differences: heating stops at the speed limit where
+``scale_temperature`` refuses, and a refused wall move or injection has drawn from the
+generator). Each reactor keeps a real ``Simulation``, which moves its state arrays and
+counters into row r of those arrays (``Simulation.move_into``) and, after each step, books
+its disc count, step count, clocks, energy input and bounds (``Simulation.book_env_step``).
+``env.simulations[r]`` is reactor r's ``Simulation``: its controls and ``set_state`` may be
+used between steps (the next step reads the disc count, clocks and bounds back); more discs
+than the capacity plan holds, or state arrays replaced, raise ``RuntimeError`` at the next
+step. Do not keep it across a reset, which builds a new one.
 
 Autoreset: ``autoreset_mode`` ("NextStep", the Gymnasium default; "SameStep", with
 ``info["final_obs"]`` and ``info["final_info"]``; or "Disabled", then reset finished reactors
@@ -33,10 +33,7 @@ with ``reset(options={"reset_mask": mask})``); declared in ``metadata["autoreset
 
 from __future__ import annotations
 
-import os
-import threading
 from collections.abc import Mapping
-from concurrent.futures import ThreadPoolExecutor
 from functools import partial
 
 import numba
@@ -71,6 +68,7 @@ from .kernels.batch import (
     O_STATUS,
     balance,
     env_step,
+    env_step_parallel,
 )
 from .kernels.structs import COUNT, FLOAT, INDEX, Episodes, Reactors
 
@@ -81,53 +79,10 @@ __all__ = ["DiscReactorVectorEnv"]
 _EVENTS = [_step.IC_COLLISIONS, _step.IC_WALL_HITS, _step.IC_REACTIVE]
 
 
-_pool: ThreadPoolExecutor | None = None
-_pool_size = 0
-_pool_lock = threading.Lock()
-
-
-def _workers(n: int) -> ThreadPoolExecutor:
-    """The process's pool of threads for the vector envs' work lists, with at least ``n``
-    workers (one pool for all envs: threads are made once, not per env or per step). A
-    larger one replaces it; the old one's threads end once nothing refers to it."""
-    global _pool, _pool_size
-    with _pool_lock:
-        if _pool_size < n:
-            _pool, _pool_size = ThreadPoolExecutor(n, thread_name_prefix="discgym-vector"), n
-        return _pool
-
-
-def _forget_pool() -> None:
-    # a forked child has none of its parent's threads: it makes its own pool when it needs one
-    global _pool, _pool_size, _pool_lock
-    _pool, _pool_size, _pool_lock = None, 0, threading.Lock()
-
-
-os.register_at_fork(after_in_child=_forget_pool)
-
-
-def step_lists(args: tuple, order: np.ndarray, starts: list) -> None:
-    """Step work list t, the reactors ``order[starts[t]:starts[t + 1]]``, for every t: the
-    first on the calling thread, the others on the pool's threads, all at the same time
-    (:func:`~discgym.kernels.batch.env_step` releases the GIL). Returns when every list is
-    done; an error in one is raised after all have finished (none is left writing)."""
-    T = len(starts) - 1
-    pool = _workers(T - 1) if T > 1 else None
-    futures = [pool.submit(env_step, *args, order, starts[t], starts[t + 1])
-               for t in range(1, T) if starts[t] < starts[t + 1]]
-    try:
-        env_step(*args, order, starts[0], starts[1])
-    finally:
-        for f in futures:
-            f.exception()  # (waits)
-    for f in futures:
-        f.result()  # (raises the list's error, if any)
-
-
 class DiscReactorVectorEnv(VectorEnv):
     """``num_envs`` reactors of ``DiscReactor-v0``, advanced together in one compiled call
-    parallel over reactors (on a pool of threads, :func:`step_lists`; ``threads`` sets how
-    many, default: numba's current setting, ``numba.get_num_threads()``).
+    parallel over reactors (on numba's threads; ``threads`` sets how many, default: numba's
+    current setting).
 
     Arguments: the keyword arguments of :class:`~discgym.env.DiscReactorEnv`, with the same
     ranges (its docstring, section Arguments; ``render_mode`` "rgb_array" or None only,
@@ -479,19 +434,25 @@ class DiscReactorVectorEnv(VectorEnv):
         self._sync(idx)
         size0 = self._size.copy()
         rx, ep, tables, consts = self._fields
-        args = (rx, ep, tables, cs.params, cs.flags, consts, self._rngs, act)
+        args = (rx, ep, tables, cs.params, cs.flags, consts, self._rngs, active, act)
         sub0 = self._icnt[:, _step.IC_SUBSTEPS].copy()
         ev0 = self._icnt[:, _EVENTS].sum(axis=1)
-        T = 1
-        if len(idx) > 1 and self.threads != 1:  # (a lone reactor runs on the calling thread)
-            T = numba.get_num_threads() if self.threads is None else \
+        if len(idx) <= 1 or self.threads == 1:  # (a lone reactor runs on the calling thread)
+            env_step(*args)
+        else:
+            old = numba.get_num_threads()
+            want = old if self.threads is None else \
                 min(self.threads, numba.config.NUMBA_NUM_THREADS)
-            T = min(T, len(idx))
-        # one list of consecutive reactors per thread, of about equal cost (the last step's
-        # work of each reactor: disc-substeps + 4 x events)
-        starts = self._starts[:T + 1]
-        balance(self._cost, active, T, self._order, starts)
-        step_lists(args, self._order, starts.tolist())
+            # one list of consecutive reactors per thread, of about equal cost (the last
+            # step's work of each reactor: disc-substeps + 4 x events)
+            balance(self._cost, active, want, self._order, self._starts[:want + 1])
+            if want != old:
+                numba.set_num_threads(want)
+            try:
+                env_step_parallel(*args, self._order, self._starts[:want + 1])
+            finally:
+                if want != old:
+                    numba.set_num_threads(old)
         # the work of each reactor in this step, the estimate of its cost in the next
         cost = self._n * (self._icnt[:, _step.IC_SUBSTEPS] - sub0) + \
             4 * (self._icnt[:, _EVENTS].sum(axis=1) - ev0)

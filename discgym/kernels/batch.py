@@ -1,21 +1,21 @@
 """Many reactors in one compiled call: the environment's whole step (controls, physics,
 observation), and the per-species sums it observes.
 
-A batch of R reactors of the same scene is a :class:`~discgym.kernels.structs.Reactors` (padded
-rows, one per reactor) with the environment's per-episode state in an
+A batch of R reactors of the same scene is a :class:`~discgym.kernels.structs.Reactors`
+(padded rows, one per reactor) with the environment's per-episode state in an
 :class:`~discgym.kernels.structs.Episodes` and its constants in a
-:class:`~discgym.kernels.structs.ReactorConsts`. :func:`env_step` applies one action to each
-reactor of a list and advances it, one reactor after the other, without the GIL, so that
-threads can step disjoint lists of reactors at the same time (the vector env splits the active
-reactors into one list per thread, :func:`balance`). It runs :func:`reactor_step` for each
-reactor, and each reactor draws from its own ``np.random.Generator`` (a ``numba.typed.List`` of
-them: a tuple would compile once per batch size), so a reactor of a batch follows bit for bit
-the trajectory of a lone environment (``R = 1``) with the same state, generator and actions,
-whatever the lists. The physics of a step is the kernel :meth:`Simulation.step
+:class:`~discgym.kernels.structs.ReactorConsts`. :func:`env_step` applies one action to
+every active reactor and advances it, one reactor after the other; :func:`env_step_parallel`
+does the same in a ``prange`` over reactors (numba's threads). Both run the same
+:func:`reactor_step` for each reactor, and each reactor draws from its own
+``np.random.Generator`` (a ``numba.typed.List`` of them: a tuple would compile once per batch
+size, and numba refuses tuples of more than 100 items in a parallel region), so a reactor of
+a batch follows bit for bit the trajectory of a lone environment (``R = 1``) with the same
+state, generator and actions. The physics of a step is the kernel :meth:`Simulation.step
 <discgym.Simulation.step>` calls, single-threaded for each reactor: the time-stepped
 :func:`discgym.kernels.step.advance` or, with ``consts.integrator`` = ``EVENT``, one exact run
-of :func:`discgym.kernels.event_driven.run_steps` over the whole env step (as ``Simulation(...,
-integrator="event").step(steps_per_action)``); the controls are those of
+of :func:`discgym.kernels.event_driven.run_steps` over the whole env step (as
+``Simulation(..., integrator="event").step(steps_per_action)``); the controls are those of
 :mod:`~discgym.kernels.controls`, which the ``Simulation`` methods call.
 
 One call per environment step: the environment's Python only checks the action's shape,
@@ -34,7 +34,7 @@ Physics-free glue: this module imports numpy and numba only.
 import math
 
 import numpy as np
-from numba import njit
+from numba import njit, prange
 
 from .controls import RESIZED, heat, inject, resize
 from .event_driven import CELLS_PER_DISC, N_STATS, run_steps
@@ -66,26 +66,43 @@ O_HEAT, O_ENERGY_HEAT = range(2)  # then the energy each feed species' injection
 O_STATUS, O_BLOCKED, O_INVALID = range(3)  # then injected (F), then refused (F)
 
 
-@njit(cache=True, nogil=True)
-def env_step(rx, ep, tables, params, flags, consts, rngs, act, order, lo, hi):
-    """One environment step of the reactors ``order[lo:hi]``, one after the other (see
-    :func:`reactor_step` for the arguments; ``order`` (L,) int64 reactor indices). The
-    structs ``rx``, ``ep``, ``tables`` and ``consts`` come as plain tuples of their fields:
-    numba types those in C, a NamedTuple field by field in Python (about 0.5 us per field per
-    call, some 30 us for these four).
+@njit(cache=True)
+def env_step(rx, ep, tables, params, flags, consts, rngs, active, act):
+    """One environment step of every active reactor, one after the other (see
+    :func:`reactor_step` for the arguments; ``active`` (R,) bool). The structs ``rx``, ``ep``,
+    ``tables`` and ``consts`` come as plain tuples of their fields: numba types those in C,
+    a NamedTuple field by field in Python (about 0.5 us per field per call, some 30 us for
+    these four)."""
+    rx, ep, tables, consts = _structs(rx, ep, tables, consts)
+    for r in range(rx.pos.shape[0]):
+        if active[r]:
+            reactor_step(r, rx, ep, tables, params, flags, consts, rngs, act)
 
-    Parallel over reactors: it releases the GIL, so that Python threads can each step one
-    work list (:func:`balance`) at the same time (the vector env does). Each reactor touches
-    only its own rows, so there are no races, and the result is the same bits whatever the
-    lists. (Why not a ``prange``: numba compiles a parallel loop as one more function that
-    links the whole step again, and the first use of the vector env took some 50 s longer
-    to compile with it, for no gain in speed.)"""
-    rx = Reactors(*rx)
-    ep = Episodes(*ep)
-    tables = Tables(*tables)
-    consts = ReactorConsts(*consts)
-    for q in range(lo, hi):
-        reactor_step(order[q], rx, ep, tables, params, flags, consts, rngs, act)
+
+@njit(cache=True)
+def env_step_parallel(rx, ep, tables, params, flags, consts, rngs, active, act, order, starts):
+    """:func:`env_step` in parallel: a ``prange`` over T work lists, list t being the
+    reactors ``order[starts[t]:starts[t + 1]]`` (see :func:`balance`; T = the number of
+    threads gives each thread one list). Each reactor touches only its own rows, so there
+    are no races, and the result is the same bits whatever the lists. The structs come as
+    plain tuples, as for :func:`env_step`."""
+    rx, ep, tables, consts = _structs(rx, ep, tables, consts)
+    _in_parallel(rx, ep, tables, params, flags, consts, rngs, active, act, order, starts)
+
+
+@njit(cache=True, parallel=True)
+def _in_parallel(rx, ep, tables, params, flags, consts, rngs, active, act, order, starts):
+    # (apart from env_step_parallel: numba's parfor lowering fails on the unpacked structs)
+    for t in prange(starts.shape[0] - 1):
+        for q in range(starts[t], starts[t + 1]):
+            r = order[q]
+            if active[r]:
+                reactor_step(r, rx, ep, tables, params, flags, consts, rngs, act)
+
+
+@njit(cache=True)
+def _structs(rx, ep, tables, consts):
+    return Reactors(*rx), Episodes(*ep), Tables(*tables), ReactorConsts(*consts)
 
 
 @njit(cache=True)
@@ -97,8 +114,8 @@ def balance(cost, active, T, order, starts):
     (T + 1,).
 
     Why: the reactors of a batch cost very different amounts (a hot, dense reactor has many
-    more collisions and substeps than a cold, wide one), so blocks of equally many reactors
-    can leave a thread idle. Why consecutive: neighbouring reactors share cache
+    more collisions and substeps than a cold, wide one), so ``prange``'s blocks of equally
+    many reactors can leave a thread idle. Why consecutive: neighbouring reactors share cache
     lines (their rows of the counters, their generators' states), and lists that interleave
     them make threads fight over those lines."""
     R = cost.shape[0]
