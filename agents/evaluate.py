@@ -9,6 +9,8 @@ other seeds, see train_ppo.py), on a fresh ``gymnasium.make(env_id)``:
 - best constant: the best of the task's grid of constant actions, searched on seeds 0-9;
 - hand-written: the task's controller (``discgym.baselines.TASK_BASELINES``);
 - each trained agent, with deterministic actions (its best validation checkpoint by default);
+- with two or more runs of one algorithm (training seeds, say), a row of their mean return on
+  each seed;
 - oracle: rollout MPC on clones of the true env (``discgym.oracle.RolloutOracle``).
 The table gives the mean and the interquartile mean with 95% BCa bootstrap intervals
 (``scipy.stats.bootstrap`` through ``discgym.baselines``) and each policy's paired difference
@@ -306,10 +308,37 @@ def evaluate_task(env_id: str, runs: list, seeds: list, search_seeds: list,
             row["algo"] = info["algo"]
             row["train"] = info["summary"]
         rows[name] = row
+    rows.update(pooled_rows(rows, ref))
     return {"env_id": env_id, "env_kwargs": kw, "eval_seeds": list(seeds),
             "search_seeds": list(search_seeds), "checkpoint": checkpoint,
             "deterministic": deterministic,
             "best_constant": [float(x) for x in best], "policies": rows}
+
+
+def pooled_rows(rows: dict, ref: np.ndarray) -> dict:
+    """For each algorithm with two or more runs in ``rows`` (training seeds, say): a row of
+    their mean return on each evaluation seed, with the same statistics (``ref``: the
+    hand-written controller's returns). Its intervals are over the evaluation seeds for
+    these runs; they say nothing of runs not trained."""
+    from discgym.baselines import iqm_ci, mean_ci, paired_difference
+
+    by_algo: dict = {}
+    for name, row in rows.items():
+        if "algo" in row and "pooled" not in row:
+            by_algo.setdefault(row["algo"], []).append(name)
+    out = {}
+    for algo, names in by_algo.items():
+        if len(names) < 2:
+            continue
+        r = np.mean([rows[n]["returns"] for n in names], axis=0)
+        key = f"{algo}: mean of {len(names)} runs"
+        out[key] = {"label": f"{key} (each seed's mean over the runs)", "pooled": names,
+                    "mean": mean_ci(r).as_dict(), "iqm": iqm_ci(r).as_dict(),
+                    "minus_hand_written": paired_difference(r, ref[:len(r)]).as_dict(),
+                    "seconds_per_episode": float(np.mean(
+                        [rows[n]["seconds_per_episode"] for n in names])),
+                    "returns": [float(x) for x in r]}
+    return out
 
 
 # ------------------------------------------------------------------------ table and figures

@@ -176,6 +176,15 @@ def env_steps_per_step(venv) -> int:
     return hold
 
 
+def check_args(args: Args) -> None:
+    """Refuse what no run could use, before anything is built (``eval_episodes`` is checked
+    even when ``eval_freq`` turns validation off: a typo should not wait for the next run)."""
+    n = args.eval_episodes
+    if isinstance(n, bool) or not isinstance(n, int) or not 1 <= n <= MAX_EVAL_EPISODES:
+        raise ValueError(f"eval_episodes: expected an int in [1, {MAX_EVAL_EPISODES}], got "
+                         f"{n!r}")
+
+
 def _callbacks(args: Args, out: Path, n_envs: int, normalize, gamma: float, wrappers=None,
                hold: int = 1):
     """EvalCallback on the validation seeds (re-seeded before every evaluation, so that every
@@ -199,9 +208,6 @@ def _callbacks(args: Args, out: Path, n_envs: int, normalize, gamma: float, wrap
             return super()._on_step()
 
     n = args.eval_episodes
-    if isinstance(n, bool) or not isinstance(n, int) or not 1 <= n <= MAX_EVAL_EPISODES:
-        raise ValueError(f"eval_episodes: expected an int in [1, {MAX_EVAL_EPISODES}], got "
-                         f"{n!r}")
     # one reactor per episode: every checkpoint meets the same n episodes, seeds 500 .. 500 + n - 1
     eval_env = make_vec_env(args, n, normalize, gamma, wrappers=wrappers)
     if hasattr(eval_env, "training"):
@@ -235,6 +241,7 @@ def train(args: Args) -> Path:
     import torch
     from stable_baselines3.common.logger import configure
 
+    check_args(args)
     out = args.folder()
     out.mkdir(parents=True, exist_ok=True)
     hp = load_hyperparams(args)

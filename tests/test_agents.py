@@ -104,6 +104,30 @@ def test_oracles_on_the_first_seeds_only_are_compared_on_those(ppo_run):
     assert "(seeds 1000-1001 only)" in evaluate.table(res)
 
 
+def test_several_runs_of_one_algorithm_get_a_row_of_their_mean(ppo_run, tmp_path):
+    """Two runs (training seeds, say): each keeps its row, and a third row holds their mean
+    return on each evaluation seed, paired against the controller like the others."""
+    import shutil
+
+    twin = tmp_path / "twin_run"
+    shutil.copytree(ppo_run, twin)
+    res = evaluate.evaluate_task("DiscReactor-v0", [ppo_run, twin], [1000, 1001, 1002], [0],
+                                 {"episode_steps": 20}, workers=1, oracle=False,
+                                 log=lambda s: None)
+    P = res["policies"]
+    a, b = P[f"ppo ({ppo_run.name})"], P["ppo (twin_run)"]
+    pooled = P["ppo: mean of 2 runs"]
+    mean = (np.array(a["returns"]) + np.array(b["returns"])) / 2
+    assert np.allclose(pooled["returns"], mean) and pooled["pooled"] == [
+        f"ppo ({ppo_run.name})", "ppo (twin_run)"]
+    d = mean - np.array(P["hand-written"]["returns"])
+    assert pooled["minus_hand_written"]["value"] == pytest.approx(d.mean())
+    assert "| ppo: mean of 2 runs (each seed's mean over the runs) |" in evaluate.table(res)
+    lone = evaluate.pooled_rows({k: v for k, v in P.items() if k != "ppo (twin_run)"},
+                                np.array(P["hand-written"]["returns"]))
+    assert lone == {}  # (one run: nothing to pool)
+
+
 def test_evaluation_does_not_depend_on_the_worker_count(ppo_run):
     kw = dict(env_id="DiscReactor-v0", runs=[ppo_run], seeds=[1000, 1001, 1002],
               search_seeds=[0], env_kwargs={"episode_steps": 20}, oracle=False,
@@ -226,8 +250,11 @@ def test_evaluate_main_writes_the_table_with_date_and_machine(ppo_run, tmp_path)
 
 @pytest.mark.parametrize("n", [0, -1, 501, True, 2.0])
 def test_bad_eval_episodes_is_refused_before_training(hp_dir, tmp_path, n):
-    with pytest.raises(ValueError, match="eval_episodes"):
-        train_ppo.train(_args(hp_dir, tmp_path / "run", eval_episodes=n))
+    for eval_freq in (128, 0):  # (also when validation is off)
+        with pytest.raises(ValueError, match="eval_episodes"):
+            train_ppo.train(_args(hp_dir, tmp_path / "run", eval_episodes=n,
+                                  eval_freq=eval_freq))
+        assert not (tmp_path / "run").exists()  # (refused before anything is written)
 
 
 def test_eval_episodes_sets_the_validation_batch(hp_dir, tmp_path):

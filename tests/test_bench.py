@@ -237,3 +237,28 @@ def test_scripts_print_their_help(script):
     res = subprocess.run([sys.executable, str(BENCHMARKS / script), "--help"],
                          capture_output=True, text=True, timeout=300)
     assert res.returncode == 0 and res.stdout.startswith("usage: " + script), res.stderr
+
+
+def test_compile_profile_splits_each_function_s_own_time_from_its_callees():
+    """benchmarks/compile_profile.py: a caller's inclusive time holds its callee's, its own
+    time does not, and a call with a literal argument is counted as a literal version."""
+    import compile_profile
+    import numba
+    from numba.core import event
+
+    @numba.njit
+    def leaf(x, k):
+        return x + k
+
+    @numba.njit
+    def caller(x):
+        return leaf(x, 1)
+
+    with event.install_recorder("numba:compile") as rec:
+        caller(1.0)
+    r = compile_profile.compile_times(rec.buffer)
+    name = {k.rsplit(".", 1)[-1]: k for k in r["own"]}
+    c, f = name["caller"], name["leaf"]
+    assert r["incl"][c] >= r["incl"][f] + r["own"][c] - 1e-9  # (the leaf compiles inside)
+    assert 0 < r["own"][c] < r["incl"][c] and 0 < r["own"][f] <= r["incl"][f]
+    assert r["literal"].get(f, 0) >= 1 and c not in r["literal"]

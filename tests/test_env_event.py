@@ -313,3 +313,21 @@ def test_a_decomposing_scene_stays_within_the_planned_capacity():
         o, *_ = env.step(a[0])
     assert np.array_equal(o, obs[0])
     assert np.array_equal(env.simulation.positions, venv.simulations[0].positions)
+
+
+def test_the_batch_step_compiles_one_advance_and_one_event_loop():
+    """The event integrator's fallback calls the stepped ``advance`` with the batch's own
+    argument types, and ``_events`` calls ``_event_loop`` with an int64 count, not literals:
+    numba would compile another version of each, with everything below it, for a literal
+    (about 25 s of the flagship's first-use compile, benchmarks/compile_profile.py)."""
+    from numba import types
+
+    from discgym.kernels import event_driven, step
+
+    venv = DiscReactorVectorEnv(num_envs=2, **KW)
+    venv.reset(seed=0)
+    venv.step(np.zeros((2, 4), np.float32))
+    for fn, args in ((step.advance, slice(2, 3)), (step.advance, slice(11, 13)),
+                     (event_driven._event_loop, slice(1, 2))):
+        for sig in fn.signatures:
+            assert not any(isinstance(t, types.Literal) for t in sig[args]), (fn, sig)

@@ -1,0 +1,98 @@
+"""What numba compiles on first use, and how long each function takes.
+
+Builds an env (by default the flagship's training env: DiscFlow-v0's vector env of 16
+reactors on the event-driven integrator, as ``agents/train_ppo.py`` builds it) in a process
+whose numba cache is a fresh temporary folder, steps it once, and prints every compiled
+function's own time (its compile minus that of the functions it compiled on the way) and
+its inclusive time, from numba's ``numba:compile`` events. The own time of a function that
+calls others is mostly LLVM optimising and generating code for everything it links in, so
+deep call chains pay for their leaves again at every level.
+
+    python benchmarks/compile_profile.py                       # the flagship's env
+    python benchmarks/compile_profile.py --env DiscReactor-v0 --integrator step --num-envs 1
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import re
+import subprocess
+import sys
+import tempfile
+import time
+from collections import defaultdict
+
+
+def profile(env_id: str, integrator: str | None, num_envs: int) -> dict:
+    """In this process (its numba cache must be empty): compile times by function."""
+    import numpy as np
+    from numba.core import event
+
+    t0 = time.perf_counter()
+    with event.install_recorder("numba:compile") as rec:
+        from discgym.tasks import TASKS
+        from discgym.vector import DiscReactorVectorEnv
+
+        kw = dict(TASKS[env_id][0].defaults)
+        if integrator:
+            kw["integrator"] = integrator
+        venv = DiscReactorVectorEnv(num_envs=num_envs, **kw)
+        venv.reset(seed=0)
+        venv.step(np.zeros((num_envs,) + venv.single_action_space.shape, np.float32))
+    wall = time.perf_counter() - t0
+    return {"wall": wall, **compile_times(rec.buffer)}
+
+
+def compile_times(buffer) -> dict:
+    """From a ``numba:compile`` recorder's buffer: ``own`` and ``incl`` (seconds by function
+    name: without and with the functions compiled inside its compile) and ``literal`` (how
+    many versions of each were compiled for literal arguments)."""
+    own, incl, literal = defaultdict(float), defaultdict(float), defaultdict(int)
+    stack = []
+    for ts, ev in buffer:
+        f = getattr(ev.data.get("dispatcher"), "py_func", None)
+        name = f"{f.__module__}.{f.__qualname__}" if f else "?"
+        if ev.is_start:
+            stack.append([name, ts, 0.0])
+            if re.search(r"Literal\[", str(ev.data.get("args"))):
+                literal[name] += 1
+            continue
+        name, start, children = stack.pop()
+        own[name] += ts - start - children
+        incl[name] += ts - start
+        if stack:
+            stack[-1][2] += ts - start
+    return {"own": dict(own), "incl": dict(incl), "literal": dict(literal)}
+
+
+def main(argv=None) -> int:
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    p.add_argument("--env", default="DiscFlow-v0")
+    p.add_argument("--integrator", default="event", help="'step', 'event' or '' (the task's)")
+    p.add_argument("--num-envs", type=int, default=16)
+    p.add_argument("--top", type=int, default=15)
+    p.add_argument("--child", action="store_true", help=argparse.SUPPRESS)
+    a = p.parse_args(argv)
+    if not a.child:  # run in a child whose numba cache is empty, whatever this one's holds
+        with tempfile.TemporaryDirectory() as cache:
+            env = dict(os.environ, NUMBA_CACHE_DIR=cache)
+            args = sys.argv[1:] if argv is None else list(argv)
+            return subprocess.call([sys.executable, __file__, "--child", *args], env=env)
+    r = profile(a.env, a.integrator or None, a.num_envs)
+    total = sum(r["own"].values())
+    print(f"{a.env}, {a.num_envs} reactors, integrator {a.integrator or 'of the task'}: first "
+          f"step after {r['wall']:.1f} s, of which {total:.1f} s compiling "
+          f"({len(r['own'])} functions)\n")
+    print("| function | own s | inclusive s |\n|---|---|---|")
+    for name, t in sorted(r["own"].items(), key=lambda kv: -kv[1])[:a.top]:
+        print(f"| {name.replace('discgym.kernels.', '')} | {t:.1f} | {r['incl'][name]:.1f} |")
+    lit = {k: v for k, v in r["literal"].items() if k.startswith("discgym")}
+    print("\ncompiled for literal arguments (a version of its own each): " +
+          (", ".join(f"{k.replace('discgym.kernels.', '')} x{v}" for k, v in sorted(lit.items()))
+           or "none"))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
