@@ -34,6 +34,8 @@ import numpy as np
 from numba import njit, prange
 
 from .celllist import build, cell_coord, cell_radius, cell_range, make_grid, overlaps_any
+from .clusters import CLUSTER_MIN, eligible, new_owner
+from .clusters import events as cluster_events
 from .collisions import bounce, normal_at, pair_time
 from .heap import new_heap, pop, push, reserve
 from .reactions import (
@@ -52,6 +54,8 @@ from .reactions import (
 from .resolve import resolve
 from .structs import (
     COUNT,
+    DISC_EVENTS,
+    EVENTS_PER_DISC,
     F_BI,
     F_COLLISIONS,
     F_FISSION,
@@ -59,11 +63,33 @@ from .structs import (
     F_THERMAL,
     F_UNI,
     FLOAT,
+    FS_DISSIPATED,
+    FS_OUTFLOW,
+    FS_WALL_HEAT,
+    FS_WALL_MOMENTUM,
+    IC_COLLISIONS,
+    IC_CUTS,
+    IC_EVENTS_CAPPED,
+    IC_GLIDES,
+    IC_GRAZE_REPAIRS,
+    IC_LEFT_OVERLAPPING,
+    IC_NO_ROOM,
+    IC_PUSHED_INSIDE,
+    IC_REACTIVE,
+    IC_RESOLVED,
+    IC_RESPLITS,
+    IC_SUBSTEPS,
+    IC_SUBSTEPS_CAPPED,
+    IC_TC_ELASTIC,
+    IC_WALL_HITS,
     INDEX,
+    N_FSUMS,  # noqa: F401 (step.N_FSUMS: the counters' sizes, read by Simulation)
+    N_ICOUNTERS,  # noqa: F401
     P_MAXDISP,
     P_RELAX,
     P_RESTITUTION,
     P_RMIN,
+    VR_ROUNDOFF,
     Bounds,
     Counters,
     Discs,
@@ -89,41 +115,10 @@ from .walls import (
     thermal_velocity,
 )
 
-# Integer counters (icnt)
-IC_COLLISIONS = 0  # non-reactive disc-disc collisions
-IC_WALL_HITS = 1
-IC_SUBSTEPS = 2
-IC_EVENTS_CAPPED = 3  # substeps finished by the fallback (an event bound was reached)
-IC_PUSHED_INSIDE = 4  # discs overlapping a wall while moving inward, moved inside
-IC_NO_ROOM = 5  # reactions that could not place their products (they wait / bounce)
-IC_SUBSTEPS_CAPPED = 6  # steps that needed more than MAX_SUBSTEPS substeps (or, when the rest
-# of a step was split anew, substeps shorter than its share of them: see _resplit)
-IC_REACTIVE = 7  # reactive collisions (also counted per channel)
-IC_TC_ELASTIC = 8  # repeat collisions within a substep made elastic (TC model, e < 1 only)
-IC_GLIDES = 9  # grazing discs advanced through many circle-wall reflections at once
-IC_RESOLVED = 10  # discs moved in / pairs pushed apart by the fallback (resolve.py)
-IC_GRAZE_REPAIRS = 11  # substeps repaired (and not event-capped) because a pair was found
-# overlapping while separating: left by a missed graze, by an earlier repair or by set_state
-IC_LEFT_OVERLAPPING = 12  # (internal) detections of such pairs: they trigger the repair
-IC_RESPLITS = 13  # times the rest of a step was split anew: a reaction or a release of internal
-# energy left a disc faster than the current substep allows (see advance)
-IC_CUTS = 14  # substeps ended at such a reaction inside their event phase (each one re-split)
-N_ICOUNTERS = 15
-# Float accumulators (fsum)
-FS_WALL_MOMENTUM = 0  # momentum delivered to the walls (for the pressure)
-FS_DISSIPATED = 1  # kinetic energy lost to restitution e < 1
-FS_WALL_HEAT = 2  # energy the thermal walls put into the discs (negative: taken out), per
-# side: FS_WALL_HEAT + side (LEFT ... TOP of kernels.structs; a circle's wall: side 0)
-FS_OUTFLOW = 6  # energy (kinetic + internal + formation) carried out through outlets
-N_FSUMS = 7
 # What a wall event did (_wall_event)
 W_NONE, W_REFLECTED, W_THERMAL, W_LEFT = range(4)
 
 MAX_SUBSTEPS = 1 << 16
-VR_ROUNDOFF = 1e-13  # a pair whose approach speed is below this fraction of its speeds is not
-# approaching: the impulse would be lost to round-off and the pair re-detected forever
-EVENTS_PER_DISC = 64  # event budget per substep: EVENTS_PER_DISC * n + 1024
-DISC_EVENTS = 1024  # events one disc may take part in per substep; past it, see resolve.py
 REBUILD_UNBINNED = 256  # rebuild the grid when this many discs were created since it was built
 OV_SLOTS = 4  # overlaps recorded per disc by the (parallel) broad phase; more: rescanned
 PARALLEL_MIN = 65536  # below this many discs a step runs on one thread: waking numba's
@@ -550,11 +545,27 @@ def _pl_permute(n, perm, pl, inv, fs):
 
 
 # ------------------------------------------------------------------ phase 3: event queue
+@njit(cache=True, inline="always")
+def _add(H, size, sift, t, i, j, si, sj):
+    """Push an event (``sift``) or append it to the unordered rows ``H[0:size]``."""
+    if sift:
+        return push(H, size, t, i, j, si, sj)
+    if size >= H.shape[0]:
+        raise IndexError("event list full: room was not reserved (a bug in the caller)")
+    H[size, 0] = t
+    H[size, 1] = i
+    H[size, 2] = j
+    H[size, 3] = si
+    H[size, 4] = sj
+    return size + 1
+
+
 @njit(cache=True)
-def _try_pair(i, j, sp_radius, pos, vel, species, tlast, stamp, H, size, icnt):
+def _try_pair(i, j, sp_radius, pos, vel, species, tlast, stamp, H, size, icnt, sift=True):
     """Queue the contact of i and j if they overlap and touched in this step (room for one
-    event must be reserved); returns the new heap size. A pair left overlapping while
-    separating (``pair_time`` +inf) is counted in ``icnt[IC_LEFT_OVERLAPPING]``."""
+    event must be reserved; ``sift`` False: appended, see :func:`_queue_initial`); returns
+    the new size. A pair left overlapping while separating (``pair_time`` +inf) is counted in
+    ``icnt[IC_LEFT_OVERLAPPING]``."""
     t = pair_time(pos[i, 0], pos[i, 1], vel[i, 0], vel[i, 1], sp_radius[species[i]], tlast[i],
                   pos[j, 0], pos[j, 1], vel[j, 0], vel[j, 1], sp_radius[species[j]], tlast[j])
     if math.isnan(t):
@@ -563,17 +574,19 @@ def _try_pair(i, j, sp_radius, pos, vel, species, tlast, stamp, H, size, icnt):
         icnt[IC_LEFT_OVERLAPPING] += 1
         return size
     if i < j:
-        return push(H, size, t, i, j, stamp[i], stamp[j])
-    return push(H, size, t, j, i, stamp[j], stamp[i])
+        return _add(H, size, sift, t, i, j, stamp[i], stamp[j])
+    return _add(H, size, sift, t, j, i, stamp[j], stamp[i])
 
 
 @njit(cache=True)
-def _queue_initial(n, collide, sp_radius, pos, vel, species, sc, grid, H, icnt, pl, listed):
+def _queue_initial(n, collide, sp_radius, pos, vel, species, sc, grid, H, icnt, pl, listed,
+                   sift):
     """Queue every wall contact and every overlapping pair of the substep: the pairs the
     broad phase found (``sc.ov_n``, ``sc.ov_b``: small discs; by sorted position from the
     scan, half stencil, or by disc from the pair list ``pl`` if ``listed``) and those of the
     big discs (found here: each big disc against the cells within its radius + rcell and the
-    big discs after it). ``sc``: the :class:`~.structs.Scratch`."""
+    big discs after it). ``sc``: the :class:`~.structs.Scratch`. ``sift``: a heap; else the
+    events are appended in the order found (for kernels.clusters: roughly in cell order)."""
     tlast, stamp, wall_t, wflag = sc.tlast, sc.stamp, sc.wall_t, sc.wflag
     cell_start, cell_items, cell_of = sc.cell_start, sc.cell_items, sc.cell_of
     sx, sy, sr, ov_n, ov_b = sc.sx, sc.sy, sc.sr, sc.ov_n, sc.ov_b
@@ -598,14 +611,14 @@ def _queue_initial(n, collide, sp_radius, pos, vel, species, sc, grid, H, icnt, 
     size = 0
     for i in range(n):
         if wall_t[i] < math.inf:
-            size = push(H, size, wall_t[i], i, -1, stamp[i], 0)
+            size = _add(H, size, sift, wall_t[i], i, -1, stamp[i], 0)
     if not collide:
         return H, size
     if listed:
         ovi, ovj = pl.ovi, pl.ovj
         for q in range(pl.count[1]):
             size = _try_pair(ovi[q], ovj[q], sp_radius, pos, vel, species, tlast, stamp, H, size,
-                             icnt)
+                             icnt, sift)
     for a in range(0 if listed else cell_start[nbc]):
         k = ov_n[a]
         if k == 0:
@@ -614,26 +627,26 @@ def _queue_initial(n, collide, sp_radius, pos, vel, species, sc, grid, H, icnt, 
         if k <= OV_SLOTS:
             for q in range(k):
                 size = _try_pair(i, cell_items[ov_b[a, q]], sp_radius, pos, vel, species, tlast,
-                                 stamp, H, size, icnt)
+                                 stamp, H, size, icnt, sift)
             continue
         # more partners than slots: scan this disc's stencil again
         e1, lo2, hi2 = _strips(cell_of[i], ncx, ncy, cell_start)
         for b in range(a + 1, e1):
             size = _try_pair(i, cell_items[b], sp_radius, pos, vel, species, tlast, stamp, H, size,
-                             icnt)
+                             icnt, sift)
         for b in range(lo2, hi2):
             size = _try_pair(i, cell_items[b], sp_radius, pos, vel, species, tlast, stamp, H, size,
-                             icnt)
+                             icnt, sift)
     for a in range(cell_start[nbc], cell_start[nbc + 1]):  # the big discs
         i = cell_items[a]
         cx0, cx1, cy0, cy1 = cell_range(sx[a], sy[a], sr[a] + rcell, grid)
         for cy in range(cy0, cy1 + 1):
             for b in range(cell_start[cx0 + ncx * cy], cell_start[cx1 + 1 + ncx * cy]):
                 size = _try_pair(i, cell_items[b], sp_radius, pos, vel, species, tlast, stamp, H,
-                                 size, icnt)
+                                 size, icnt, sift)
         for b in range(a + 1, cell_start[nbc + 1]):
             size = _try_pair(i, cell_items[b], sp_radius, pos, vel, species, tlast, stamp, H, size,
-                             icnt)
+                             icnt, sift)
     return H, size
 
 
@@ -1351,6 +1364,10 @@ def advance(discs, n, n_steps, dt, bounds, tables, params, flags, rng, cnt, thre
     pl = new_pairlist(ws if listed else 0, PAIR_CAP * ws if listed else 0)
     big = sp_radius.max() > rcell  # (discs not in the list: see PairList)
     full = True  # (the list is built at the first substep, and after a reordering)
+    # the event phase by clusters (kernels.clusters) where the scene's events are local
+    clustered = eligible(rc, bounds_kind) and n >= CLUSTER_MIN
+    own = new_owner(grid) if clustered else np.empty(0, dtype=INDEX)
+    nbc = ncx * ncy
     for s in range(n_steps):
         if reorder_every > 0 and n >= REORDER_MIN and (step0 + s) % reorder_every == 0:
             _reorder(n, pos, vel, species, internal_energy, ids, rgrid, work)
@@ -1373,16 +1390,28 @@ def advance(discs, n, n_steps, dt, bounds, tables, params, flags, rng, cnt, thre
                                 bounds_params, grid, sc, collide, pl, listed, full, big)
             full = False
             left0 = icnt[IC_LEFT_OVERLAPPING]
+            # (the clusters take the events as found, in cell order; the serial phase a heap)
+            cl = clustered and sc.cell_start[nbc + 1] == sc.cell_start[nbc]
             H, size = _queue_initial(n, collide, sp_radius, pos, vel, species, sc, grid, H, icnt,
-                                     pl, listed)
+                                     pl, listed, not cl)
             # a substep is cut short (at a reaction, see _events) only while the step has
             # taken fewer than MAX_SUBSTEPS substeps and not shorter than the capped substep
             # dt / MAX_SUBSTEPS: a step of a finite number of substeps, each of them useful
             cut_after = dt / MAX_SUBSTEPS if taken < MAX_SUBSTEPS else math.inf
             taken += 1
-            H, n_dead, delta, dropped, vfast, vrel, t_cut = _events(
-                n, H, size, tables, Discs(pos, vel, species, internal_energy, ids, idctr), sc,
-                bounds, grid, cnt, rc, icnt[IC_SUBSTEPS], h, vfast, cut_after, rng)
+            done = False
+            if cl:
+                done, delta, dropped, vfast = cluster_events(
+                    n, H, size, tables, Discs(pos, vel, species, internal_energy, ids, idctr),
+                    sc, bounds, grid, cnt, rc, icnt[IC_SUBSTEPS], h, vfast, own,
+                    threads if threads > 1 and n >= PARALLEL_MIN else 1)
+                n_dead = 0
+                vrel = 0.0
+                t_cut = 0.0
+            if not done:
+                H, n_dead, delta, dropped, vfast, vrel, t_cut = _events(
+                    n, H, size, tables, Discs(pos, vel, species, internal_energy, ids, idctr),
+                    sc, bounds, grid, cnt, rc, icnt[IC_SUBSTEPS], h, vfast, cut_after, rng)
             hu = h  # the length of this substep
             if t_cut < 0.0:
                 icnt[IC_CUTS] += 1

@@ -50,6 +50,41 @@ LEFT, RIGHT, BOTTOM, TOP = range(4)
 N_SIDES = 4
 
 
+# The stepped integrator's counters (indices into Counters.icnt and Counters.fsum) and the
+# bounds of its event phase (kernels.step, kernels.clusters).
+# Integer counters (icnt)
+IC_COLLISIONS = 0  # non-reactive disc-disc collisions
+IC_WALL_HITS = 1
+IC_SUBSTEPS = 2
+IC_EVENTS_CAPPED = 3  # substeps finished by the fallback (an event bound was reached)
+IC_PUSHED_INSIDE = 4  # discs overlapping a wall while moving inward, moved inside
+IC_NO_ROOM = 5  # reactions that could not place their products (they wait / bounce)
+IC_SUBSTEPS_CAPPED = 6  # steps that needed more than MAX_SUBSTEPS substeps (or, when the rest
+# of a step was split anew, substeps shorter than its share of them: see _resplit)
+IC_REACTIVE = 7  # reactive collisions (also counted per channel)
+IC_TC_ELASTIC = 8  # repeat collisions within a substep made elastic (TC model, e < 1 only)
+IC_GLIDES = 9  # grazing discs advanced through many circle-wall reflections at once
+IC_RESOLVED = 10  # discs moved in / pairs pushed apart by the fallback (resolve.py)
+IC_GRAZE_REPAIRS = 11  # substeps repaired (and not event-capped) because a pair was found
+# overlapping while separating: left by a missed graze, by an earlier repair or by set_state
+IC_LEFT_OVERLAPPING = 12  # (internal) detections of such pairs: they trigger the repair
+IC_RESPLITS = 13  # times the rest of a step was split anew: a reaction or a release of internal
+# energy left a disc faster than the current substep allows (see advance)
+IC_CUTS = 14  # substeps ended at such a reaction inside their event phase (each one re-split)
+N_ICOUNTERS = 15
+# Float accumulators (fsum)
+FS_WALL_MOMENTUM = 0  # momentum delivered to the walls (for the pressure)
+FS_DISSIPATED = 1  # kinetic energy lost to restitution e < 1
+FS_WALL_HEAT = 2  # energy the thermal walls put into the discs (negative: taken out), per
+# side: FS_WALL_HEAT + side (LEFT ... TOP of kernels.structs; a circle's wall: side 0)
+FS_OUTFLOW = 6  # energy (kinetic + internal + formation) carried out through outlets
+N_FSUMS = 7
+VR_ROUNDOFF = 1e-13  # a pair whose approach speed is below this fraction of its speeds is not
+# approaching: the impulse would be lost to round-off and the pair re-detected forever
+EVENTS_PER_DISC = 64  # event budget per substep: EVENTS_PER_DISC * n + 1024
+DISC_EVENTS = 1024  # events one disc may take part in per substep; past it, see resolve.py
+
+
 class Tables(NamedTuple):
     """The per-species and per-channel tables of a compiled scene (built by
     :func:`discgym.compiled.compile_scene`); kernels read them by name."""

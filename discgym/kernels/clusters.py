@@ -1,0 +1,677 @@
+"""The event phase of a substep by clusters of events (``kernels.step``, phase 2).
+
+The serial event phase (``step._events``) pops one heap of the whole reactor in time order.
+Most of its events have nothing to do with each other: a collision at one end of the box
+cannot change what happens at the other end within a substep unless a chain of contacts
+links them. Here the substep's initial events (its wall contacts and overlapping pairs) are
+grouped by the cells they claim, each disc's cell and the cells within ``CLAIM`` cells of
+it, merged by union-find; each group (a *cluster*) is processed alone, in its own time
+order, from its own small heap, clusters in memory order, and on several threads the
+clusters of one chunk on one thread (:func:`events`).
+
+Why the result is the serial phase's, bit for bit: a cluster reads the discs of the cells
+it searches and changes only discs it found there, so when no two clusters search the same
+cell, every disc sees the same events in the same (t, i, j) order as in the serial phase
+(the events of the other clusters touch none of the discs it reads). A cluster whose search
+would leave its cells stops, is undone (each disc back to its state at the start of the
+phase) and is left to the repair: run alone after the others, it claims the free cells it
+searches, and when it reaches a cell of another cluster both are undone and run again as
+one. The search radius of a cluster is its own largest displacement (``rcell + delta``, as
+the serial phase's is the largest so far of all discs); it finds every disc that can
+overlap one of its discs, or else the other disc's search reaches into its cells. The
+float sums of the substep (the wall momentum, the energy lost to restitution) are
+recorded with their event's (t, i, j) and added in that order; the integer counts, the
+largest displacement and speed do not depend on the order.
+
+Only scenes whose events touch nothing but the two discs of an event take this path
+(:func:`eligible`): box bounds (a disc gliding along a circle's wall reads the global
+heap), no thermal walls, outlets or bimolecular reactions (they draw random numbers, add
+or remove discs, and may cut a substep short at a global time), no release of internal
+no big discs (every search reads them all). A substep whose clusters would spend more than
+the event budget, or where a collision would release internal energy (which may end the
+substep at its time), runs the serial phase instead, from the same start.
+"""
+
+import math
+
+import numpy as np
+from numba import njit, prange
+
+from .celllist import cell_range
+from .collisions import bounce, normal_at, pair_time
+from .heap import new_heap, pop, push, reserve
+from .structs import (
+    DISC_EVENTS,
+    FLOAT,
+    FS_DISSIPATED,
+    FS_WALL_MOMENTUM,
+    IC_COLLISIONS,
+    IC_LEFT_OVERLAPPING,
+    IC_PUSHED_INSIDE,
+    IC_TC_ELASTIC,
+    IC_WALL_HITS,
+    INDEX,
+    N_ICOUNTERS,
+    VR_ROUNDOFF,
+)
+from .walls import contact, push_inside, reflect, settle_after_reflection
+
+CLAIM = 1  # cells a cluster claims around each disc of its initial events (each side)
+CLUSTER_MIN = 4096  # fewer discs: the serial event phase (docs/performance.md)
+_DEBUG = False
+REC_SLACK = 1024  # records a chunk has room for beyond its initial events (more: repair)
+
+# a run's outcome
+R_OK, R_ESCAPE, R_CONFLICT, R_FULL, R_SERIAL = range(5)
+# a cluster's status
+C_PENDING, C_DONE, C_ESCAPED, C_MERGED = range(4)
+
+
+@njit(cache=True)
+def eligible(rc, bounds_kind):
+    """Can a scene's substeps (``rc``: its :class:`~.structs.RunConsts`) take this path?
+    (The big discs are checked per substep.)"""
+    return (rc.collide and not rc.has_bi and not rc.thermal and not rc.outlets
+            and bounds_kind == 0)
+
+
+@njit(cache=True)
+def new_owner(grid):
+    """The owner of each cell (-1: none), as :func:`events` expects it between substeps."""
+    return np.full(int(grid[4]) * int(grid[5]), -1, dtype=INDEX)
+
+
+@njit(cache=True, inline="always")
+def _find(parent, a):
+    while parent[a] != a:
+        parent[a] = parent[parent[a]]
+        a = parent[a]
+    return a
+
+
+@njit(cache=True)
+def _cluster(size, H, cell_of, grid, own):
+    """Group the events H[0:size] by the cells they claim. Returns ``(ncl, ev_start, evs,
+    cells)``: cluster c's events are ``evs[ev_start[c]:ev_start[c + 1]]`` (rows of H);
+    ``own`` holds the cluster of each claimed cell, ``cells``. Clusters are numbered in the
+    order of their first disc's cell."""
+    ncx = int(grid[4])
+    ncy = int(grid[5])
+    parent = np.arange(size)
+    side = 2 * CLAIM + 1
+    touched = np.empty(2 * side * side * size, dtype=np.int64)
+    nt = 0
+    for q in range(size):
+        for d in (int(H[q, 1]), int(H[q, 2])):
+            if d < 0:
+                continue
+            c = cell_of[d]
+            cx = c % ncx
+            cy = c // ncx
+            for yy in range(max(cy - CLAIM, 0), min(cy + CLAIM, ncy - 1) + 1):
+                for xx in range(max(cx - CLAIM, 0), min(cx + CLAIM, ncx - 1) + 1):
+                    cc = xx + ncx * yy
+                    o = own[cc]
+                    if o < 0:
+                        own[cc] = q
+                        touched[nt] = cc
+                        nt += 1
+                    elif o != q:
+                        a = _find(parent, q)
+                        b = _find(parent, o)
+                        if a < b:
+                            parent[b] = a
+                        elif b < a:
+                            parent[a] = b
+    # number the clusters by the cell of their root event's first disc (memory order)
+    ncl = 0
+    for q in range(size):
+        parent[q] = _find(parent, q)
+        if parent[q] == q:
+            ncl += 1
+    roots = np.empty(ncl, dtype=np.int64)
+    key = np.empty(ncl, dtype=np.int64)
+    k = 0
+    for q in range(size):
+        if parent[q] == q:
+            roots[k] = q
+            key[k] = cell_of[int(H[q, 1])]
+            k += 1
+    order = np.argsort(key)
+    cid = np.empty(size, dtype=np.int64)
+    for c in range(ncl):
+        cid[roots[order[c]]] = c
+    for q in range(size):
+        cid[q] = cid[parent[q]]  # (parent[q] is q's root after the finds above)
+    ev_start = np.zeros(ncl + 1, dtype=np.int64)
+    for q in range(size):
+        ev_start[cid[q] + 1] += 1
+    for c in range(ncl):
+        ev_start[c + 1] += ev_start[c]
+    evs = np.empty(size, dtype=np.int64)
+    fill = ev_start[:ncl].copy()
+    for q in range(size):
+        evs[fill[cid[q]]] = q
+        fill[cid[q]] += 1
+    for a in range(nt):
+        own[touched[a]] = cid[own[touched[a]]]
+    return ncl, ev_start, evs, touched[:nt]
+
+
+@njit(cache=True)
+def _undo(lg, lo, hi, h, pos, vel, sc):
+    """Put the discs logged in ``lg[lo:hi]`` back as they were at the start of the phase."""
+    for r in range(lo, hi):
+        k = int(lg[r, 0])
+        pos[k, 0] = sc.binx[k]
+        pos[k, 1] = sc.biny[k]
+        vel[k, 0] = lg[r, 1]
+        vel[k, 1] = lg[r, 2]
+        sc.stamp[k] = int(lg[r, 3])
+        sc.lastcol[k] = int(lg[r, 4])
+        sc.tlast[k] = -h
+        sc.partner[k] = -1
+        sc.nev[k] = 0
+
+
+@njit(cache=True, inline="always")
+def _schedule(d, cid, dynamic, pos, vel, species, sp_radius, tlast, stamp, cell_start,
+              cell_items, bounds_kind, bounds_params, grid, reach, own, cparent, dyn, nd, H,
+              size, cicnt, crow):
+    """``step._schedule`` for a cluster: first checks that every cell it searches is the
+    cluster's (``own``; ``dynamic``: a free cell is claimed and noted in ``dyn``, a cell of
+    another cluster found by ``cparent``). Returns ``(code, other, nd, H, size)``: code
+    R_ESCAPE (a cell not its own, not ``dynamic``), R_CONFLICT (``other``: the cluster
+    owning it), R_FULL (``dyn`` full) or R_OK."""
+    r = sp_radius[species[d]]
+    x = pos[d, 0]
+    y = pos[d, 1]
+    vx = vel[d, 0]
+    vy = vel[d, 1]
+    td = tlast[d]
+    t, axis, inward = contact(x, y, vx, vy, r, bounds_kind, bounds_params)
+    if inward and t == math.inf:
+        push_inside(d, pos, r, bounds_kind, bounds_params)
+        cicnt[crow, IC_PUSHED_INSIDE] += 1
+        x = pos[d, 0]
+        y = pos[d, 1]
+    ncx = int(grid[4])
+    cx0, cx1, cy0, cy1 = cell_range(x, y, r + reach, grid)
+    need = 1
+    for cy in range(cy0, cy1 + 1):
+        for cx in range(cx0, cx1 + 1):
+            c = cx + ncx * cy
+            o = own[c]
+            if o == cid:
+                continue
+            if not dynamic:
+                return R_ESCAPE, -1, nd, H, size
+            if o < 0:
+                if nd >= dyn.shape[0]:
+                    return R_FULL, -1, nd, H, size
+                own[c] = cid
+                dyn[nd] = c
+                nd += 1
+            else:
+                g = _find(cparent, o)
+                if g != cid:
+                    return R_CONFLICT, g, nd, H, size
+        need += cell_start[cx1 + 1 + ncx * cy] - cell_start[cx0 + ncx * cy]
+    H = reserve(H, size, need)
+    if t < math.inf:
+        size = push(H, size, max(t, td), d, -1, stamp[d], 0)
+    sd = stamp[d]
+    for cy in range(cy0, cy1 + 1):
+        for a in range(cell_start[cx0 + ncx * cy], cell_start[cx1 + 1 + ncx * cy]):
+            k = cell_items[a]
+            if k == d or species[k] < 0:
+                continue
+            tc = pair_time(x, y, vx, vy, r, td, pos[k, 0], pos[k, 1], vel[k, 0], vel[k, 1],
+                           sp_radius[species[k]], tlast[k])
+            if tc == math.inf:
+                cicnt[crow, IC_LEFT_OVERLAPPING] += 1
+            elif not math.isnan(tc):
+                if d < k:
+                    size = push(H, size, tc, d, k, sd, stamp[k])
+                else:
+                    size = push(H, size, tc, k, d, stamp[k], sd)
+    return R_OK, -1, nd, H, size
+
+
+def _run_py(cid, dynamic, H, size, discs, tables, sc, bounds_kind, bounds_params, grid, rc,
+            sub_id, own, cparent, dyn, nd, lg, nlog, cicnt, crow, rec, nrec, budget):
+    """Process one cluster's heap ``H[0:size]`` in time order, as ``step._events`` does for
+    the scenes of :func:`eligible`. Before its first event each disc is logged in ``lg``
+    (rows from ``nlog``: disc, velocity, stamp, lastcol; what :func:`_undo` needs). Float
+    terms go to ``rec`` rows (t, i, j, which sum, value) from ``nrec``; counts to
+    ``cicnt[crow]``. Returns ``(code, other, H, nd, nrec, nlog, events, delta, vfast,
+    dropped)`` (``code``: R_OK, or why it stopped: see :func:`_schedule`; R_FULL also for
+    ``rec`` and ``lg``;
+    R_SERIAL past ``budget`` events or at a release of internal energy, which the serial
+    phase must handle). Compiled twice: inlined into the loop over a chunk's clusters
+    (:func:`_chunk`: a call per cluster would reference-count its dozens of arrays) and as a
+    function for the repair."""
+    pos, vel, species, internal_energy = discs.pos, discs.vel, discs.species, discs.internal_energy
+    sp_radius, sp_mass = tables.sp_radius, tables.sp_mass
+    tlast, stamp, lastcol, partner, nev = sc.tlast, sc.stamp, sc.lastcol, sc.partner, sc.nev
+    binx, biny, cell_start, cell_items = sc.binx, sc.biny, sc.cell_start, sc.cell_items
+    e = rc.restitution
+    kappa = rc.relax
+    rcell = rc.rcell
+    delta = 0.0
+    vfast = 0.0
+    events = 0
+    dropped = False
+    while size > 0:
+        t, i, j, si, sj, size = pop(H, size)
+        if stamp[i] != si or (j >= 0 and stamp[j] != sj):
+            continue
+        if nev[i] >= DISC_EVENTS or (j >= 0 and nev[j] >= DISC_EVENTS):
+            dropped = True
+            continue
+        events += 1
+        if events > budget:
+            return R_SERIAL, -1, H, nd, nrec, nlog, events, delta, vfast, dropped
+        for w in range(1 if j < 0 else 2):  # log the discs of their first event
+            d = i if w == 0 else j
+            if nev[d] == 0:
+                if nlog >= lg.shape[0]:
+                    return R_FULL, -1, H, nd, nrec, nlog, events, delta, vfast, dropped
+                lg[nlog, 0] = d
+                lg[nlog, 1] = vel[d, 0]
+                lg[nlog, 2] = vel[d, 1]
+                lg[nlog, 3] = stamp[d]
+                lg[nlog, 4] = lastcol[d]
+                nlog += 1
+            nev[d] += 1
+        if j < 0:
+            r = sp_radius[species[i]]
+            tw, axis, inward = contact(pos[i, 0], pos[i, 1], vel[i, 0], vel[i, 1], r,
+                                       bounds_kind, bounds_params)
+            if tw == math.inf:
+                continue
+            if nrec >= rec.shape[0]:
+                return R_FULL, -1, H, nd, nrec, nlog, events, delta, vfast, dropped
+            tw = max(tw, tlast[i])
+            dp = reflect(i, tw, axis, pos, vel, sp_mass[species[i]], bounds_kind, bounds_params)
+            rec[nrec, 0] = t
+            rec[nrec, 1] = i
+            rec[nrec, 2] = -1
+            rec[nrec, 3] = FS_WALL_MOMENTUM
+            rec[nrec, 4] = dp
+            nrec += 1
+            cicnt[crow, IC_WALL_HITS] += 1
+            partner[i] = -1
+            tlast[i] = tw
+            if settle_after_reflection(i, axis, pos, r, bounds_kind, bounds_params):
+                cicnt[crow, IC_PUSHED_INSIDE] += 1
+            stamp[i] += 1
+            delta = max(delta, math.hypot(pos[i, 0] - binx[i], pos[i, 1] - biny[i]))
+        else:
+            vxi = vel[i, 0]
+            vyi = vel[i, 1]
+            vxj = vel[j, 0]
+            vyj = vel[j, 1]
+            xi, yi, xj, yj, nx, ny = normal_at(pos[i, 0], pos[i, 1], vxi, vyi, pos[j, 0],
+                                               pos[j, 1], vxj, vyj, t)
+            vr = (vxi - vxj) * nx + (vyi - vyj) * ny
+            if vr <= VR_ROUNDOFF * (abs(vxi) + abs(vyi) + abs(vxj) + abs(vyj)):
+                continue
+            if partner[i] == j and partner[j] == i:
+                continue
+            if kappa > 0.0 and internal_energy[i] + internal_energy[j] > 0.0:
+                # a release of internal energy may cut the substep short at its time: serial
+                return R_SERIAL, -1, H, nd, nrec, nlog, events, delta, vfast, dropped
+            e_eff = e
+            if e < 1.0:
+                if lastcol[i] == sub_id or lastcol[j] == sub_id:
+                    e_eff = 1.0
+                    cicnt[crow, IC_TC_ELASTIC] += 1
+                lastcol[i] = sub_id
+                lastcol[j] = sub_id
+            vxi, vyi, vxj, vyj, ui, uj, lost = bounce(vxi, vyi, vxj, vyj, sp_mass[species[i]],
+                                                      sp_mass[species[j]], nx, ny, e_eff, kappa,
+                                                      internal_energy[i], internal_energy[j])
+            if e < 1.0:
+                if nrec >= rec.shape[0]:
+                    return R_FULL, -1, H, nd, nrec, nlog, events, delta, vfast, dropped
+                rec[nrec, 0] = t
+                rec[nrec, 1] = i
+                rec[nrec, 2] = j
+                rec[nrec, 3] = FS_DISSIPATED
+                rec[nrec, 4] = lost
+                nrec += 1
+            vel[i, 0] = vxi
+            vel[i, 1] = vyi
+            vel[j, 0] = vxj
+            vel[j, 1] = vyj
+            pos[i, 0] = xi - t * vxi
+            pos[i, 1] = yi - t * vyi
+            pos[j, 0] = xj - t * vxj
+            pos[j, 1] = yj - t * vyj
+            cicnt[crow, IC_COLLISIONS] += 1
+            tlast[i] = t
+            tlast[j] = t
+            stamp[i] += 1
+            stamp[j] += 1
+            partner[i] = j
+            partner[j] = i
+            delta = max(delta, math.hypot(pos[i, 0] - binx[i], pos[i, 1] - biny[i]))
+            delta = max(delta, math.hypot(pos[j, 0] - binx[j], pos[j, 1] - biny[j]))
+            vfast = max(vfast, math.hypot(vxi, vyi), math.hypot(vxj, vyj))
+        for w in range(1 if j < 0 else 2):  # the new contacts of i (and j)
+            code, other, nd, H, size = _schedule(
+                i if w == 0 else j, cid, dynamic, pos, vel, species, sp_radius, tlast, stamp,
+                cell_start, cell_items, bounds_kind, bounds_params, grid, rcell + delta, own,
+                cparent, dyn, nd, H, size, cicnt, crow)
+            if code != R_OK:
+                return code, other, H, nd, nrec, nlog, events, delta, vfast, dropped
+    return R_OK, -1, H, nd, nrec, nlog, events, delta, vfast, dropped
+
+
+_run = njit(cache=True)(_run_py)
+_run_inline = njit(cache=True, inline="always")(_run_py)
+
+
+@njit(cache=True, inline="always")
+def _load(H, E, evs, lo, hi):
+    """A heap of the events ``E[evs[lo:hi]]``; returns (H, size)."""
+    H = reserve(H, 0, hi - lo)
+    size = 0
+    for a in range(lo, hi):
+        q = evs[a]
+        size = push(H, size, E[q, 0], int(E[q, 1]), int(E[q, 2]), int(E[q, 3]), int(E[q, 4]))
+    return H, size
+
+
+# the columns of a cluster's integer results (res): what it did and where its records and
+# its log are (rows of the chunks' buffers, or of the repair's if X_REPAIRED is 1)
+X_EVENTS, X_DROPPED, X_REC_LO, X_REC_HI, X_LOG_LO, X_LOG_HI, X_REPAIRED = range(7)
+
+
+@njit(cache=True)
+def _chunk(c0, c1, E, ev_start, evs, discs, tables, sc, bounds_kind, bounds_params, grid, rc,
+           sub_id, h, own, rec, rec0, lg, lg0, budget, status, res, resf, cicnt):
+    """Clusters [c0, c1) in turn, on one thread; their records in ``rec`` and their logs in
+    ``lg`` (this chunk's rows, the first of which are rows ``rec0`` and ``lg0`` of all the
+    chunks'). A cluster that escapes its cells, or finds no room for its records or its log,
+    is undone (C_ESCAPED); one past the budget or at a release of internal energy is undone
+    and stops the chunk (``res[c, X_EVENTS]`` = -1)."""
+    H = new_heap(256)
+    cparent = np.empty(0, dtype=np.int64)
+    dyn = np.empty(0, dtype=np.int64)
+    nrec = 0
+    nlog = 0
+    pos, vel = discs.pos, discs.vel
+    for c in range(c0, c1):
+        H, size = _load(H, E, evs, ev_start[c], ev_start[c + 1])
+        code, other, H, nd, nrec1, nlog1, events, delta, vfast, dropped = _run_inline(
+            c, False, H, size, discs, tables, sc, bounds_kind, bounds_params, grid, rc,
+            sub_id, own, cparent, dyn, 0, lg, nlog, cicnt, c, rec, nrec, budget)
+        if code != R_OK:
+            _undo(lg, nlog, nlog1, h, pos, vel, sc)
+            cicnt[c, :] = 0
+            if code == R_SERIAL:
+                res[c, X_EVENTS] = -1
+                return
+            status[c] = C_ESCAPED
+            continue
+        status[c] = C_DONE
+        res[c, X_EVENTS] = events
+        res[c, X_DROPPED] = 1 if dropped else 0
+        res[c, X_REC_LO] = rec0 + nrec
+        res[c, X_REC_HI] = rec0 + nrec1
+        res[c, X_LOG_LO] = lg0 + nlog
+        res[c, X_LOG_HI] = lg0 + nlog1
+        resf[c, 0] = delta
+        resf[c, 1] = vfast
+        nrec = nrec1
+        nlog = nlog1
+
+
+@njit(cache=True, parallel=True)
+def _chunks_parallel(nch, bounds_c, E, ev_start, evs, discs, tables, sc, bounds_kind,
+                     bounds_params, grid, rc, sub_id, h, own, rec, rcap, lg, lcap, budget,
+                     status, res, resf, cicnt):
+    for k in prange(nch):
+        _chunk(bounds_c[k], bounds_c[k + 1], E, ev_start, evs, discs, tables, sc, bounds_kind,
+               bounds_params, grid, rc, sub_id, h, own, rec[k * rcap:(k + 1) * rcap], k * rcap,
+               lg[k * lcap:(k + 1) * lcap], k * lcap, budget, status, res, resf, cicnt)
+
+
+@njit(cache=True)
+def _undo_done(c, res, lg, lg2, h, pos, vel, sc):
+    """Undo what cluster (or merged group) c did, from its log."""
+    if res[c, X_REPAIRED]:
+        _undo(lg2, res[c, X_LOG_LO], res[c, X_LOG_HI], h, pos, vel, sc)
+    else:
+        _undo(lg, res[c, X_LOG_LO], res[c, X_LOG_HI], h, pos, vel, sc)
+
+
+@njit(cache=True)
+def _grown(a, used):
+    b = np.empty((2 * a.shape[0], a.shape[1]), dtype=a.dtype)
+    b[:used] = a[:used]
+    return b
+
+
+@njit(cache=True)
+def _repair(ncl, E, ev_start, evs, discs, tables, sc, bounds_kind, bounds_params, grid, rc,
+            sub_id, h, own, lg, budget, status, res, resf, cicnt):
+    """Run the escaped clusters one at a time, growing them into free cells and merging
+    them with the clusters they reach (undone and run again as one). Returns ``(ok, dyn,
+    nd, rec2, lg2)``: ``ok`` False when a run went past the budget or reached a release of
+    internal energy (it is undone); the free cells claimed, ``dyn[0:nd]``; the records and
+    logs of the repaired clusters (``res[c, X_REPAIRED]`` = 1)."""
+    pos, vel = discs.pos, discs.vel
+    cparent = np.arange(ncl)
+    cnext = np.full(ncl, -1, dtype=np.int64)
+    ctail = np.arange(ncl)
+    dyn = np.empty(1024, dtype=np.int64)
+    nd = 0
+    rec2 = np.empty((256, 5), dtype=FLOAT)
+    lg2 = np.empty((1024, 5), dtype=FLOAT)
+    nrec = 0
+    nlog = 0
+    H = new_heap(256)
+    for c0 in range(ncl):
+        if status[c0] != C_ESCAPED:
+            continue
+        g = c0
+        while True:
+            # a heap of the initial events of every cluster merged into g
+            need = 0
+            c = g
+            while c >= 0:
+                need += ev_start[c + 1] - ev_start[c]
+                c = cnext[c]
+            H = reserve(H, 0, need)
+            size = 0
+            c = g
+            while c >= 0:
+                for a in range(ev_start[c], ev_start[c + 1]):
+                    q = evs[a]
+                    size = push(H, size, E[q, 0], int(E[q, 1]), int(E[q, 2]), int(E[q, 3]),
+                                int(E[q, 4]))
+                c = cnext[c]
+            cicnt[g, :] = 0
+            code, other, H, nd, nrec1, nlog1, events, delta, vfast, dropped = _run(
+                g, True, H, size, discs, tables, sc, bounds_kind, bounds_params, grid, rc,
+                sub_id, own, cparent, dyn, nd, lg2, nlog, cicnt, g, rec2, nrec, budget)
+            if code == R_OK:
+                status[g] = C_DONE
+                res[g, X_EVENTS] = events
+                res[g, X_DROPPED] = 1 if dropped else 0
+                res[g, X_REC_LO] = nrec
+                res[g, X_REC_HI] = nrec1
+                res[g, X_LOG_LO] = nlog
+                res[g, X_LOG_HI] = nlog1
+                res[g, X_REPAIRED] = 1
+                resf[g, 0] = delta
+                resf[g, 1] = vfast
+                nrec = nrec1
+                nlog = nlog1
+                break
+            _undo(lg2, nlog, nlog1, h, pos, vel, sc)
+            cicnt[g, :] = 0
+            if code == R_SERIAL:
+                return False, dyn, nd, rec2, lg2
+            if code == R_FULL:  # room for more claimed cells, records, log, and again
+                if nd + 64 >= dyn.shape[0]:
+                    grown = np.empty(2 * dyn.shape[0], dtype=np.int64)
+                    grown[:nd] = dyn[:nd]
+                    dyn = grown
+                if nrec1 + 64 >= rec2.shape[0]:
+                    rec2 = _grown(rec2, nrec)
+                if nlog1 + 64 >= lg2.shape[0]:
+                    lg2 = _grown(lg2, nlog)
+                continue
+            # R_CONFLICT: merge the cluster it reached into g (undone if it ran)
+            if status[other] == C_DONE:
+                _undo_done(other, res, lg, lg2, h, pos, vel, sc)
+            cicnt[other, :] = 0
+            lo = min(g, other)
+            hi = max(g, other)
+            cparent[hi] = lo
+            cnext[ctail[lo]] = hi
+            ctail[lo] = ctail[hi]
+            status[hi] = C_MERGED
+            g = lo
+            status[g] = C_PENDING
+    return True, dyn, nd, rec2, lg2
+
+
+@njit(cache=True)
+def events(n, H, size, tables, discs, sc, bounds, grid, cnt, rc, sub_id, h, vfast, own,
+           threads):
+    """The event phase of a substep (as ``step._events`` for the scenes of
+    :func:`eligible`), by clusters. ``H[0:size]`` holds the substep's initial events in
+    any order (``step._queue_initial`` without ``sift``: in cell order), made a heap when
+    the serial phase must run; ``own``: :func:`new_owner` (returned to all -1). Returns
+    ``(done, delta, dropped, vfast)``; ``done`` False (nothing changed) when the clusters
+    would spend more than the substep's event budget or reach a release of internal energy:
+    the caller then runs the serial phase."""
+    bounds_kind, bounds_params = bounds.kind, bounds.params
+    pos, vel = discs.pos, discs.vel
+    budget = 64 * n + 1024
+    E = H[:size]
+    ncl, ev_start, evs, cells = _cluster(size, E, sc.cell_of, grid, own)
+    status = np.full(ncl, C_PENDING, dtype=np.int64)
+    res = np.zeros((ncl, 7), dtype=np.int64)
+    resf = np.zeros((ncl, 2), dtype=FLOAT)
+    cicnt = np.zeros((ncl, N_ICOUNTERS), dtype=np.int64)
+    nch = max(min(threads, ncl), 1)
+    # chunks of about equal numbers of events
+    bounds_c = np.empty(nch + 1, dtype=np.int64)
+    bounds_c[0] = 0
+    c = 0
+    for k in range(1, nch):
+        while c < ncl and ev_start[c] < k * size // nch:
+            c += 1
+        bounds_c[k] = c
+    bounds_c[nch] = ncl
+    most = 0
+    for k in range(nch):
+        most = max(most, ev_start[bounds_c[k + 1]] - ev_start[bounds_c[k]])
+    rcap = most + REC_SLACK
+    lcap = 3 * most + REC_SLACK
+    rec = np.empty((nch * rcap, 5), dtype=FLOAT)
+    lg = np.empty((nch * lcap, 5), dtype=FLOAT)
+    if nch > 1:
+        _chunks_parallel(nch, bounds_c, E, ev_start, evs, discs, tables, sc, bounds_kind,
+                         bounds_params, grid, rc, sub_id, h, own, rec, rcap, lg, lcap, budget,
+                         status, res, resf, cicnt)
+    else:
+        _chunk(0, ncl, E, ev_start, evs, discs, tables, sc, bounds_kind, bounds_params, grid,
+               rc, sub_id, h, own, rec, 0, lg, 0, budget, status, res, resf, cicnt)
+    ok = True
+    for c in range(ncl):
+        if res[c, X_EVENTS] < 0:
+            ok = False
+    if ok:
+        ok, dyn, nd, rec2, lg2 = _repair(ncl, E, ev_start, evs, discs, tables, sc, bounds_kind,
+                                         bounds_params, grid, rc, sub_id, h, own, lg, budget,
+                                         status, res, resf, cicnt)
+    else:
+        dyn = np.empty(0, dtype=np.int64)
+        nd = 0
+        rec2 = np.empty((0, 5), dtype=FLOAT)
+        lg2 = np.empty((0, 5), dtype=FLOAT)
+    total = 0
+    nrec = 0
+    for c in range(ncl):
+        if status[c] == C_DONE:
+            total += res[c, X_EVENTS]
+            nrec += res[c, X_REC_HI] - res[c, X_REC_LO]
+    if not ok or total > budget:  # the serial phase stops where the budget runs out
+        for c in range(ncl):
+            if status[c] == C_DONE:
+                _undo_done(c, res, lg, lg2, h, pos, vel, sc)
+        _release(cells, dyn, nd, own)
+        E2 = E.copy()  # the serial phase pops a heap
+        m = 0
+        for q in range(size):
+            m = push(H, m, E2[q, 0], int(E2[q, 1]), int(E2[q, 2]), int(E2[q, 3]), int(E2[q, 4]))
+        return False, 0.0, False, vfast
+    icnt, fsum = cnt.icnt, cnt.fsum
+    delta = 0.0
+    dropped = False
+    R = np.empty((nrec, 5), dtype=FLOAT)
+    k = 0
+    for c in range(ncl):
+        if status[c] != C_DONE:
+            continue
+        for q in range(N_ICOUNTERS):
+            icnt[q] += cicnt[c, q]
+        dropped = dropped or res[c, X_DROPPED] != 0
+        delta = max(delta, resf[c, 0])
+        vfast = max(vfast, resf[c, 1])
+        src = rec2 if res[c, X_REPAIRED] else rec
+        for a in range(res[c, X_REC_LO], res[c, X_REC_HI]):
+            R[k] = src[a]
+            k += 1
+    _add_in_order(R, fsum)
+    _release(cells, dyn, nd, own)
+    if _DEBUG:
+        nmer = 0
+        for c in range(ncl):
+            if status[c] == C_MERGED:
+                nmer += 1
+        print("cl", n, size, ncl, nd, nmer, total, nch)
+    return True, delta, dropped, vfast
+
+
+@njit(cache=True)
+def _release(cells, dyn, nd, own):
+    """Free the cells the clusters claimed (``own`` back to -1)."""
+    for a in range(cells.shape[0]):
+        own[cells[a]] = -1
+    for a in range(nd):
+        own[dyn[a]] = -1
+
+
+@njit(cache=True)
+def _add_in_order(R, fsum):
+    """Add the recorded terms R (rows t, i, j, which sum, value) to ``fsum`` in the serial
+    phase's order: by (t, i, j), terms of one event in the order recorded (a disc at a
+    corner meets both walls at one t)."""
+    m = R.shape[0]
+    order = np.argsort(R[:, 0], kind="mergesort")
+    # ties in t: order by (i, j), stably (insertion sort of each run of equal t)
+    a = 0
+    while a < m:
+        b = a + 1
+        while b < m and R[order[b], 0] == R[order[a], 0]:
+            b += 1
+        for p in range(a + 1, b):
+            q = order[p]
+            s = p
+            while s > a and (R[order[s - 1], 1] > R[q, 1] or (
+                    R[order[s - 1], 1] == R[q, 1] and R[order[s - 1], 2] > R[q, 2])):
+                order[s] = order[s - 1]
+                s -= 1
+            order[s] = q
+        a = b
+    for p in range(m):
+        q = order[p]
+        fsum[int(R[q, 3])] += R[q, 4]
