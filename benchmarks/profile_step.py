@@ -156,7 +156,7 @@ def profiled_advance(discs, n, n_steps, dt, bounds, tables, params, flags, rng, 
                 T[5] += t0 - t1
             left0 = icnt[S.IC_LEFT_OVERLAPPING]
             H, size = S._queue_initial(n, collide, sp_radius, pos, vel, species, sc, grid, H,
-                                       icnt, pl, listed, True)
+                                       icnt, pl, listed)
             t1 = _now(clk)
             T[9] += t1 - t0
             H, n_dead, delta, dropped, vfast, vrel, t_cut = S._events(

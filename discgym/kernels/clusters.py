@@ -39,6 +39,7 @@ from numba import njit, prange
 
 from .celllist import cell_range
 from .collisions import bounce, normal_at, pair_time
+from .contacts import add_event, half_stencil, try_pair
 from .heap import new_heap, pop, push, reserve
 from .structs import (
     DISC_EVENTS,
@@ -52,13 +53,12 @@ from .structs import (
     IC_WALL_HITS,
     INDEX,
     N_ICOUNTERS,
+    OV_SLOTS,
     VR_ROUNDOFF,
 )
 from .walls import contact, push_inside, reflect, settle_after_reflection
 
-CLAIM = 1  # cells a cluster claims around each disc of its initial events (each side)
-CLUSTER_MIN = 4096  # fewer discs: the serial event phase (docs/performance.md)
-_DEBUG = False
+CLAIM = 2  # cells a cluster claims around each disc of its initial events (each side)
 REC_SLACK = 1024  # records a chunk has room for beyond its initial events (more: repair)
 
 # a run's outcome
@@ -89,40 +89,260 @@ def _find(parent, a):
     return a
 
 
+@njit(cache=True, inline="always")
+def _rows(k, nst, ncy):
+    """The cell rows [r0, r1) of strip k of nst."""
+    return k * ncy // nst, (k + 1) * ncy // nst
+
+
 @njit(cache=True)
-def _cluster(size, H, cell_of, grid, own):
-    """Group the events H[0:size] by the cells they claim. Returns ``(ncl, ev_start, evs,
-    cells)``: cluster c's events are ``evs[ev_start[c]:ev_start[c + 1]]`` (rows of H);
-    ``own`` holds the cluster of each claimed cell, ``cells``. Clusters are numbered in the
-    order of their first disc's cell."""
+def _count(k, nst, sc, grid, pl, listed, qcnt):
+    """How many events strip k may queue: the wall contacts of its discs and the pairs it
+    tests (the scan: its sorted discs' overlaps; the pair list: its share of the list).
+    Counts its discs the drift pushed inside (in ``qcnt[k]``)."""
+    ncx = int(grid[4])
+    r0, r1 = _rows(k, nst, int(grid[5]))
+    cell_items, wall_t, wflag = sc.cell_items, sc.wall_t, sc.wflag
+    need = 0
+    pushed = 0
+    for a in range(sc.cell_start[r0 * ncx], sc.cell_start[r1 * ncx]):
+        i = cell_items[a]
+        if wall_t[i] < math.inf:
+            need += 1
+        pushed += wflag[i]
+    qcnt[k, IC_PUSHED_INSIDE] += pushed
+    if listed:
+        m = pl.count[1]
+        need += (k + 1) * m // nst - k * m // nst
+    else:
+        for a in range(sc.cell_start[r0 * ncx], sc.cell_start[r1 * ncx]):
+            need += sc.ov_n[a]
+    return need
+
+
+@njit(cache=True)
+def _fill(k, nst, E, off, sp_radius, pos, vel, species, sc, grid, pl, listed, qcnt):
+    """Append strip k's initial events (those :func:`_count` counted that occur) to E from
+    row ``off``, as ``step._queue_initial`` queues them; returns how many."""
     ncx = int(grid[4])
     ncy = int(grid[5])
-    parent = np.arange(size)
-    side = 2 * CLAIM + 1
-    touched = np.empty(2 * side * side * size, dtype=np.int64)
-    nt = 0
-    for q in range(size):
-        for d in (int(H[q, 1]), int(H[q, 2])):
+    r0, r1 = _rows(k, nst, ncy)
+    cell_start, cell_items, cell_of = sc.cell_start, sc.cell_items, sc.cell_of
+    tlast, stamp, wall_t, ov_n, ov_b = sc.tlast, sc.stamp, sc.wall_t, sc.ov_n, sc.ov_b
+    icnt = qcnt[k]
+    size = off
+    a0 = cell_start[r0 * ncx]
+    a1 = cell_start[r1 * ncx]
+    for a in range(a0, a1):
+        i = cell_items[a]
+        if wall_t[i] < math.inf:
+            size = add_event(E, size, False, wall_t[i], i, -1, stamp[i], 0)
+    if listed:
+        m = pl.count[1]
+        for q in range(k * m // nst, (k + 1) * m // nst):
+            size = try_pair(pl.ovi[q], pl.ovj[q], sp_radius, pos, vel, species, tlast, stamp, E,
+                            size, icnt, False)
+        return size - off
+    for a in range(a0, a1):
+        kk = ov_n[a]
+        if kk == 0:
+            continue
+        i = cell_items[a]
+        if kk <= OV_SLOTS:
+            for q in range(kk):
+                size = try_pair(i, cell_items[ov_b[a, q]], sp_radius, pos, vel, species, tlast,
+                                stamp, E, size, icnt, False)
+            continue
+        e1, lo2, hi2 = half_stencil(cell_of[i], ncx, ncy, cell_start)
+        for b in range(a + 1, e1):
+            size = try_pair(i, cell_items[b], sp_radius, pos, vel, species, tlast, stamp, E,
+                            size, icnt, False)
+        for b in range(lo2, hi2):
+            size = try_pair(i, cell_items[b], sp_radius, pos, vel, species, tlast, stamp, E,
+                            size, icnt, False)
+    return size - off
+
+
+@njit(cache=True)
+def _claims(k, nst, q0, q1, E, cell_of, grid, own, parent, touched, t0, bnd, b0):
+    """Strip k's claims for the events E[q0:q1]: each disc's cell and the cells within CLAIM
+    of it, those in the strip's rows in ``own`` (a free cell: the event's; another event's:
+    the two joined in ``parent``), the others noted in ``bnd`` from row b0 (event, cell) for
+    the serial pass (:func:`_number`). Returns (cells claimed, noted in ``touched`` from
+    t0; boundary claims)."""
+    ncx = int(grid[4])
+    ncy = int(grid[5])
+    r0, r1 = _rows(k, nst, ncy)
+    nt = t0
+    nb = b0
+    for q in range(q0, q1):
+        for w in range(2):
+            d = int(E[q, 1 + w])
             if d < 0:
                 continue
             c = cell_of[d]
             cx = c % ncx
             cy = c // ncx
             for yy in range(max(cy - CLAIM, 0), min(cy + CLAIM, ncy - 1) + 1):
+                inside = r0 <= yy < r1
                 for xx in range(max(cx - CLAIM, 0), min(cx + CLAIM, ncx - 1) + 1):
                     cc = xx + ncx * yy
+                    if not inside:
+                        bnd[nb, 0] = q
+                        bnd[nb, 1] = cc
+                        nb += 1
+                        continue
                     o = own[cc]
                     if o < 0:
                         own[cc] = q
                         touched[nt] = cc
                         nt += 1
                     elif o != q:
-                        a = _find(parent, q)
-                        b = _find(parent, o)
-                        if a < b:
-                            parent[b] = a
-                        elif b < a:
-                            parent[a] = b
+                        _union(parent, q, o)
+    return nt - t0, nb - b0
+
+
+@njit(cache=True, inline="always")
+def _union(parent, a, b):
+    a = _find(parent, a)
+    b = _find(parent, b)
+    if a < b:
+        parent[b] = a
+    elif b < a:
+        parent[a] = b
+
+
+@njit(cache=True, parallel=True)
+def _queue_parallel(nst, E, off, sp_radius, pos, vel, species, sc, grid, pl, listed, qcnt, got):
+    for k in prange(nst):
+        got[k] = _fill(k, nst, E, off[k], sp_radius, pos, vel, species, sc, grid, pl, listed,
+                       qcnt)
+
+
+@njit(cache=True, parallel=True)
+def _count_parallel(nst, sc, grid, pl, listed, qcnt, need):
+    for k in prange(nst):
+        need[k] = _count(k, nst, sc, grid, pl, listed, qcnt)
+
+
+@njit(cache=True, parallel=True)
+def _claims_parallel(nst, qs, E, cell_of, grid, own, parent, touched, tcap, bnd, bcap, nts,
+                     nbs):
+    for k in prange(nst):
+        nts[k], nbs[k] = _claims(k, nst, qs[k], qs[k + 1], E, cell_of, grid, own, parent,
+                                 touched, k * tcap, bnd, k * bcap)
+
+
+@njit(cache=True)
+def _queue(n, sp_radius, pos, vel, species, sc, grid, pl, listed, icnt, nst, par):
+    """The substep's initial events (``step._queue_initial``'s, in another order), found
+    by nst strips of cell rows (on numba's threads if ``par``). Returns ``(E, qs)``: the
+    events of strip k are E[qs[k]:qs[k + 1]], their first disc in its rows (the pair list:
+    bucketed by their first disc's row)."""
+    ncy = int(grid[5])
+    qcnt = np.zeros((nst, N_ICOUNTERS), dtype=np.int64)
+    need = np.empty(nst, dtype=np.int64)
+    if par:
+        _count_parallel(nst, sc, grid, pl, listed, qcnt, need)
+    else:
+        for k in range(nst):
+            need[k] = _count(k, nst, sc, grid, pl, listed, qcnt)
+    off = np.zeros(nst + 1, dtype=np.int64)
+    for k in range(nst):
+        off[k + 1] = off[k] + need[k]
+    E0 = np.empty((off[nst], 5), dtype=FLOAT)
+    got = np.empty(nst, dtype=np.int64)
+    if par:
+        _queue_parallel(nst, E0, off, sp_radius, pos, vel, species, sc, grid, pl, listed, qcnt,
+                        got)
+    else:
+        for k in range(nst):
+            got[k] = _fill(k, nst, E0, off[k], sp_radius, pos, vel, species, sc, grid, pl,
+                           listed, qcnt)
+    for k in range(nst):
+        for q in range(N_ICOUNTERS):
+            icnt[q] += qcnt[k, q]
+    qs = np.zeros(nst + 1, dtype=np.int64)
+    for k in range(nst):
+        qs[k + 1] = qs[k] + got[k]
+    m = qs[nst]
+    E = np.empty((m, 5), dtype=FLOAT)
+    if not listed:
+        for k in range(nst):
+            E[qs[k]:qs[k + 1]] = E0[off[k]:off[k] + got[k]]
+        return E, qs
+    # the pair list's events: bucketed by the strip of their first disc's row
+    ncx = int(grid[4])
+    strip = np.empty(m, dtype=np.int64)
+    cnt = np.zeros(nst + 1, dtype=np.int64)
+    r = 0
+    for k in range(nst):
+        for q in range(off[k], off[k] + got[k]):
+            cy = sc.cell_of[int(E0[q, 1])] // ncx
+            s = min(cy * nst // ncy, nst - 1)
+            while s > 0 and cy < _rows(s, nst, ncy)[0]:
+                s -= 1
+            while s + 1 < nst and cy >= _rows(s + 1, nst, ncy)[0]:
+                s += 1
+            strip[r] = s
+            cnt[s + 1] += 1
+            r += 1
+    for k in range(nst):
+        cnt[k + 1] += cnt[k]
+    qs[:] = cnt
+    fill = cnt[:nst].copy()
+    r = 0
+    for k in range(nst):
+        for q in range(off[k], off[k] + got[k]):
+            E[fill[strip[r]]] = E0[q]
+            fill[strip[r]] += 1
+            r += 1
+    return E, qs
+
+
+@njit(cache=True)
+def _cluster(E, qs, nst, par, cell_of, grid, own):
+    """Group the events E (strip k's: E[qs[k]:qs[k + 1]]) by the cells they claim, the
+    strips in parallel (``par``), then across the strips' borders. Returns ``(ncl,
+    ev_start, evs, ecl, cells)``: cluster c's events are ``evs[ev_start[c]:ev_start[c +
+    1]]`` (rows of E), event q's cluster ``ecl[q]``; ``own`` holds an event of the cluster
+    that claimed each cell of ``cells``. Clusters are numbered in the order of their first
+    disc's cell."""
+    size = E.shape[0]
+    parent = np.arange(size)
+    side = 2 * CLAIM + 1
+    most = 0
+    for k in range(nst):
+        most = max(most, qs[k + 1] - qs[k])
+    tcap = 2 * side * side * most
+    touched = np.empty(nst * tcap, dtype=np.int64)
+    bnd = np.empty((nst * tcap, 2), dtype=np.int64)
+    nts = np.zeros(nst, dtype=np.int64)
+    nbs = np.zeros(nst, dtype=np.int64)
+    if par:
+        _claims_parallel(nst, qs, E, cell_of, grid, own, parent, touched, tcap, bnd, tcap, nts,
+                         nbs)
+    else:
+        for k in range(nst):
+            nts[k], nbs[k] = _claims(k, nst, qs[k], qs[k + 1], E, cell_of, grid, own, parent,
+                                     touched, k * tcap, bnd, k * tcap)
+    # the claims across the strips' borders, and the cells claimed, in one list
+    nt = 0
+    for k in range(nst):
+        for a in range(k * tcap, k * tcap + nts[k]):
+            touched[nt] = touched[a]
+            nt += 1
+    for k in range(nst):
+        for a in range(k * tcap, k * tcap + nbs[k]):
+            q = bnd[a, 0]
+            cc = bnd[a, 1]
+            o = own[cc]
+            if o < 0:
+                own[cc] = q
+                touched[nt] = cc
+                nt += 1
+            elif o != q:
+                _union(parent, q, o)
     # number the clusters by the cell of their root event's first disc (memory order)
     ncl = 0
     for q in range(size):
@@ -135,7 +355,7 @@ def _cluster(size, H, cell_of, grid, own):
     for q in range(size):
         if parent[q] == q:
             roots[k] = q
-            key[k] = cell_of[int(H[q, 1])]
+            key[k] = cell_of[int(E[q, 1])]
             k += 1
     order = np.argsort(key)
     cid = np.empty(size, dtype=np.int64)
@@ -153,9 +373,7 @@ def _cluster(size, H, cell_of, grid, own):
     for q in range(size):
         evs[fill[cid[q]]] = q
         fill[cid[q]] += 1
-    for a in range(nt):
-        own[touched[a]] = cid[own[touched[a]]]
-    return ncl, ev_start, evs, touched[:nt]
+    return ncl, ev_start, evs, cid, touched[:nt]
 
 
 @njit(cache=True)
@@ -176,11 +394,12 @@ def _undo(lg, lo, hi, h, pos, vel, sc):
 
 @njit(cache=True, inline="always")
 def _schedule(d, cid, dynamic, pos, vel, species, sp_radius, tlast, stamp, cell_start,
-              cell_items, bounds_kind, bounds_params, grid, reach, own, cparent, dyn, nd, H,
-              size, cicnt, crow):
+              cell_items, bounds_kind, bounds_params, grid, reach, own, ecl, rep, cparent, dyn,
+              nd, H, size, cicnt, crow):
     """``step._schedule`` for a cluster: first checks that every cell it searches is the
-    cluster's (``own``; ``dynamic``: a free cell is claimed and noted in ``dyn``, a cell of
-    another cluster found by ``cparent``). Returns ``(code, other, nd, H, size)``: code
+    cluster's (``own``: an event of the cell's cluster, ``ecl``: the cluster of an event;
+    ``dynamic``: a free cell is claimed for the cluster's event ``rep`` and noted in ``dyn``,
+    a cell of another cluster found by ``cparent``). Returns ``(code, other, nd, H, size)``: code
     R_ESCAPE (a cell not its own, not ``dynamic``), R_CONFLICT (``other``: the cluster
     owning it), R_FULL (``dyn`` full) or R_OK."""
     r = sp_radius[species[d]]
@@ -202,18 +421,18 @@ def _schedule(d, cid, dynamic, pos, vel, species, sp_radius, tlast, stamp, cell_
         for cx in range(cx0, cx1 + 1):
             c = cx + ncx * cy
             o = own[c]
-            if o == cid:
+            if o >= 0 and ecl[o] == cid:
                 continue
             if not dynamic:
                 return R_ESCAPE, -1, nd, H, size
             if o < 0:
                 if nd >= dyn.shape[0]:
                     return R_FULL, -1, nd, H, size
-                own[c] = cid
+                own[c] = rep
                 dyn[nd] = c
                 nd += 1
             else:
-                g = _find(cparent, o)
+                g = _find(cparent, ecl[o])
                 if g != cid:
                     return R_CONFLICT, g, nd, H, size
         need += cell_start[cx1 + 1 + ncx * cy] - cell_start[cx0 + ncx * cy]
@@ -239,7 +458,7 @@ def _schedule(d, cid, dynamic, pos, vel, species, sp_radius, tlast, stamp, cell_
 
 
 def _run_py(cid, dynamic, H, size, discs, tables, sc, bounds_kind, bounds_params, grid, rc,
-            sub_id, own, cparent, dyn, nd, lg, nlog, cicnt, crow, rec, nrec, budget):
+            sub_id, own, ecl, rep, cparent, dyn, nd, lg, nlog, cicnt, crow, rec, nrec, budget):
     """Process one cluster's heap ``H[0:size]`` in time order, as ``step._events`` does for
     the scenes of :func:`eligible`. Before its first event each disc is logged in ``lg``
     (rows from ``nlog``: disc, velocity, stamp, lastcol; what :func:`_undo` needs). Float
@@ -363,7 +582,7 @@ def _run_py(cid, dynamic, H, size, discs, tables, sc, bounds_kind, bounds_params
             code, other, nd, H, size = _schedule(
                 i if w == 0 else j, cid, dynamic, pos, vel, species, sp_radius, tlast, stamp,
                 cell_start, cell_items, bounds_kind, bounds_params, grid, rcell + delta, own,
-                cparent, dyn, nd, H, size, cicnt, crow)
+                ecl, rep, cparent, dyn, nd, H, size, cicnt, crow)
             if code != R_OK:
                 return code, other, H, nd, nrec, nlog, events, delta, vfast, dropped
     return R_OK, -1, H, nd, nrec, nlog, events, delta, vfast, dropped
@@ -390,8 +609,8 @@ X_EVENTS, X_DROPPED, X_REC_LO, X_REC_HI, X_LOG_LO, X_LOG_HI, X_REPAIRED = range(
 
 
 @njit(cache=True)
-def _chunk(c0, c1, E, ev_start, evs, discs, tables, sc, bounds_kind, bounds_params, grid, rc,
-           sub_id, h, own, rec, rec0, lg, lg0, budget, status, res, resf, cicnt):
+def _chunk(c0, c1, E, ev_start, evs, ecl, discs, tables, sc, bounds_kind, bounds_params, grid,
+           rc, sub_id, h, own, rec, rec0, lg, lg0, budget, status, res, resf, cicnt):
     """Clusters [c0, c1) in turn, on one thread; their records in ``rec`` and their logs in
     ``lg`` (this chunk's rows, the first of which are rows ``rec0`` and ``lg0`` of all the
     chunks'). A cluster that escapes its cells, or finds no room for its records or its log,
@@ -407,7 +626,8 @@ def _chunk(c0, c1, E, ev_start, evs, discs, tables, sc, bounds_kind, bounds_para
         H, size = _load(H, E, evs, ev_start[c], ev_start[c + 1])
         code, other, H, nd, nrec1, nlog1, events, delta, vfast, dropped = _run_inline(
             c, False, H, size, discs, tables, sc, bounds_kind, bounds_params, grid, rc,
-            sub_id, own, cparent, dyn, 0, lg, nlog, cicnt, c, rec, nrec, budget)
+            sub_id, own, ecl, evs[ev_start[c]], cparent, dyn, 0, lg, nlog, cicnt, c, rec, nrec,
+            budget)
         if code != R_OK:
             _undo(lg, nlog, nlog1, h, pos, vel, sc)
             cicnt[c, :] = 0
@@ -430,11 +650,12 @@ def _chunk(c0, c1, E, ev_start, evs, discs, tables, sc, bounds_kind, bounds_para
 
 
 @njit(cache=True, parallel=True)
-def _chunks_parallel(nch, bounds_c, E, ev_start, evs, discs, tables, sc, bounds_kind,
+def _chunks_parallel(nch, bounds_c, E, ev_start, evs, ecl, discs, tables, sc, bounds_kind,
                      bounds_params, grid, rc, sub_id, h, own, rec, rcap, lg, lcap, budget,
                      status, res, resf, cicnt):
     for k in prange(nch):
-        _chunk(bounds_c[k], bounds_c[k + 1], E, ev_start, evs, discs, tables, sc, bounds_kind,
+        _chunk(bounds_c[k], bounds_c[k + 1], E, ev_start, evs, ecl, discs, tables, sc,
+               bounds_kind,
                bounds_params, grid, rc, sub_id, h, own, rec[k * rcap:(k + 1) * rcap], k * rcap,
                lg[k * lcap:(k + 1) * lcap], k * lcap, budget, status, res, resf, cicnt)
 
@@ -456,8 +677,8 @@ def _grown(a, used):
 
 
 @njit(cache=True)
-def _repair(ncl, E, ev_start, evs, discs, tables, sc, bounds_kind, bounds_params, grid, rc,
-            sub_id, h, own, lg, budget, status, res, resf, cicnt):
+def _repair(ncl, E, ev_start, evs, ecl, discs, tables, sc, bounds_kind, bounds_params, grid,
+            rc, sub_id, h, own, lg, budget, status, res, resf, cicnt):
     """Run the escaped clusters one at a time, growing them into free cells and merging
     them with the clusters they reach (undone and run again as one). Returns ``(ok, dyn,
     nd, rec2, lg2)``: ``ok`` False when a run went past the budget or reached a release of
@@ -497,7 +718,8 @@ def _repair(ncl, E, ev_start, evs, discs, tables, sc, bounds_kind, bounds_params
             cicnt[g, :] = 0
             code, other, H, nd, nrec1, nlog1, events, delta, vfast, dropped = _run(
                 g, True, H, size, discs, tables, sc, bounds_kind, bounds_params, grid, rc,
-                sub_id, own, cparent, dyn, nd, lg2, nlog, cicnt, g, rec2, nrec, budget)
+                sub_id, own, ecl, evs[ev_start[g]], cparent, dyn, nd, lg2, nlog, cicnt, g, rec2,
+                nrec, budget)
             if code == R_OK:
                 status[g] = C_DONE
                 res[g, X_EVENTS] = events
@@ -542,25 +764,29 @@ def _repair(ncl, E, ev_start, evs, discs, tables, sc, bounds_kind, bounds_params
 
 
 @njit(cache=True)
-def events(n, H, size, tables, discs, sc, bounds, grid, cnt, rc, sub_id, h, vfast, own,
-           threads):
-    """The event phase of a substep (as ``step._events`` for the scenes of
-    :func:`eligible`), by clusters. ``H[0:size]`` holds the substep's initial events in
-    any order (``step._queue_initial`` without ``sift``: in cell order), made a heap when
-    the serial phase must run; ``own``: :func:`new_owner` (returned to all -1). Returns
-    ``(done, delta, dropped, vfast)``; ``done`` False (nothing changed) when the clusters
-    would spend more than the substep's event budget or reach a release of internal energy:
-    the caller then runs the serial phase."""
+def events(n, H, tables, discs, sc, bounds, grid, cnt, rc, sub_id, h, vfast, own, threads, par,
+           pl, listed):
+    """The initial queue and the event phase of a substep (as ``step._queue_initial`` and
+    ``step._events`` for the scenes of :func:`eligible`), by clusters, in ``threads`` strips
+    and chunks on numba's threads if ``par``. ``pl``, ``listed``: the broad phase's pair
+    list (``step._drift_and_bin``); ``own``: :func:`new_owner` (returned to all -1).
+    Returns ``(done, H, size, delta, dropped, vfast)``; ``done`` False (nothing changed but
+    the queue's counts) when the clusters would spend more than the substep's event budget
+    or reach a release of internal energy: the caller then runs the serial phase on the
+    initial events, the heap ``H[0:size]``."""
     bounds_kind, bounds_params = bounds.kind, bounds.params
     pos, vel = discs.pos, discs.vel
     budget = 64 * n + 1024
-    E = H[:size]
-    ncl, ev_start, evs, cells = _cluster(size, E, sc.cell_of, grid, own)
+    nst = max(threads, 1) if par else 1
+    E, qs = _queue(n, tables.sp_radius, pos, vel, discs.species, sc, grid, pl, listed, cnt.icnt,
+                   nst, par)
+    size = E.shape[0]
+    ncl, ev_start, evs, ecl, cells = _cluster(E, qs, nst, par, sc.cell_of, grid, own)
     status = np.full(ncl, C_PENDING, dtype=np.int64)
     res = np.zeros((ncl, 7), dtype=np.int64)
     resf = np.zeros((ncl, 2), dtype=FLOAT)
     cicnt = np.zeros((ncl, N_ICOUNTERS), dtype=np.int64)
-    nch = max(min(threads, ncl), 1)
+    nch = max(min(nst, ncl), 1)
     # chunks of about equal numbers of events
     bounds_c = np.empty(nch + 1, dtype=np.int64)
     bounds_c[0] = 0
@@ -578,20 +804,20 @@ def events(n, H, size, tables, discs, sc, bounds, grid, cnt, rc, sub_id, h, vfas
     rec = np.empty((nch * rcap, 5), dtype=FLOAT)
     lg = np.empty((nch * lcap, 5), dtype=FLOAT)
     if nch > 1:
-        _chunks_parallel(nch, bounds_c, E, ev_start, evs, discs, tables, sc, bounds_kind,
+        _chunks_parallel(nch, bounds_c, E, ev_start, evs, ecl, discs, tables, sc, bounds_kind,
                          bounds_params, grid, rc, sub_id, h, own, rec, rcap, lg, lcap, budget,
                          status, res, resf, cicnt)
     else:
-        _chunk(0, ncl, E, ev_start, evs, discs, tables, sc, bounds_kind, bounds_params, grid,
-               rc, sub_id, h, own, rec, 0, lg, 0, budget, status, res, resf, cicnt)
+        _chunk(0, ncl, E, ev_start, evs, ecl, discs, tables, sc, bounds_kind, bounds_params,
+               grid, rc, sub_id, h, own, rec, 0, lg, 0, budget, status, res, resf, cicnt)
     ok = True
     for c in range(ncl):
         if res[c, X_EVENTS] < 0:
             ok = False
     if ok:
-        ok, dyn, nd, rec2, lg2 = _repair(ncl, E, ev_start, evs, discs, tables, sc, bounds_kind,
-                                         bounds_params, grid, rc, sub_id, h, own, lg, budget,
-                                         status, res, resf, cicnt)
+        ok, dyn, nd, rec2, lg2 = _repair(ncl, E, ev_start, evs, ecl, discs, tables, sc,
+                                         bounds_kind, bounds_params, grid, rc, sub_id, h, own,
+                                         lg, budget, status, res, resf, cicnt)
     else:
         dyn = np.empty(0, dtype=np.int64)
         nd = 0
@@ -608,11 +834,11 @@ def events(n, H, size, tables, discs, sc, bounds, grid, cnt, rc, sub_id, h, vfas
             if status[c] == C_DONE:
                 _undo_done(c, res, lg, lg2, h, pos, vel, sc)
         _release(cells, dyn, nd, own)
-        E2 = E.copy()  # the serial phase pops a heap
+        H = reserve(H, 0, size)  # the serial phase pops a heap
         m = 0
         for q in range(size):
-            m = push(H, m, E2[q, 0], int(E2[q, 1]), int(E2[q, 2]), int(E2[q, 3]), int(E2[q, 4]))
-        return False, 0.0, False, vfast
+            m = push(H, m, E[q, 0], int(E[q, 1]), int(E[q, 2]), int(E[q, 3]), int(E[q, 4]))
+        return False, H, size, 0.0, False, vfast
     icnt, fsum = cnt.icnt, cnt.fsum
     delta = 0.0
     dropped = False
@@ -632,13 +858,7 @@ def events(n, H, size, tables, discs, sc, bounds, grid, cnt, rc, sub_id, h, vfas
             k += 1
     _add_in_order(R, fsum)
     _release(cells, dyn, nd, own)
-    if _DEBUG:
-        nmer = 0
-        for c in range(ncl):
-            if status[c] == C_MERGED:
-                nmer += 1
-        print("cl", n, size, ncl, nd, nmer, total, nch)
-    return True, delta, dropped, vfast
+    return True, H, size, delta, dropped, vfast
 
 
 @njit(cache=True)

@@ -34,9 +34,11 @@ import numpy as np
 from numba import njit, prange
 
 from .celllist import build, cell_coord, cell_radius, cell_range, make_grid, overlaps_any
-from .clusters import CLUSTER_MIN, eligible, new_owner
+from .clusters import eligible, new_owner
 from .clusters import events as cluster_events
 from .collisions import bounce, normal_at, pair_time
+from .contacts import half_stencil as _strips
+from .contacts import try_pair as _try_pair
 from .heap import new_heap, pop, push, reserve
 from .reactions import (
     COMBINATION,
@@ -85,6 +87,7 @@ from .structs import (
     INDEX,
     N_FSUMS,  # noqa: F401 (step.N_FSUMS: the counters' sizes, read by Simulation)
     N_ICOUNTERS,  # noqa: F401
+    OV_SLOTS,
     P_MAXDISP,
     P_RELAX,
     P_RESTITUTION,
@@ -120,7 +123,6 @@ W_NONE, W_REFLECTED, W_THERMAL, W_LEFT = range(4)
 
 MAX_SUBSTEPS = 1 << 16
 REBUILD_UNBINNED = 256  # rebuild the grid when this many discs were created since it was built
-OV_SLOTS = 4  # overlaps recorded per disc by the (parallel) broad phase; more: rescanned
 PARALLEL_MIN = 65536  # below this many discs a step runs on one thread: waking numba's
 # threads for the two parallel regions of a step costs more than they save
 REORDER_MIN = 16384  # from this many discs, discs are periodically put in cell order in memory
@@ -211,23 +213,6 @@ def _sort(n, cell_of, cell_start, cell_items):
     for c in range(nc, 0, -1):
         cell_start[c] = cell_start[c - 1]
     cell_start[0] = 0
-
-
-@njit(cache=True)
-def _strips(c, ncx, ncy, cell_start):
-    """The two runs of sorted discs a disc in cell c is compared with (half stencil):
-    the rest of its own cell and the next cell in its row, then the three cells below
-    (row + 1, columns -1..+1), each contiguous in the sorted order."""
-    cx = c % ncx
-    cy = c // ncx
-    e1 = cell_start[c + 2] if cx + 1 < ncx else cell_start[c + 1]
-    if cy + 1 < ncy:
-        lo2 = cell_start[c + ncx - 1] if cx > 0 else cell_start[c + ncx]
-        hi2 = cell_start[c + ncx + 2] if cx + 1 < ncx else cell_start[c + ncx + 1]
-    else:
-        lo2 = 0
-        hi2 = 0
-    return e1, lo2, hi2
 
 
 @njit(cache=True)
@@ -545,48 +530,13 @@ def _pl_permute(n, perm, pl, inv, fs):
 
 
 # ------------------------------------------------------------------ phase 3: event queue
-@njit(cache=True, inline="always")
-def _add(H, size, sift, t, i, j, si, sj):
-    """Push an event (``sift``) or append it to the unordered rows ``H[0:size]``."""
-    if sift:
-        return push(H, size, t, i, j, si, sj)
-    if size >= H.shape[0]:
-        raise IndexError("event list full: room was not reserved (a bug in the caller)")
-    H[size, 0] = t
-    H[size, 1] = i
-    H[size, 2] = j
-    H[size, 3] = si
-    H[size, 4] = sj
-    return size + 1
-
-
 @njit(cache=True)
-def _try_pair(i, j, sp_radius, pos, vel, species, tlast, stamp, H, size, icnt, sift=True):
-    """Queue the contact of i and j if they overlap and touched in this step (room for one
-    event must be reserved; ``sift`` False: appended, see :func:`_queue_initial`); returns
-    the new size. A pair left overlapping while separating (``pair_time`` +inf) is counted in
-    ``icnt[IC_LEFT_OVERLAPPING]``."""
-    t = pair_time(pos[i, 0], pos[i, 1], vel[i, 0], vel[i, 1], sp_radius[species[i]], tlast[i],
-                  pos[j, 0], pos[j, 1], vel[j, 0], vel[j, 1], sp_radius[species[j]], tlast[j])
-    if math.isnan(t):
-        return size
-    if t == math.inf:
-        icnt[IC_LEFT_OVERLAPPING] += 1
-        return size
-    if i < j:
-        return _add(H, size, sift, t, i, j, stamp[i], stamp[j])
-    return _add(H, size, sift, t, j, i, stamp[j], stamp[i])
-
-
-@njit(cache=True)
-def _queue_initial(n, collide, sp_radius, pos, vel, species, sc, grid, H, icnt, pl, listed,
-                   sift):
+def _queue_initial(n, collide, sp_radius, pos, vel, species, sc, grid, H, icnt, pl, listed):
     """Queue every wall contact and every overlapping pair of the substep: the pairs the
     broad phase found (``sc.ov_n``, ``sc.ov_b``: small discs; by sorted position from the
     scan, half stencil, or by disc from the pair list ``pl`` if ``listed``) and those of the
     big discs (found here: each big disc against the cells within its radius + rcell and the
-    big discs after it). ``sc``: the :class:`~.structs.Scratch`. ``sift``: a heap; else the
-    events are appended in the order found (for kernels.clusters: roughly in cell order)."""
+    big discs after it). ``sc``: the :class:`~.structs.Scratch`."""
     tlast, stamp, wall_t, wflag = sc.tlast, sc.stamp, sc.wall_t, sc.wflag
     cell_start, cell_items, cell_of = sc.cell_start, sc.cell_items, sc.cell_of
     sx, sy, sr, ov_n, ov_b = sc.sx, sc.sy, sc.sr, sc.ov_n, sc.ov_b
@@ -611,14 +561,14 @@ def _queue_initial(n, collide, sp_radius, pos, vel, species, sc, grid, H, icnt, 
     size = 0
     for i in range(n):
         if wall_t[i] < math.inf:
-            size = _add(H, size, sift, wall_t[i], i, -1, stamp[i], 0)
+            size = push(H, size, wall_t[i], i, -1, stamp[i], 0)
     if not collide:
         return H, size
     if listed:
         ovi, ovj = pl.ovi, pl.ovj
         for q in range(pl.count[1]):
             size = _try_pair(ovi[q], ovj[q], sp_radius, pos, vel, species, tlast, stamp, H, size,
-                             icnt, sift)
+                             icnt)
     for a in range(0 if listed else cell_start[nbc]):
         k = ov_n[a]
         if k == 0:
@@ -627,26 +577,26 @@ def _queue_initial(n, collide, sp_radius, pos, vel, species, sc, grid, H, icnt, 
         if k <= OV_SLOTS:
             for q in range(k):
                 size = _try_pair(i, cell_items[ov_b[a, q]], sp_radius, pos, vel, species, tlast,
-                                 stamp, H, size, icnt, sift)
+                                 stamp, H, size, icnt)
             continue
         # more partners than slots: scan this disc's stencil again
         e1, lo2, hi2 = _strips(cell_of[i], ncx, ncy, cell_start)
         for b in range(a + 1, e1):
             size = _try_pair(i, cell_items[b], sp_radius, pos, vel, species, tlast, stamp, H, size,
-                             icnt, sift)
+                             icnt)
         for b in range(lo2, hi2):
             size = _try_pair(i, cell_items[b], sp_radius, pos, vel, species, tlast, stamp, H, size,
-                             icnt, sift)
+                             icnt)
     for a in range(cell_start[nbc], cell_start[nbc + 1]):  # the big discs
         i = cell_items[a]
         cx0, cx1, cy0, cy1 = cell_range(sx[a], sy[a], sr[a] + rcell, grid)
         for cy in range(cy0, cy1 + 1):
             for b in range(cell_start[cx0 + ncx * cy], cell_start[cx1 + 1 + ncx * cy]):
                 size = _try_pair(i, cell_items[b], sp_radius, pos, vel, species, tlast, stamp, H,
-                                 size, icnt, sift)
+                                 size, icnt)
         for b in range(a + 1, cell_start[nbc + 1]):
             size = _try_pair(i, cell_items[b], sp_radius, pos, vel, species, tlast, stamp, H, size,
-                             icnt, sift)
+                             icnt)
     return H, size
 
 
@@ -1365,7 +1315,7 @@ def advance(discs, n, n_steps, dt, bounds, tables, params, flags, rng, cnt, thre
     big = sp_radius.max() > rcell  # (discs not in the list: see PairList)
     full = True  # (the list is built at the first substep, and after a reordering)
     # the event phase by clusters (kernels.clusters) where the scene's events are local
-    clustered = eligible(rc, bounds_kind) and n >= CLUSTER_MIN
+    clustered = eligible(rc, bounds_kind) and threads > 1 and n >= PARALLEL_MIN
     own = new_owner(grid) if clustered else np.empty(0, dtype=INDEX)
     nbc = ncx * ncy
     for s in range(n_steps):
@@ -1390,24 +1340,25 @@ def advance(discs, n, n_steps, dt, bounds, tables, params, flags, rng, cnt, thre
                                 bounds_params, grid, sc, collide, pl, listed, full, big)
             full = False
             left0 = icnt[IC_LEFT_OVERLAPPING]
-            # (the clusters take the events as found, in cell order; the serial phase a heap)
-            cl = clustered and sc.cell_start[nbc + 1] == sc.cell_start[nbc]
-            H, size = _queue_initial(n, collide, sp_radius, pos, vel, species, sc, grid, H, icnt,
-                                     pl, listed, not cl)
             # a substep is cut short (at a reaction, see _events) only while the step has
             # taken fewer than MAX_SUBSTEPS substeps and not shorter than the capped substep
             # dt / MAX_SUBSTEPS: a step of a finite number of substeps, each of them useful
             cut_after = dt / MAX_SUBSTEPS if taken < MAX_SUBSTEPS else math.inf
             taken += 1
+            # the event phase by clusters where the scene allows (no big discs now), on the
+            # threads from PARALLEL_MIN discs; else (or if it declines) the serial one
             done = False
-            if cl:
-                done, delta, dropped, vfast = cluster_events(
-                    n, H, size, tables, Discs(pos, vel, species, internal_energy, ids, idctr),
-                    sc, bounds, grid, cnt, rc, icnt[IC_SUBSTEPS], h, vfast, own,
-                    threads if threads > 1 and n >= PARALLEL_MIN else 1)
+            if clustered and sc.cell_start[nbc + 1] == sc.cell_start[nbc]:
+                done, H, size, delta, dropped, vfast = cluster_events(
+                    n, H, tables, Discs(pos, vel, species, internal_energy, ids, idctr), sc,
+                    bounds, grid, cnt, rc, icnt[IC_SUBSTEPS], h, vfast, own, threads, True, pl,
+                    listed)
                 n_dead = 0
                 vrel = 0.0
                 t_cut = 0.0
+            else:
+                H, size = _queue_initial(n, collide, sp_radius, pos, vel, species, sc, grid, H,
+                                         icnt, pl, listed)
             if not done:
                 H, n_dead, delta, dropped, vfast, vrel, t_cut = _events(
                     n, H, size, tables, Discs(pos, vel, species, internal_energy, ids, idctr),

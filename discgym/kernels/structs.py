@@ -83,6 +83,7 @@ VR_ROUNDOFF = 1e-13  # a pair whose approach speed is below this fraction of its
 # approaching: the impulse would be lost to round-off and the pair re-detected forever
 EVENTS_PER_DISC = 64  # event budget per substep: EVENTS_PER_DISC * n + 1024
 DISC_EVENTS = 1024  # events one disc may take part in per substep; past it, see resolve.py
+OV_SLOTS = 4  # overlaps recorded per disc by the (parallel) broad phase; more: rescanned
 
 
 class Tables(NamedTuple):

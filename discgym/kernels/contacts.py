@@ -1,0 +1,60 @@
+"""Queueing the contacts of a substep (``kernels.step`` and ``kernels.clusters``): an event
+appended or pushed, a pair's contact tested and queued, the half stencil of the scan."""
+
+import math
+
+from numba import njit
+
+from .collisions import pair_time
+from .heap import push
+from .structs import IC_LEFT_OVERLAPPING
+
+
+@njit(cache=True, inline="always")
+def add_event(H, size, sift, t, i, j, si, sj):
+    """Push an event (``sift``) or append it to the unordered rows ``H[0:size]``."""
+    if sift:
+        return push(H, size, t, i, j, si, sj)
+    if size >= H.shape[0]:
+        raise IndexError("event list full: room was not reserved (a bug in the caller)")
+    H[size, 0] = t
+    H[size, 1] = i
+    H[size, 2] = j
+    H[size, 3] = si
+    H[size, 4] = sj
+    return size + 1
+
+
+@njit(cache=True)
+def try_pair(i, j, sp_radius, pos, vel, species, tlast, stamp, H, size, icnt, sift=True):
+    """Queue the contact of i and j if they overlap and touched in this step (room for one
+    event must be reserved; ``sift`` False: appended, see ``step._queue_initial``); returns
+    the new size. A pair left overlapping while separating (``pair_time`` +inf) is counted in
+    ``icnt[IC_LEFT_OVERLAPPING]``."""
+    t = pair_time(pos[i, 0], pos[i, 1], vel[i, 0], vel[i, 1], sp_radius[species[i]], tlast[i],
+                  pos[j, 0], pos[j, 1], vel[j, 0], vel[j, 1], sp_radius[species[j]], tlast[j])
+    if math.isnan(t):
+        return size
+    if t == math.inf:
+        icnt[IC_LEFT_OVERLAPPING] += 1
+        return size
+    if i < j:
+        return add_event(H, size, sift, t, i, j, stamp[i], stamp[j])
+    return add_event(H, size, sift, t, j, i, stamp[j], stamp[i])
+
+
+@njit(cache=True)
+def half_stencil(c, ncx, ncy, cell_start):
+    """The two runs of sorted discs a disc in cell c is compared with (half stencil):
+    the rest of its own cell and the next cell in its row, then the three cells below
+    (row + 1, columns -1..+1), each contiguous in the sorted order."""
+    cx = c % ncx
+    cy = c // ncx
+    e1 = cell_start[c + 2] if cx + 1 < ncx else cell_start[c + 1]
+    if cy + 1 < ncy:
+        lo2 = cell_start[c + ncx - 1] if cx > 0 else cell_start[c + ncx]
+        hi2 = cell_start[c + ncx + 2] if cx + 1 < ncx else cell_start[c + ncx + 1]
+    else:
+        lo2 = 0
+        hi2 = 0
+    return e1, lo2, hi2
