@@ -1258,13 +1258,13 @@ def advance_rngs(discs, n, n_steps, dt, bounds, tables, params, flags, rngs, cnt
     ``discs`` a plain tuple too (boxing a NamedTuple unpickles its class at every return)."""
     d, n, work = advance(Discs(*discs), n, n_steps, dt, Bounds(*bounds), Tables(*tables),
                          params, flags, rngs[0], Counters(*cnt), threads, step0,
-                         reorder_every, work)
+                         reorder_every, work, True)
     return fields(d), n, work
 
 
 @njit(cache=True)
 def advance(discs, n, n_steps, dt, bounds, tables, params, flags, rng, cnt, threads, step0,
-            reorder_every, work):
+            reorder_every, work, clusters=None):
     """Advance ``n_steps`` steps of length ``dt``.
 
     ``discs``: the state (a :class:`~.structs.Discs`, capacity C >= n; discs are [0, n)),
@@ -1280,6 +1280,12 @@ def advance(discs, n, n_steps, dt, bounds, tables, params, flags, rng, cnt, thre
 
     ``work``: scratch buffers (a tuple of 1-D FLOAT, INDEX and COUNT arrays, e.g.
     :func:`empty_work`), replaced by larger ones when they are too small.
+
+    ``clusters``: given (True), a box scene whose events are local runs the event phase of
+    its substeps by clusters on the threads, from PARALLEL_MIN discs and ``threads`` > 1
+    (:mod:`~discgym.kernels.clusters`; the same trajectory bit for bit). Omitted, as the
+    single-threaded callers (the vector env's reactors, the event-driven integrator's
+    fallback) omit it, that code is pruned at compile time and not compiled at all.
 
     Returns ``(discs, n, work)``: new (larger) state arrays when a decomposition needed more
     capacity, else the ones passed in; the scratch buffers used.
@@ -1315,7 +1321,9 @@ def advance(discs, n, n_steps, dt, bounds, tables, params, flags, rng, cnt, thre
     big = sp_radius.max() > rcell  # (discs not in the list: see PairList)
     full = True  # (the list is built at the first substep, and after a reordering)
     # the event phase by clusters (kernels.clusters) where the scene's events are local
-    clustered = eligible(rc, bounds_kind) and threads > 1 and n >= PARALLEL_MIN
+    clustered = False
+    if clusters is not None:  # (pruned by numba when the argument is omitted)
+        clustered = eligible(rc, bounds_kind) and threads > 1 and n >= PARALLEL_MIN
     own = new_owner(grid) if clustered else np.empty(0, dtype=INDEX)
     nbc = ncx * ncy
     for s in range(n_steps):
@@ -1348,15 +1356,18 @@ def advance(discs, n, n_steps, dt, bounds, tables, params, flags, rng, cnt, thre
             # the event phase by clusters where the scene allows (no big discs now), on the
             # threads from PARALLEL_MIN discs; else (or if it declines) the serial one
             done = False
-            if clustered and sc.cell_start[nbc + 1] == sc.cell_start[nbc]:
-                done, H, size, delta, dropped, vfast = cluster_events(
-                    n, H, tables, Discs(pos, vel, species, internal_energy, ids, idctr), sc,
-                    bounds, grid, cnt, rc, icnt[IC_SUBSTEPS], h, vfast, own, threads, True, pl,
-                    listed)
-                n_dead = 0
-                vrel = 0.0
-                t_cut = 0.0
-            else:
+            queued = False
+            if clusters is not None:
+                if clustered and sc.cell_start[nbc + 1] == sc.cell_start[nbc]:
+                    done, H, size, delta, dropped, vfast = cluster_events(
+                        n, H, tables, Discs(pos, vel, species, internal_energy, ids, idctr), sc,
+                        bounds, grid, cnt, rc, icnt[IC_SUBSTEPS], h, vfast, own, threads, True,
+                        pl, listed)
+                    queued = True
+                    n_dead = 0
+                    vrel = 0.0
+                    t_cut = 0.0
+            if not queued:
                 H, size = _queue_initial(n, collide, sp_radius, pos, vel, species, sc, grid, H,
                                          icnt, pl, listed)
             if not done:

@@ -1,0 +1,171 @@
+"""The stepped integrator's event phase by clusters (kernels.clusters) against the serial one.
+
+From PARALLEL_MIN discs with more than one work chunk, a box scene whose events are local
+(no thermal walls, outlets, bimolecular reactions or big discs) processes each substep's
+events by clusters, on numba's threads; one chunk runs the serial event phase. Both must
+give the same trajectory bit for bit, and so the same as before the clusters existed.
+
+The scenes below take every path of the cluster phase: in a dense gas (packing 0.6, and
+0.5 at e = 0.7) clusters escape their cells and are repaired, some merged with clusters
+that had run; internal energy with kappa > 0 sends every substep back to the serial phase
+(a release may end the substep); calls of PAIR_MIN_STEPS steps and more take the pair
+list's events, which are bucketed by strip. (Counted by a debugging print on 2026-12-03:
+86 substeps clustered, 35 with claims made in the repair, 10 with merges, 12 sent back.)
+"""
+
+import numpy as np
+import pytest
+
+import discgym as dg
+from discgym.bench import bench_scene
+from discgym.kernels import clusters as CL
+from discgym.kernels import step as S
+from discgym.kernels.structs import FLOAT, FS_DISSIPATED, FS_WALL_MOMENTUM, RunConsts
+
+N = S.PARALLEL_MIN + 4464  # 70,000 discs
+
+
+def _same(a, b):
+    for x, y in ((a.positions, b.positions), (a.velocities, b.velocities),
+                 (a.species, b.species), (a.ids, b.ids), (a.internal_energy, b.internal_energy)):
+        assert np.array_equal(x, y)
+    assert a.counters() == b.counters()
+    # the float sums, added in the serial order
+    assert a.dissipated_energy == b.dissipated_energy
+    assert np.array_equal(a._fsum, b._fsum)
+
+
+def _serial_vs_clusters(sim, calls, steps):
+    one = sim.copy()
+    one.threads = 1  # the serial event phase
+    many = sim.copy()
+    many.threads = 8  # clusters in 8 strips and chunks
+    for _ in range(calls):
+        one.step(steps)
+        many.step(steps)
+    _same(one, many)
+    return one
+
+
+@pytest.mark.parametrize("eta, e, calls, steps", [
+    (0.3, 1.0, 3, 2),  # the benchmark gas
+    (0.6, 1.0, 2, 3),  # dense: escapes, repairs and merges
+    (0.5, 0.7, 3, 2),  # inelastic: the dissipated energy's terms, in order; the TC model
+    (0.3, 0.0, 2, 3),  # e = 0
+])
+def test_clusters_give_the_serial_trajectory(eta, e, calls, steps):
+    sim = dg.Simulation(bench_scene(N, eta=eta, restitution=e), seed=11)
+    one = _serial_vs_clusters(sim, calls, steps)
+    assert one.counters()["collisions"] > 0 and one.counters()["wall_hits"] > 0
+    if e < 1.0:
+        assert one.dissipated_energy > 0.0
+
+
+def test_a_release_of_internal_energy_sends_the_substep_back_to_the_serial_phase():
+    sim = dg.Simulation(bench_scene(N), seed=12)
+    assert sim._cs.params[1] > 0.0  # kappa: collisions release internal energy
+    st = sim.get_state()
+    sim.set_state(dict(st, internal_energy=st["internal_energy"] + 0.5))
+    one = _serial_vs_clusters(sim, 2, 3)
+    assert one.internal_energy.sum() < 0.5 * len(one)
+
+
+def test_the_pair_lists_events_go_to_the_strips_of_their_discs():
+    """A call of PAIR_MIN_STEPS steps on at most PAIR_MAX_DISCS discs finds its pairs by the
+    pair list, whose overlapping pairs come in list order."""
+    assert N <= S.PAIR_MAX_DISCS
+    sim = dg.Simulation(bench_scene(N), seed=13)
+    _serial_vs_clusters(sim, 1, S.PAIR_MIN_STEPS)
+
+
+def test_scenes_whose_events_are_not_local_keep_the_serial_phase():
+    def rc(**kw):
+        base = dict(restitution=1.0, relax=0.5, maxdisp=0.5, rcell=1.0, collide=True,
+                    has_bi=False, thermal=False, outlets=False)
+        base.update(kw)
+        return RunConsts(**base)
+
+    assert CL.eligible(rc(), 0)
+    assert not CL.eligible(rc(), 1)  # a circle: a glide reads the global heap
+    assert not CL.eligible(rc(has_bi=True), 0)
+    assert not CL.eligible(rc(thermal=True), 0)
+    assert not CL.eligible(rc(outlets=True), 0)
+    assert not CL.eligible(rc(collide=False), 0)
+
+
+def test_the_recorded_terms_are_added_in_the_serial_order():
+    """(t, i, j) order, ties of one event kept in the order recorded: a sum whose value
+    depends on the order of its terms comes out as the serial phase's."""
+    big = 2.0 ** 60
+    rows = [  # t, i, j, which sum, value
+        (-0.5, 7, -1, FS_WALL_MOMENTUM, 1.0),
+        (-0.9, 3, 4, FS_DISSIPATED, 3.0),
+        (-0.9, 2, -1, FS_WALL_MOMENTUM, big),
+        (-0.5, 7, -1, FS_WALL_MOMENTUM, -big),  # the same disc at a corner: recorded after
+        (-0.9, 2, 5, FS_DISSIPATED, 0.25),
+        (-0.1, 1, -1, FS_WALL_MOMENTUM, 1.0),
+    ]
+    R = np.array(rows, dtype=FLOAT)
+    rng = np.random.default_rng(0)
+    for _ in range(5):
+        perm = rng.permutation(len(rows))
+        # keep the two terms of disc 7 at t = -0.5 in their recorded order
+        k7 = [p for p in perm if rows[p][1] == 7]
+        perm = [p for p in perm if rows[p][1] != 7]
+        perm[2:2] = sorted(k7)
+        fsum = np.zeros(7, dtype=FLOAT)
+        CL._add_in_order(R[perm], fsum)
+        wall = 0.0
+        lost = 0.0
+        for t, i, j, which, v in sorted(rows, key=lambda r: (r[0], r[1], r[2])):
+            if which == FS_WALL_MOMENTUM:
+                wall += v
+            else:
+                lost += v
+        assert fsum[FS_WALL_MOMENTUM] == wall
+        assert fsum[FS_DISSIPATED] == lost
+    # (big + 1.0 rounds to big: the serial order gives 1.0; disc 7's two terms swapped, 2.0)
+    assert wall == 1.0
+
+
+def _cradles(n_chain=40, speed=4.0, rows=3):
+    """A still lattice of N discs with ``rows`` Newton's cradles: a row of ``n_chain`` discs
+    1e-6 apart, struck at both ends in the first substep. Each chain of collisions runs the
+    whole row within the substep, far beyond the cells the first clusters claimed: the
+    clusters of its two ends escape and are repaired as one, or (if escapes were ignored)
+    would each run the row on their own and disagree with the serial phase."""
+    sim = dg.Simulation(bench_scene(N), seed=14)
+    side = sim.bounds.width
+    g = 3.0  # lattice spacing (radius 1)
+    xs = np.arange(2.0, side - 2.0, g)
+    pos = np.array([(x, y) for y in xs for x in xs])
+    keep = np.ones(len(pos), dtype=bool)
+    ys = [side * (k + 1) / (rows + 1) for k in range(rows)]
+    for y0 in ys:  # clear a band for each row
+        keep &= np.abs(pos[:, 1] - y0) > 3.5
+    lattice = pos[keep]
+    chains = []
+    for y0 in ys:
+        x0 = 0.5 * side - n_chain * 1.0
+        row = [(x0 + 2.000001 * k, y0) for k in range(n_chain)]
+        hammers = [(x0 - 2.05, y0), (row[-1][0] + 2.05, y0)]
+        chains += row + hammers
+    chains = np.array(chains)
+    rest = lattice[:N - len(chains)]
+    assert len(rest) == N - len(chains)
+    p = np.concatenate([chains, rest])
+    v = np.zeros_like(p)
+    for r in range(rows):
+        base = r * (n_chain + 2)
+        v[base + n_chain] = (speed, 0.0)  # the left hammer
+        v[base + n_chain + 1] = (-speed, 0.0)  # the right one
+    st = sim.get_state()
+    sim.set_state(dict(st, positions=p, velocities=v))
+    return sim
+
+
+def test_a_chain_of_collisions_across_clusters_is_repaired_as_one():
+    sim = _cradles()
+    one = _serial_vs_clusters(sim, 2, 1)
+    # every cradle ran: the hammers stopped, the struck rows passed the momentum on
+    assert one.counters()["collisions"] >= 3 * 40
