@@ -8,9 +8,10 @@ give the same trajectory bit for bit, and so the same as before the clusters exi
 The scenes below take every path of the cluster phase: in a dense gas (packing 0.6, and
 0.5 at e = 0.7) clusters escape their cells and are repaired, some merged with clusters
 that had run; internal energy with kappa > 0 sends every substep back to the serial phase
-(a release may end the substep); calls of PAIR_MIN_STEPS steps and more take the pair
-list's events, which are bucketed by strip. (Counted by a debugging print on 2026-12-03:
-86 substeps clustered, 35 with claims made in the repair, 10 with merges, 12 sent back.)
+(a release may end the substep); the Newton's cradles run chains of collisions through
+many clusters' cells. (Counted by a debugging print on 2026-12-03, on similar scenes: 86
+substeps clustered, 35 with claims made in the repair, 10 with merges, 12 sent back. The
+cradles are the test that fails when a cluster ignores the limits of its cells.)
 """
 
 import numpy as np
@@ -70,9 +71,10 @@ def test_a_release_of_internal_energy_sends_the_substep_back_to_the_serial_phase
     assert one.internal_energy.sum() < 0.5 * len(one)
 
 
-def test_the_pair_lists_events_go_to_the_strips_of_their_discs():
+def test_a_long_call_takes_the_list_on_one_thread_and_the_scan_and_clusters_on_several():
     """A call of PAIR_MIN_STEPS steps on at most PAIR_MAX_DISCS discs finds its pairs by the
-    pair list, whose overlapping pairs come in list order."""
+    pair list on one thread; on several, the parallel scan (which beats the serial list
+    there) and the clusters: the same trajectory."""
     assert N <= S.PAIR_MAX_DISCS
     sim = dg.Simulation(bench_scene(N), seed=13)
     _serial_vs_clusters(sim, 1, S.PAIR_MIN_STEPS)
@@ -117,11 +119,11 @@ def test_the_recorded_terms_are_added_in_the_serial_order():
         CL._add_in_order(R[perm], fsum)
         wall = 0.0
         lost = 0.0
-        for t, i, j, which, v in sorted(rows, key=lambda r: (r[0], r[1], r[2])):
-            if which == FS_WALL_MOMENTUM:
-                wall += v
+        for row in sorted(rows, key=lambda r: (r[0], r[1], r[2])):
+            if row[3] == FS_WALL_MOMENTUM:
+                wall += row[4]
             else:
-                lost += v
+                lost += row[4]
         assert fsum[FS_WALL_MOMENTUM] == wall
         assert fsum[FS_DISSIPATED] == lost
     # (big + 1.0 rounds to big: the serial order gives 1.0; disc 7's two terms swapped, 2.0)

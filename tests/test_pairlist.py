@@ -232,8 +232,9 @@ def test_the_list_follows_the_reordering_in_memory():
 
 
 def test_the_list_gives_the_same_trajectory_on_any_number_of_threads():
-    """From PARALLEL_MIN discs the drift runs on numba's threads; the list, serial, finds
-    the same pairs: one thread, two threads and the scan agree bit for bit."""
+    """From PARALLEL_MIN discs a long call takes the list on one thread and, on two, the
+    parallel scan and the event phase by clusters (kernels.clusters): one thread, two
+    threads and the scan agree bit for bit."""
     sim = dg.Simulation(bench_scene(S.PARALLEL_MIN + 1000), seed=4)
     one = sim.copy()
     one.threads = 1

@@ -39,7 +39,7 @@ from numba import njit, prange
 
 from .celllist import cell_range
 from .collisions import bounce, normal_at, pair_time
-from .contacts import add_event, half_stencil, try_pair
+from .contacts import add_event, queue_scan
 from .heap import new_heap, pop, push, reserve
 from .structs import (
     DISC_EVENTS,
@@ -51,9 +51,7 @@ from .structs import (
     IC_PUSHED_INSIDE,
     IC_TC_ELASTIC,
     IC_WALL_HITS,
-    INDEX,
     N_ICOUNTERS,
-    OV_SLOTS,
     VR_ROUNDOFF,
 )
 from .walls import contact, push_inside, reflect, settle_after_reflection
@@ -77,8 +75,8 @@ def eligible(rc, bounds_kind):
 
 @njit(cache=True)
 def new_owner(grid):
-    """The owner of each cell (-1: none), as :func:`events` expects it between substeps."""
-    return np.full(int(grid[4]) * int(grid[5]), -1, dtype=INDEX)
+    """The owner of each cell (-1: none) for a call's substeps (:func:`events`)."""
+    return np.full(int(grid[4]) * int(grid[5]), -1, dtype=np.int64)
 
 
 @njit(cache=True, inline="always")
@@ -96,13 +94,13 @@ def _rows(k, nst, ncy):
 
 
 @njit(cache=True)
-def _count(k, nst, sc, grid, pl, listed, qcnt):
-    """How many events strip k may queue: the wall contacts of its discs and the pairs it
-    tests (the scan: its sorted discs' overlaps; the pair list: its share of the list).
-    Counts its discs the drift pushed inside (in ``qcnt[k]``)."""
+def _count(k, nst, sc, grid, qcnt):
+    """How many events strip k may queue: the wall contacts of its discs and the overlaps
+    of its sorted discs found by the scan. Counts its discs the drift pushed inside (in
+    ``qcnt[k]``)."""
     ncx = int(grid[4])
     r0, r1 = _rows(k, nst, int(grid[5]))
-    cell_items, wall_t, wflag = sc.cell_items, sc.wall_t, sc.wflag
+    cell_items, wall_t, wflag, ov_n = sc.cell_items, sc.wall_t, sc.wflag, sc.ov_n
     need = 0
     pushed = 0
     for a in range(sc.cell_start[r0 * ncx], sc.cell_start[r1 * ncx]):
@@ -110,96 +108,73 @@ def _count(k, nst, sc, grid, pl, listed, qcnt):
         if wall_t[i] < math.inf:
             need += 1
         pushed += wflag[i]
+        need += ov_n[a]
     qcnt[k, IC_PUSHED_INSIDE] += pushed
-    if listed:
-        m = pl.count[1]
-        need += (k + 1) * m // nst - k * m // nst
-    else:
-        for a in range(sc.cell_start[r0 * ncx], sc.cell_start[r1 * ncx]):
-            need += sc.ov_n[a]
     return need
 
 
 @njit(cache=True)
-def _fill(k, nst, E, off, sp_radius, pos, vel, species, sc, grid, pl, listed, qcnt):
+def _fill(k, nst, E, off, sp_radius, pos, vel, species, sc, grid, qcnt):
     """Append strip k's initial events (those :func:`_count` counted that occur) to E from
     row ``off``, as ``step._queue_initial`` queues them; returns how many."""
     ncx = int(grid[4])
-    ncy = int(grid[5])
-    r0, r1 = _rows(k, nst, ncy)
-    cell_start, cell_items, cell_of = sc.cell_start, sc.cell_items, sc.cell_of
-    tlast, stamp, wall_t, ov_n, ov_b = sc.tlast, sc.stamp, sc.wall_t, sc.ov_n, sc.ov_b
-    icnt = qcnt[k]
+    r0, r1 = _rows(k, nst, int(grid[5]))
+    cell_items, wall_t, stamp = sc.cell_items, sc.wall_t, sc.stamp
+    a0 = sc.cell_start[r0 * ncx]
+    a1 = sc.cell_start[r1 * ncx]
     size = off
-    a0 = cell_start[r0 * ncx]
-    a1 = cell_start[r1 * ncx]
     for a in range(a0, a1):
         i = cell_items[a]
         if wall_t[i] < math.inf:
             size = add_event(E, size, False, wall_t[i], i, -1, stamp[i], 0)
-    if listed:
-        m = pl.count[1]
-        for q in range(k * m // nst, (k + 1) * m // nst):
-            size = try_pair(pl.ovi[q], pl.ovj[q], sp_radius, pos, vel, species, tlast, stamp, E,
-                            size, icnt, False)
-        return size - off
-    for a in range(a0, a1):
-        kk = ov_n[a]
-        if kk == 0:
-            continue
-        i = cell_items[a]
-        if kk <= OV_SLOTS:
-            for q in range(kk):
-                size = try_pair(i, cell_items[ov_b[a, q]], sp_radius, pos, vel, species, tlast,
-                                stamp, E, size, icnt, False)
-            continue
-        e1, lo2, hi2 = half_stencil(cell_of[i], ncx, ncy, cell_start)
-        for b in range(a + 1, e1):
-            size = try_pair(i, cell_items[b], sp_radius, pos, vel, species, tlast, stamp, E,
-                            size, icnt, False)
-        for b in range(lo2, hi2):
-            size = try_pair(i, cell_items[b], sp_radius, pos, vel, species, tlast, stamp, E,
-                            size, icnt, False)
+    size = queue_scan(a0, a1, sp_radius, pos, vel, species, sc, grid, E, size, qcnt[k], False)
     return size - off
 
 
+@njit(cache=True, inline="always")
+def _claim(own, cc, q, base, parent):
+    """Event q claims cell cc (``own``: ``base`` + the event of a cell claimed in this
+    substep; anything below ``base``: free): a free cell becomes its, a cell of another
+    event joins the two in ``parent``."""
+    o = own[cc] - base
+    if o < 0:
+        own[cc] = base + q
+    elif o != q:
+        _union(parent, q, o)
+
+
 @njit(cache=True)
-def _claims(k, nst, q0, q1, E, cell_of, grid, own, parent, touched, t0, bnd, b0):
-    """Strip k's claims for the events E[q0:q1]: each disc's cell and the cells within CLAIM
-    of it, those in the strip's rows in ``own`` (a free cell: the event's; another event's:
-    the two joined in ``parent``), the others noted in ``bnd`` from row b0 (event, cell) for
-    the serial pass (:func:`_number`). Returns (cells claimed, noted in ``touched`` from
-    t0; boundary claims)."""
+def _claims(k, nst, q0, q1, E, cell_of, grid, own, base, parent, bnd, b0):
+    """Strip k's claims for the events E[q0:q1]: the cells within CLAIM of its discs' cells
+    (one block for both), those in the strip's rows in ``own`` (:func:`_claim`), the others
+    noted in ``bnd`` from row b0 (event, cell) for the serial pass after. Returns how many
+    were noted."""
     ncx = int(grid[4])
     ncy = int(grid[5])
     r0, r1 = _rows(k, nst, ncy)
-    nt = t0
     nb = b0
     for q in range(q0, q1):
-        for w in range(2):
-            d = int(E[q, 1 + w])
-            if d < 0:
-                continue
-            c = cell_of[d]
-            cx = c % ncx
-            cy = c // ncx
-            for yy in range(max(cy - CLAIM, 0), min(cy + CLAIM, ncy - 1) + 1):
-                inside = r0 <= yy < r1
-                for xx in range(max(cx - CLAIM, 0), min(cx + CLAIM, ncx - 1) + 1):
-                    cc = xx + ncx * yy
-                    if not inside:
-                        bnd[nb, 0] = q
-                        bnd[nb, 1] = cc
-                        nb += 1
-                        continue
-                    o = own[cc]
-                    if o < 0:
-                        own[cc] = q
-                        touched[nt] = cc
-                        nt += 1
-                    elif o != q:
-                        _union(parent, q, o)
-    return nt - t0, nb - b0
+        c = cell_of[int(E[q, 1])]
+        cx0 = cx1 = c % ncx
+        cy0 = cy1 = c // ncx
+        j = int(E[q, 2])
+        if j >= 0:
+            c = cell_of[j]
+            cx0 = min(cx0, c % ncx)
+            cx1 = max(cx1, c % ncx)
+            cy0 = min(cy0, c // ncx)
+            cy1 = max(cy1, c // ncx)
+        for yy in range(max(cy0 - CLAIM, 0), min(cy1 + CLAIM, ncy - 1) + 1):
+            inside = r0 <= yy < r1
+            for xx in range(max(cx0 - CLAIM, 0), min(cx1 + CLAIM, ncx - 1) + 1):
+                cc = xx + ncx * yy
+                if inside:
+                    _claim(own, cc, q, base, parent)
+                else:
+                    bnd[nb, 0] = q
+                    bnd[nb, 1] = cc
+                    nb += 1
+    return nb - b0
 
 
 @njit(cache=True, inline="always")
@@ -213,136 +188,84 @@ def _union(parent, a, b):
 
 
 @njit(cache=True, parallel=True)
-def _queue_parallel(nst, E, off, sp_radius, pos, vel, species, sc, grid, pl, listed, qcnt, got):
+def _queue_parallel(nst, E, off, sp_radius, pos, vel, species, sc, grid, qcnt, got):
     for k in prange(nst):
-        got[k] = _fill(k, nst, E, off[k], sp_radius, pos, vel, species, sc, grid, pl, listed,
-                       qcnt)
+        got[k] = _fill(k, nst, E, off[k], sp_radius, pos, vel, species, sc, grid, qcnt)
 
 
 @njit(cache=True, parallel=True)
-def _count_parallel(nst, sc, grid, pl, listed, qcnt, need):
+def _count_parallel(nst, sc, grid, qcnt, need):
     for k in prange(nst):
-        need[k] = _count(k, nst, sc, grid, pl, listed, qcnt)
+        need[k] = _count(k, nst, sc, grid, qcnt)
 
 
 @njit(cache=True, parallel=True)
-def _claims_parallel(nst, qs, E, cell_of, grid, own, parent, touched, tcap, bnd, bcap, nts,
-                     nbs):
+def _claims_parallel(nst, qs, E, cell_of, grid, own, base, parent, bnd, bcap, nbs):
     for k in prange(nst):
-        nts[k], nbs[k] = _claims(k, nst, qs[k], qs[k + 1], E, cell_of, grid, own, parent,
-                                 touched, k * tcap, bnd, k * bcap)
+        nbs[k] = _claims(k, nst, qs[k], qs[k + 1], E, cell_of, grid, own, base, parent, bnd,
+                         k * bcap)
 
 
 @njit(cache=True)
-def _queue(n, sp_radius, pos, vel, species, sc, grid, pl, listed, icnt, nst, par):
+def _queue(n, sp_radius, pos, vel, species, sc, grid, icnt, nst, par):
     """The substep's initial events (``step._queue_initial``'s, in another order), found
-    by nst strips of cell rows (on numba's threads if ``par``). Returns ``(E, qs)``: the
-    events of strip k are E[qs[k]:qs[k + 1]], their first disc in its rows (the pair list:
-    bucketed by their first disc's row)."""
-    ncy = int(grid[5])
+    by nst strips of cell rows (on numba's threads if ``par``) from the scan's overlaps.
+    Returns ``(E, qs)``: the events of strip k are E[qs[k]:qs[k + 1]], their first disc in
+    its rows."""
     qcnt = np.zeros((nst, N_ICOUNTERS), dtype=np.int64)
     need = np.empty(nst, dtype=np.int64)
     if par:
-        _count_parallel(nst, sc, grid, pl, listed, qcnt, need)
+        _count_parallel(nst, sc, grid, qcnt, need)
     else:
         for k in range(nst):
-            need[k] = _count(k, nst, sc, grid, pl, listed, qcnt)
+            need[k] = _count(k, nst, sc, grid, qcnt)
     off = np.zeros(nst + 1, dtype=np.int64)
     for k in range(nst):
         off[k + 1] = off[k] + need[k]
     E0 = np.empty((off[nst], 5), dtype=FLOAT)
     got = np.empty(nst, dtype=np.int64)
     if par:
-        _queue_parallel(nst, E0, off, sp_radius, pos, vel, species, sc, grid, pl, listed, qcnt,
-                        got)
+        _queue_parallel(nst, E0, off, sp_radius, pos, vel, species, sc, grid, qcnt, got)
     else:
         for k in range(nst):
-            got[k] = _fill(k, nst, E0, off[k], sp_radius, pos, vel, species, sc, grid, pl,
-                           listed, qcnt)
+            got[k] = _fill(k, nst, E0, off[k], sp_radius, pos, vel, species, sc, grid, qcnt)
     for k in range(nst):
         for q in range(N_ICOUNTERS):
             icnt[q] += qcnt[k, q]
     qs = np.zeros(nst + 1, dtype=np.int64)
     for k in range(nst):
         qs[k + 1] = qs[k] + got[k]
-    m = qs[nst]
-    E = np.empty((m, 5), dtype=FLOAT)
-    if not listed:
-        for k in range(nst):
-            E[qs[k]:qs[k + 1]] = E0[off[k]:off[k] + got[k]]
-        return E, qs
-    # the pair list's events: bucketed by the strip of their first disc's row
-    ncx = int(grid[4])
-    strip = np.empty(m, dtype=np.int64)
-    cnt = np.zeros(nst + 1, dtype=np.int64)
-    r = 0
+    E = np.empty((qs[nst], 5), dtype=FLOAT)
     for k in range(nst):
-        for q in range(off[k], off[k] + got[k]):
-            cy = sc.cell_of[int(E0[q, 1])] // ncx
-            s = min(cy * nst // ncy, nst - 1)
-            while s > 0 and cy < _rows(s, nst, ncy)[0]:
-                s -= 1
-            while s + 1 < nst and cy >= _rows(s + 1, nst, ncy)[0]:
-                s += 1
-            strip[r] = s
-            cnt[s + 1] += 1
-            r += 1
-    for k in range(nst):
-        cnt[k + 1] += cnt[k]
-    qs[:] = cnt
-    fill = cnt[:nst].copy()
-    r = 0
-    for k in range(nst):
-        for q in range(off[k], off[k] + got[k]):
-            E[fill[strip[r]]] = E0[q]
-            fill[strip[r]] += 1
-            r += 1
+        E[qs[k]:qs[k + 1]] = E0[off[k]:off[k] + got[k]]
     return E, qs
 
 
 @njit(cache=True)
-def _cluster(E, qs, nst, par, cell_of, grid, own):
+def _cluster(E, qs, nst, par, cell_of, grid, own, base):
     """Group the events E (strip k's: E[qs[k]:qs[k + 1]]) by the cells they claim, the
     strips in parallel (``par``), then across the strips' borders. Returns ``(ncl,
-    ev_start, evs, ecl, cells)``: cluster c's events are ``evs[ev_start[c]:ev_start[c +
-    1]]`` (rows of E), event q's cluster ``ecl[q]``; ``own`` holds an event of the cluster
-    that claimed each cell of ``cells``. Clusters are numbered in the order of their first
-    disc's cell."""
+    ev_start, evs, ecl)``: cluster c's events are ``evs[ev_start[c]:ev_start[c + 1]]``
+    (rows of E), event q's cluster ``ecl[q]``; ``own`` holds ``base`` + an event of the
+    cluster that claimed each claimed cell. Clusters are numbered in the order of their
+    first disc's cell."""
     size = E.shape[0]
     parent = np.arange(size)
-    side = 2 * CLAIM + 1
     most = 0
     for k in range(nst):
         most = max(most, qs[k + 1] - qs[k])
-    tcap = 2 * side * side * most
-    touched = np.empty(nst * tcap, dtype=np.int64)
-    bnd = np.empty((nst * tcap, 2), dtype=np.int64)
-    nts = np.zeros(nst, dtype=np.int64)
+    bcap = (2 * CLAIM + 2) ** 2 * most  # (a block's cells: at most this many outside)
+    bnd = np.empty((nst * bcap, 2), dtype=np.int64)
     nbs = np.zeros(nst, dtype=np.int64)
     if par:
-        _claims_parallel(nst, qs, E, cell_of, grid, own, parent, touched, tcap, bnd, tcap, nts,
-                         nbs)
+        _claims_parallel(nst, qs, E, cell_of, grid, own, base, parent, bnd, bcap, nbs)
     else:
         for k in range(nst):
-            nts[k], nbs[k] = _claims(k, nst, qs[k], qs[k + 1], E, cell_of, grid, own, parent,
-                                     touched, k * tcap, bnd, k * tcap)
-    # the claims across the strips' borders, and the cells claimed, in one list
-    nt = 0
-    for k in range(nst):
-        for a in range(k * tcap, k * tcap + nts[k]):
-            touched[nt] = touched[a]
-            nt += 1
-    for k in range(nst):
-        for a in range(k * tcap, k * tcap + nbs[k]):
-            q = bnd[a, 0]
-            cc = bnd[a, 1]
-            o = own[cc]
-            if o < 0:
-                own[cc] = q
-                touched[nt] = cc
-                nt += 1
-            elif o != q:
-                _union(parent, q, o)
+            nbs[k] = _claims(k, nst, qs[k], qs[k + 1], E, cell_of, grid, own, base, parent,
+                             bnd, k * bcap)
+    for k in range(nst):  # the claims across the strips' borders
+        for a in range(k * bcap, k * bcap + nbs[k]):
+            _claim(own, bnd[a, 1], bnd[a, 0], base, parent)
     # number the clusters by the cell of their root event's first disc (memory order)
     ncl = 0
     for q in range(size):
@@ -373,7 +296,7 @@ def _cluster(E, qs, nst, par, cell_of, grid, own):
     for q in range(size):
         evs[fill[cid[q]]] = q
         fill[cid[q]] += 1
-    return ncl, ev_start, evs, cid, touched[:nt]
+    return ncl, ev_start, evs, cid
 
 
 @njit(cache=True)
@@ -394,14 +317,13 @@ def _undo(lg, lo, hi, h, pos, vel, sc):
 
 @njit(cache=True, inline="always")
 def _schedule(d, cid, dynamic, pos, vel, species, sp_radius, tlast, stamp, cell_start,
-              cell_items, bounds_kind, bounds_params, grid, reach, own, ecl, rep, cparent, dyn,
-              nd, H, size, cicnt, crow):
+              cell_items, bounds_kind, bounds_params, grid, reach, own, base, ecl, rep, cparent,
+              H, size, cicnt, crow):
     """``step._schedule`` for a cluster: first checks that every cell it searches is the
     cluster's (``own``: an event of the cell's cluster, ``ecl``: the cluster of an event;
-    ``dynamic``: a free cell is claimed for the cluster's event ``rep`` and noted in ``dyn``,
-    a cell of another cluster found by ``cparent``). Returns ``(code, other, nd, H, size)``: code
-    R_ESCAPE (a cell not its own, not ``dynamic``), R_CONFLICT (``other``: the cluster
-    owning it), R_FULL (``dyn`` full) or R_OK."""
+    ``dynamic``: a free cell is claimed for the cluster's event ``rep``, a cell of another
+    cluster found by ``cparent``). Returns ``(code, other, H, size)``: code R_ESCAPE (a cell
+    not its own, not ``dynamic``), R_CONFLICT (``other``: the cluster owning it) or R_OK."""
     r = sp_radius[species[d]]
     x = pos[d, 0]
     y = pos[d, 1]
@@ -420,21 +342,17 @@ def _schedule(d, cid, dynamic, pos, vel, species, sp_radius, tlast, stamp, cell_
     for cy in range(cy0, cy1 + 1):
         for cx in range(cx0, cx1 + 1):
             c = cx + ncx * cy
-            o = own[c]
+            o = own[c] - base
             if o >= 0 and ecl[o] == cid:
                 continue
             if not dynamic:
-                return R_ESCAPE, -1, nd, H, size
+                return R_ESCAPE, -1, H, size
             if o < 0:
-                if nd >= dyn.shape[0]:
-                    return R_FULL, -1, nd, H, size
-                own[c] = rep
-                dyn[nd] = c
-                nd += 1
+                own[c] = base + rep
             else:
                 g = _find(cparent, ecl[o])
                 if g != cid:
-                    return R_CONFLICT, g, nd, H, size
+                    return R_CONFLICT, g, H, size
         need += cell_start[cx1 + 1 + ncx * cy] - cell_start[cx0 + ncx * cy]
     H = reserve(H, size, need)
     if t < math.inf:
@@ -454,16 +372,16 @@ def _schedule(d, cid, dynamic, pos, vel, species, sp_radius, tlast, stamp, cell_
                     size = push(H, size, tc, d, k, sd, stamp[k])
                 else:
                     size = push(H, size, tc, k, d, stamp[k], sd)
-    return R_OK, -1, nd, H, size
+    return R_OK, -1, H, size
 
 
 def _run_py(cid, dynamic, H, size, discs, tables, sc, bounds_kind, bounds_params, grid, rc,
-            sub_id, own, ecl, rep, cparent, dyn, nd, lg, nlog, cicnt, crow, rec, nrec, budget):
+            sub_id, own, base, ecl, rep, cparent, lg, nlog, cicnt, crow, rec, nrec, budget):
     """Process one cluster's heap ``H[0:size]`` in time order, as ``step._events`` does for
     the scenes of :func:`eligible`. Before its first event each disc is logged in ``lg``
     (rows from ``nlog``: disc, velocity, stamp, lastcol; what :func:`_undo` needs). Float
     terms go to ``rec`` rows (t, i, j, which sum, value) from ``nrec``; counts to
-    ``cicnt[crow]``. Returns ``(code, other, H, nd, nrec, nlog, events, delta, vfast,
+    ``cicnt[crow]``. Returns ``(code, other, H, nrec, nlog, events, delta, vfast,
     dropped)`` (``code``: R_OK, or why it stopped: see :func:`_schedule`; R_FULL also for
     ``rec`` and ``lg``;
     R_SERIAL past ``budget`` events or at a release of internal energy, which the serial
@@ -490,12 +408,12 @@ def _run_py(cid, dynamic, H, size, discs, tables, sc, bounds_kind, bounds_params
             continue
         events += 1
         if events > budget:
-            return R_SERIAL, -1, H, nd, nrec, nlog, events, delta, vfast, dropped
+            return R_SERIAL, -1, H, nrec, nlog, events, delta, vfast, dropped
         for w in range(1 if j < 0 else 2):  # log the discs of their first event
             d = i if w == 0 else j
             if nev[d] == 0:
                 if nlog >= lg.shape[0]:
-                    return R_FULL, -1, H, nd, nrec, nlog, events, delta, vfast, dropped
+                    return R_FULL, -1, H, nrec, nlog, events, delta, vfast, dropped
                 lg[nlog, 0] = d
                 lg[nlog, 1] = vel[d, 0]
                 lg[nlog, 2] = vel[d, 1]
@@ -510,7 +428,7 @@ def _run_py(cid, dynamic, H, size, discs, tables, sc, bounds_kind, bounds_params
             if tw == math.inf:
                 continue
             if nrec >= rec.shape[0]:
-                return R_FULL, -1, H, nd, nrec, nlog, events, delta, vfast, dropped
+                return R_FULL, -1, H, nrec, nlog, events, delta, vfast, dropped
             tw = max(tw, tlast[i])
             dp = reflect(i, tw, axis, pos, vel, sp_mass[species[i]], bounds_kind, bounds_params)
             rec[nrec, 0] = t
@@ -540,7 +458,7 @@ def _run_py(cid, dynamic, H, size, discs, tables, sc, bounds_kind, bounds_params
                 continue
             if kappa > 0.0 and internal_energy[i] + internal_energy[j] > 0.0:
                 # a release of internal energy may cut the substep short at its time: serial
-                return R_SERIAL, -1, H, nd, nrec, nlog, events, delta, vfast, dropped
+                return R_SERIAL, -1, H, nrec, nlog, events, delta, vfast, dropped
             e_eff = e
             if e < 1.0:
                 if lastcol[i] == sub_id or lastcol[j] == sub_id:
@@ -553,7 +471,7 @@ def _run_py(cid, dynamic, H, size, discs, tables, sc, bounds_kind, bounds_params
                                                       internal_energy[i], internal_energy[j])
             if e < 1.0:
                 if nrec >= rec.shape[0]:
-                    return R_FULL, -1, H, nd, nrec, nlog, events, delta, vfast, dropped
+                    return R_FULL, -1, H, nrec, nlog, events, delta, vfast, dropped
                 rec[nrec, 0] = t
                 rec[nrec, 1] = i
                 rec[nrec, 2] = j
@@ -579,13 +497,13 @@ def _run_py(cid, dynamic, H, size, discs, tables, sc, bounds_kind, bounds_params
             delta = max(delta, math.hypot(pos[j, 0] - binx[j], pos[j, 1] - biny[j]))
             vfast = max(vfast, math.hypot(vxi, vyi), math.hypot(vxj, vyj))
         for w in range(1 if j < 0 else 2):  # the new contacts of i (and j)
-            code, other, nd, H, size = _schedule(
+            code, other, H, size = _schedule(
                 i if w == 0 else j, cid, dynamic, pos, vel, species, sp_radius, tlast, stamp,
                 cell_start, cell_items, bounds_kind, bounds_params, grid, rcell + delta, own,
-                ecl, rep, cparent, dyn, nd, H, size, cicnt, crow)
+                base, ecl, rep, cparent, H, size, cicnt, crow)
             if code != R_OK:
-                return code, other, H, nd, nrec, nlog, events, delta, vfast, dropped
-    return R_OK, -1, H, nd, nrec, nlog, events, delta, vfast, dropped
+                return code, other, H, nrec, nlog, events, delta, vfast, dropped
+    return R_OK, -1, H, nrec, nlog, events, delta, vfast, dropped
 
 
 _run = njit(cache=True)(_run_py)
@@ -610,7 +528,7 @@ X_EVENTS, X_DROPPED, X_REC_LO, X_REC_HI, X_LOG_LO, X_LOG_HI, X_REPAIRED = range(
 
 @njit(cache=True)
 def _chunk(c0, c1, E, ev_start, evs, ecl, discs, tables, sc, bounds_kind, bounds_params, grid,
-           rc, sub_id, h, own, rec, rec0, lg, lg0, budget, status, res, resf, cicnt):
+           rc, sub_id, h, own, base, rec, rec0, lg, lg0, budget, status, res, resf, cicnt):
     """Clusters [c0, c1) in turn, on one thread; their records in ``rec`` and their logs in
     ``lg`` (this chunk's rows, the first of which are rows ``rec0`` and ``lg0`` of all the
     chunks'). A cluster that escapes its cells, or finds no room for its records or its log,
@@ -618,15 +536,14 @@ def _chunk(c0, c1, E, ev_start, evs, ecl, discs, tables, sc, bounds_kind, bounds
     and stops the chunk (``res[c, X_EVENTS]`` = -1)."""
     H = new_heap(256)
     cparent = np.empty(0, dtype=np.int64)
-    dyn = np.empty(0, dtype=np.int64)
     nrec = 0
     nlog = 0
     pos, vel = discs.pos, discs.vel
     for c in range(c0, c1):
         H, size = _load(H, E, evs, ev_start[c], ev_start[c + 1])
-        code, other, H, nd, nrec1, nlog1, events, delta, vfast, dropped = _run_inline(
+        code, other, H, nrec1, nlog1, events, delta, vfast, dropped = _run_inline(
             c, False, H, size, discs, tables, sc, bounds_kind, bounds_params, grid, rc,
-            sub_id, own, ecl, evs[ev_start[c]], cparent, dyn, 0, lg, nlog, cicnt, c, rec, nrec,
+            sub_id, own, base, ecl, evs[ev_start[c]], cparent, lg, nlog, cicnt, c, rec, nrec,
             budget)
         if code != R_OK:
             _undo(lg, nlog, nlog1, h, pos, vel, sc)
@@ -651,12 +568,12 @@ def _chunk(c0, c1, E, ev_start, evs, ecl, discs, tables, sc, bounds_kind, bounds
 
 @njit(cache=True, parallel=True)
 def _chunks_parallel(nch, bounds_c, E, ev_start, evs, ecl, discs, tables, sc, bounds_kind,
-                     bounds_params, grid, rc, sub_id, h, own, rec, rcap, lg, lcap, budget,
+                     bounds_params, grid, rc, sub_id, h, own, base, rec, rcap, lg, lcap, budget,
                      status, res, resf, cicnt):
     for k in prange(nch):
         _chunk(bounds_c[k], bounds_c[k + 1], E, ev_start, evs, ecl, discs, tables, sc,
-               bounds_kind,
-               bounds_params, grid, rc, sub_id, h, own, rec[k * rcap:(k + 1) * rcap], k * rcap,
+               bounds_kind, bounds_params, grid, rc, sub_id, h, own, base,
+               rec[k * rcap:(k + 1) * rcap], k * rcap,
                lg[k * lcap:(k + 1) * lcap], k * lcap, budget, status, res, resf, cicnt)
 
 
@@ -678,18 +595,16 @@ def _grown(a, used):
 
 @njit(cache=True)
 def _repair(ncl, E, ev_start, evs, ecl, discs, tables, sc, bounds_kind, bounds_params, grid,
-            rc, sub_id, h, own, lg, budget, status, res, resf, cicnt):
+            rc, sub_id, h, own, base, lg, budget, status, res, resf, cicnt):
     """Run the escaped clusters one at a time, growing them into free cells and merging
-    them with the clusters they reach (undone and run again as one). Returns ``(ok, dyn,
-    nd, rec2, lg2)``: ``ok`` False when a run went past the budget or reached a release of
-    internal energy (it is undone); the free cells claimed, ``dyn[0:nd]``; the records and
-    logs of the repaired clusters (``res[c, X_REPAIRED]`` = 1)."""
+    them with the clusters they reach (undone and run again as one). Returns ``(ok, rec2,
+    lg2)``: ``ok`` False when a run went past the budget or reached a release of internal
+    energy (it is undone); the records and logs of the repaired clusters (``res[c,
+    X_REPAIRED]`` = 1)."""
     pos, vel = discs.pos, discs.vel
     cparent = np.arange(ncl)
     cnext = np.full(ncl, -1, dtype=np.int64)
     ctail = np.arange(ncl)
-    dyn = np.empty(1024, dtype=np.int64)
-    nd = 0
     rec2 = np.empty((256, 5), dtype=FLOAT)
     lg2 = np.empty((1024, 5), dtype=FLOAT)
     nrec = 0
@@ -716,9 +631,9 @@ def _repair(ncl, E, ev_start, evs, ecl, discs, tables, sc, bounds_kind, bounds_p
                                 int(E[q, 4]))
                 c = cnext[c]
             cicnt[g, :] = 0
-            code, other, H, nd, nrec1, nlog1, events, delta, vfast, dropped = _run(
+            code, other, H, nrec1, nlog1, events, delta, vfast, dropped = _run(
                 g, True, H, size, discs, tables, sc, bounds_kind, bounds_params, grid, rc,
-                sub_id, own, ecl, evs[ev_start[g]], cparent, dyn, nd, lg2, nlog, cicnt, g, rec2,
+                sub_id, own, base, ecl, evs[ev_start[g]], cparent, lg2, nlog, cicnt, g, rec2,
                 nrec, budget)
             if code == R_OK:
                 status[g] = C_DONE
@@ -737,12 +652,8 @@ def _repair(ncl, E, ev_start, evs, ecl, discs, tables, sc, bounds_kind, bounds_p
             _undo(lg2, nlog, nlog1, h, pos, vel, sc)
             cicnt[g, :] = 0
             if code == R_SERIAL:
-                return False, dyn, nd, rec2, lg2
-            if code == R_FULL:  # room for more claimed cells, records, log, and again
-                if nd + 64 >= dyn.shape[0]:
-                    grown = np.empty(2 * dyn.shape[0], dtype=np.int64)
-                    grown[:nd] = dyn[:nd]
-                    dyn = grown
+                return False, rec2, lg2
+            if code == R_FULL:  # room for more records and log, and again
                 if nrec1 + 64 >= rec2.shape[0]:
                     rec2 = _grown(rec2, nrec)
                 if nlog1 + 64 >= lg2.shape[0]:
@@ -760,16 +671,17 @@ def _repair(ncl, E, ev_start, evs, ecl, discs, tables, sc, bounds_kind, bounds_p
             status[hi] = C_MERGED
             g = lo
             status[g] = C_PENDING
-    return True, dyn, nd, rec2, lg2
+    return True, rec2, lg2
 
 
 @njit(cache=True)
-def events(n, H, tables, discs, sc, bounds, grid, cnt, rc, sub_id, h, vfast, own, threads, par,
-           pl, listed):
+def events(n, H, tables, discs, sc, bounds, grid, cnt, rc, sub_id, h, vfast, own, gen, threads,
+           par):
     """The initial queue and the event phase of a substep (as ``step._queue_initial`` and
-    ``step._events`` for the scenes of :func:`eligible`), by clusters, in ``threads`` strips
-    and chunks on numba's threads if ``par``. ``pl``, ``listed``: the broad phase's pair
-    list (``step._drift_and_bin``); ``own``: :func:`new_owner` (returned to all -1).
+    ``step._events`` for the scenes of :func:`eligible`, after the scan: not the pair
+    list), by clusters, in ``threads`` strips and chunks on numba's threads if ``par``.
+    ``own``: :func:`new_owner`, ``gen``: the substep's number in the call (from 1): the
+    cells it claims hold ``gen`` << 32 + an event, so no cell need be freed after.
     Returns ``(done, H, size, delta, dropped, vfast)``; ``done`` False (nothing changed but
     the queue's counts) when the clusters would spend more than the substep's event budget
     or reach a release of internal energy: the caller then runs the serial phase on the
@@ -778,10 +690,10 @@ def events(n, H, tables, discs, sc, bounds, grid, cnt, rc, sub_id, h, vfast, own
     pos, vel = discs.pos, discs.vel
     budget = 64 * n + 1024
     nst = max(threads, 1) if par else 1
-    E, qs = _queue(n, tables.sp_radius, pos, vel, discs.species, sc, grid, pl, listed, cnt.icnt,
-                   nst, par)
+    E, qs = _queue(n, tables.sp_radius, pos, vel, discs.species, sc, grid, cnt.icnt, nst, par)
     size = E.shape[0]
-    ncl, ev_start, evs, ecl, cells = _cluster(E, qs, nst, par, sc.cell_of, grid, own)
+    base = np.int64(gen) << 32
+    ncl, ev_start, evs, ecl = _cluster(E, qs, nst, par, sc.cell_of, grid, own, base)
     status = np.full(ncl, C_PENDING, dtype=np.int64)
     res = np.zeros((ncl, 7), dtype=np.int64)
     resf = np.zeros((ncl, 2), dtype=FLOAT)
@@ -805,22 +717,20 @@ def events(n, H, tables, discs, sc, bounds, grid, cnt, rc, sub_id, h, vfast, own
     lg = np.empty((nch * lcap, 5), dtype=FLOAT)
     if nch > 1:
         _chunks_parallel(nch, bounds_c, E, ev_start, evs, ecl, discs, tables, sc, bounds_kind,
-                         bounds_params, grid, rc, sub_id, h, own, rec, rcap, lg, lcap, budget,
-                         status, res, resf, cicnt)
+                         bounds_params, grid, rc, sub_id, h, own, base, rec, rcap, lg, lcap,
+                         budget, status, res, resf, cicnt)
     else:
         _chunk(0, ncl, E, ev_start, evs, ecl, discs, tables, sc, bounds_kind, bounds_params,
-               grid, rc, sub_id, h, own, rec, 0, lg, 0, budget, status, res, resf, cicnt)
+               grid, rc, sub_id, h, own, base, rec, 0, lg, 0, budget, status, res, resf, cicnt)
     ok = True
     for c in range(ncl):
         if res[c, X_EVENTS] < 0:
             ok = False
     if ok:
-        ok, dyn, nd, rec2, lg2 = _repair(ncl, E, ev_start, evs, ecl, discs, tables, sc,
-                                         bounds_kind, bounds_params, grid, rc, sub_id, h, own,
-                                         lg, budget, status, res, resf, cicnt)
+        ok, rec2, lg2 = _repair(ncl, E, ev_start, evs, ecl, discs, tables, sc, bounds_kind,
+                                bounds_params, grid, rc, sub_id, h, own, base, lg, budget,
+                                status, res, resf, cicnt)
     else:
-        dyn = np.empty(0, dtype=np.int64)
-        nd = 0
         rec2 = np.empty((0, 5), dtype=FLOAT)
         lg2 = np.empty((0, 5), dtype=FLOAT)
     total = 0
@@ -833,7 +743,6 @@ def events(n, H, tables, discs, sc, bounds, grid, cnt, rc, sub_id, h, vfast, own
         for c in range(ncl):
             if status[c] == C_DONE:
                 _undo_done(c, res, lg, lg2, h, pos, vel, sc)
-        _release(cells, dyn, nd, own)
         H = reserve(H, 0, size)  # the serial phase pops a heap
         m = 0
         for q in range(size):
@@ -857,17 +766,7 @@ def events(n, H, tables, discs, sc, bounds, grid, cnt, rc, sub_id, h, vfast, own
             R[k] = src[a]
             k += 1
     _add_in_order(R, fsum)
-    _release(cells, dyn, nd, own)
     return True, H, size, delta, dropped, vfast
-
-
-@njit(cache=True)
-def _release(cells, dyn, nd, own):
-    """Free the cells the clusters claimed (``own`` back to -1)."""
-    for a in range(cells.shape[0]):
-        own[cells[a]] = -1
-    for a in range(nd):
-        own[dyn[a]] = -1
 
 
 @njit(cache=True)

@@ -7,7 +7,7 @@ from numba import njit
 
 from .collisions import pair_time
 from .heap import push
-from .structs import IC_LEFT_OVERLAPPING
+from .structs import IC_LEFT_OVERLAPPING, OV_SLOTS
 
 
 @njit(cache=True, inline="always")
@@ -58,3 +58,33 @@ def half_stencil(c, ncx, ncy, cell_start):
         lo2 = 0
         hi2 = 0
     return e1, lo2, hi2
+
+
+@njit(cache=True)
+def queue_scan(a0, a1, sp_radius, pos, vel, species, sc, grid, H, size, icnt, sift):
+    """Queue the contacts of the overlapping pairs the scan found for the sorted discs
+    [a0, a1) (``sc.ov_n``, ``sc.ov_b``: a disc with more partners than OV_SLOTS has its half
+    stencil scanned again); room must be reserved (``sc.ov_n`` of each). Returns the new
+    size."""
+    ncx = int(grid[4])
+    ncy = int(grid[5])
+    cell_start, cell_items, cell_of = sc.cell_start, sc.cell_items, sc.cell_of
+    tlast, stamp, ov_n, ov_b = sc.tlast, sc.stamp, sc.ov_n, sc.ov_b
+    for a in range(a0, a1):
+        k = ov_n[a]
+        if k == 0:
+            continue
+        i = cell_items[a]
+        if k <= OV_SLOTS:
+            for q in range(k):
+                size = try_pair(i, cell_items[ov_b[a, q]], sp_radius, pos, vel, species, tlast,
+                                stamp, H, size, icnt, sift)
+            continue
+        e1, lo2, hi2 = half_stencil(cell_of[i], ncx, ncy, cell_start)
+        for b in range(a + 1, e1):
+            size = try_pair(i, cell_items[b], sp_radius, pos, vel, species, tlast, stamp, H,
+                            size, icnt, sift)
+        for b in range(lo2, hi2):
+            size = try_pair(i, cell_items[b], sp_radius, pos, vel, species, tlast, stamp, H,
+                            size, icnt, sift)
+    return size

@@ -37,7 +37,7 @@ from .celllist import build, cell_coord, cell_radius, cell_range, make_grid, ove
 from .clusters import eligible, new_owner
 from .clusters import events as cluster_events
 from .collisions import bounce, normal_at, pair_time
-from .contacts import half_stencil as _strips
+from .contacts import queue_scan
 from .contacts import try_pair as _try_pair
 from .heap import new_heap, pop, push, reserve
 from .reactions import (
@@ -220,7 +220,7 @@ def _scan_rows(r0, r1, grid, cell_start, sx, sy, sr, ov_n, ov_b):
     """Overlapping pairs among discs binned in rows [r0, r1), in sorted order.
 
     Reads the gathered (sorted, contiguous) ``sx, sy, sr``. ``ov_n[a]`` gets the number of
-    partners b > a (in the half stencil, :func:`_strips`) of sorted disc a, the first
+    partners b > a (in the half stencil, ``contacts.half_stencil``) of sorted disc a, the first
     OV_SLOTS of them, in increasing b, in ``ov_b[a]``. Each call writes only its own rows'
     discs, so row chunks run in parallel.
 
@@ -538,8 +538,8 @@ def _queue_initial(n, collide, sp_radius, pos, vel, species, sc, grid, H, icnt, 
     big discs (found here: each big disc against the cells within its radius + rcell and the
     big discs after it). ``sc``: the :class:`~.structs.Scratch`."""
     tlast, stamp, wall_t, wflag = sc.tlast, sc.stamp, sc.wall_t, sc.wflag
-    cell_start, cell_items, cell_of = sc.cell_start, sc.cell_items, sc.cell_of
-    sx, sy, sr, ov_n, ov_b = sc.sx, sc.sy, sc.sr, sc.ov_n, sc.ov_b
+    cell_start, cell_items = sc.cell_start, sc.cell_items
+    sx, sy, sr, ov_n = sc.sx, sc.sy, sc.sr, sc.ov_n
     ncx = int(grid[4])
     ncy = int(grid[5])
     rcell = grid[6]
@@ -569,24 +569,9 @@ def _queue_initial(n, collide, sp_radius, pos, vel, species, sc, grid, H, icnt, 
         for q in range(pl.count[1]):
             size = _try_pair(ovi[q], ovj[q], sp_radius, pos, vel, species, tlast, stamp, H, size,
                              icnt)
-    for a in range(0 if listed else cell_start[nbc]):
-        k = ov_n[a]
-        if k == 0:
-            continue
-        i = cell_items[a]
-        if k <= OV_SLOTS:
-            for q in range(k):
-                size = _try_pair(i, cell_items[ov_b[a, q]], sp_radius, pos, vel, species, tlast,
-                                 stamp, H, size, icnt)
-            continue
-        # more partners than slots: scan this disc's stencil again
-        e1, lo2, hi2 = _strips(cell_of[i], ncx, ncy, cell_start)
-        for b in range(a + 1, e1):
-            size = _try_pair(i, cell_items[b], sp_radius, pos, vel, species, tlast, stamp, H, size,
-                             icnt)
-        for b in range(lo2, hi2):
-            size = _try_pair(i, cell_items[b], sp_radius, pos, vel, species, tlast, stamp, H, size,
-                             icnt)
+    else:
+        size = queue_scan(0, cell_start[nbc], sp_radius, pos, vel, species, sc, grid, H, size,
+                          icnt, True)
     for a in range(cell_start[nbc], cell_start[nbc + 1]):  # the big discs
         i = cell_items[a]
         cx0, cx1, cy0, cy1 = cell_range(sx[a], sy[a], sr[a] + rcell, grid)
@@ -1316,7 +1301,10 @@ def advance(discs, n, n_steps, dt, bounds, tables, params, flags, rng, cnt, thre
     work = _fit_work(work, ws, nstart)
     sc = _carve(work, ws, nstart)
     # the broad phase: a pair list kept across the substeps of a call long enough to pay
-    listed = collide and n_steps >= PAIR_MIN_STEPS and n <= PAIR_MAX_DISCS
+    # (on several threads, from PARALLEL_MIN discs, the scan runs in parallel and beats the
+    # serial list: docs/performance.md, "The event phase by clusters")
+    listed = collide and n_steps >= PAIR_MIN_STEPS and n <= PAIR_MAX_DISCS and not (
+        threads > 1 and n >= PARALLEL_MIN)
     pl = new_pairlist(ws if listed else 0, PAIR_CAP * ws if listed else 0)
     big = sp_radius.max() > rcell  # (discs not in the list: see PairList)
     full = True  # (the list is built at the first substep, and after a reordering)
@@ -1324,7 +1312,8 @@ def advance(discs, n, n_steps, dt, bounds, tables, params, flags, rng, cnt, thre
     clustered = False
     if clusters is not None:  # (pruned by numba when the argument is omitted)
         clustered = eligible(rc, bounds_kind) and threads > 1 and n >= PARALLEL_MIN
-    own = new_owner(grid) if clustered else np.empty(0, dtype=INDEX)
+    own = new_owner(grid) if clustered else np.empty(0, dtype=np.int64)
+    gen = 1  # (the cluster phase's substeps in this call: see clusters.events)
     nbc = ncx * ncy
     for s in range(n_steps):
         if reorder_every > 0 and n >= REORDER_MIN and (step0 + s) % reorder_every == 0:
@@ -1361,8 +1350,9 @@ def advance(discs, n, n_steps, dt, bounds, tables, params, flags, rng, cnt, thre
                 if clustered and sc.cell_start[nbc + 1] == sc.cell_start[nbc]:
                     done, H, size, delta, dropped, vfast = cluster_events(
                         n, H, tables, Discs(pos, vel, species, internal_energy, ids, idctr), sc,
-                        bounds, grid, cnt, rc, icnt[IC_SUBSTEPS], h, vfast, own, threads, True,
-                        pl, listed)
+                        bounds, grid, cnt, rc, icnt[IC_SUBSTEPS], h, vfast, own, gen, threads,
+                        True)
+                    gen += 1
                     queued = True
                     n_dead = 0
                     vrel = 0.0
