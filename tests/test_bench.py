@@ -232,7 +232,7 @@ def test_pairlist_probe_lists_exactly_the_close_pairs():
 
 
 @pytest.mark.parametrize("script", ["bench_core.py", "bench_peers.py", "profile_step.py",
-                                    "pairlist_probe.py"])
+                                    "pairlist_probe.py", "bench_threads.py"])
 def test_scripts_print_their_help(script):
     res = subprocess.run([sys.executable, str(BENCHMARKS / script), "--help"],
                          capture_output=True, text=True, timeout=300)
@@ -262,3 +262,13 @@ def test_compile_profile_splits_each_function_s_own_time_from_its_callees():
     assert r["incl"][c] >= r["incl"][f] + r["own"][c] - 1e-9  # (the leaf compiles inside)
     assert 0 < r["own"][c] < r["incl"][c] and 0 < r["own"][f] <= r["incl"][f]
     assert r["literal"].get(f, 0) >= 1 and c not in r["literal"]
+
+
+def test_bench_threads_compares_one_thread_with_several_on_equal_trajectories(capsys):
+    import bench_threads
+
+    assert bench_threads.main(["--cases", "600:3", "--pairs", "2", "--threads", "4"]) == 0
+    out = capsys.readouterr().out
+    assert "speed-up (median)" in out and "600" in out
+    r = bench_threads.pair_run(600, 2, 1, threads=4)
+    assert r["threads"] == 4 and r["ns_one"] > 0 and r["ns_many"] > 0
