@@ -62,6 +62,21 @@ def test_clusters_give_the_serial_trajectory(eta, e, calls, steps):
         assert one.dissipated_energy > 0.0
 
 
+def test_first_order_reactions_and_fissions_between_the_event_phases():
+    """Species change and discs are added (n grows within a call) after the event phase:
+    the clusters see the new discs at the next substep."""
+    B = dg.Species("B", 1.0, 1.0)
+    C = dg.Species("C", 1.0, 2.0)
+    sc = bench_scene(N - 2000, extra_species=[B, C], extra_counts={"C": 2000}, reactions=[
+        dg.Transformation("A", "B", 0.05), dg.Transformation("B", "A", 0.05),
+        dg.Decomposition("C", "A", "A", 0.5)])
+    sim = dg.Simulation(sc, seed=15)
+    n0 = len(sim)
+    one = _serial_vs_clusters(sim, 2, 3)
+    assert len(one) > n0
+    assert sum(one.reactions().values()) > 0
+
+
 def test_a_release_of_internal_energy_sends_the_substep_back_to_the_serial_phase():
     sim = dg.Simulation(bench_scene(N), seed=12)
     assert sim._cs.params[1] > 0.0  # kappa: collisions release internal energy

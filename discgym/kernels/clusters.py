@@ -43,6 +43,7 @@ from .contacts import add_event, queue_scan
 from .heap import new_heap, pop, push, reserve
 from .structs import (
     DISC_EVENTS,
+    EVENTS_PER_DISC,
     FLOAT,
     FS_DISSIPATED,
     FS_WALL_MOMENTUM,
@@ -688,7 +689,7 @@ def events(n, H, tables, discs, sc, bounds, grid, cnt, rc, sub_id, h, vfast, own
     initial events, the heap ``H[0:size]``."""
     bounds_kind, bounds_params = bounds.kind, bounds.params
     pos, vel = discs.pos, discs.vel
-    budget = 64 * n + 1024
+    budget = EVENTS_PER_DISC * n + 1024  # (step._events')
     nst = max(threads, 1) if par else 1
     E, qs = _queue(n, tables.sp_radius, pos, vel, discs.species, sc, grid, cnt.icnt, nst, par)
     size = E.shape[0]
