@@ -43,7 +43,8 @@ def pair_run(n: int, steps: int, pairs: int, threads: int | None = None, seed: i
         c = time.perf_counter()
         t1.append((b - a) / (n * steps) * 1e9)
         tm.append((c - b) / (n * steps) * 1e9)
-    for x, y in ((one.positions, many.positions), (one.velocities, many.velocities)):
+    for x, y in ((one.positions, many.positions), (one.velocities, many.velocities),
+                 (one._fsum, many._fsum)):
         if not np.array_equal(x, y):
             raise AssertionError("one thread and several gave different trajectories")
     if one.counters() != many.counters():

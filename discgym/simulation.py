@@ -339,7 +339,8 @@ class Simulation:
     # ------------------------------------------------------------------ running
     @property
     def threads(self) -> int:
-        """Work chunks for numba's threads in a step (4 per thread; 1: single-threaded)."""
+        """Work chunks for numba's threads in a step (4 per thread; 1: single-threaded; with
+        one numba thread a step runs single-threaded whatever this says)."""
         return self._threads
 
     @threads.setter
@@ -393,7 +394,8 @@ class Simulation:
         else:
             discs, n, self._work = _step.advance_rngs(
                 discs, self._n, n_steps, dt, bounds, tables, cs.params, cs.flags, self._rngs,
-                counters, self._threads, self._steps, _step.REORDER_EVERY, self._work)
+                counters, self._threads if numba.get_num_threads() > 1 else 1, self._steps,
+                _step.REORDER_EVERY, self._work)
         self._pos, self._vel, self._species, self._internal_energy, self._ids = discs[:5]
         self._n = n
         self._steps += n_steps

@@ -14,6 +14,7 @@ substeps clustered, 35 with claims made in the repair, 10 with merges, 12 sent b
 cradles are the test that fails when a cluster ignores the limits of its cells.)
 """
 
+import numba
 import numpy as np
 import pytest
 
@@ -21,7 +22,16 @@ import discgym as dg
 from discgym.bench import bench_scene
 from discgym.kernels import clusters as CL
 from discgym.kernels import step as S
-from discgym.kernels.structs import FLOAT, FS_DISSIPATED, FS_WALL_MOMENTUM, RunConsts
+from discgym.kernels.structs import (
+    F_BI,
+    F_COLLISIONS,
+    F_OUTLETS,
+    F_THERMAL,
+    FLOAT,
+    FS_DISSIPATED,
+    FS_WALL_MOMENTUM,
+    RunConsts,
+)
 
 N = S.PARALLEL_MIN + 4464  # 70,000 discs
 
@@ -37,6 +47,14 @@ def _same(a, b):
 
 
 def _serial_vs_clusters(sim, calls, steps):
+    # the cluster path's conditions (kernels.step.advance): a box scene of local events, at
+    # least PARALLEL_MIN discs, more than one work chunk and more than one numba thread
+    if numba.get_num_threads() < 2:
+        pytest.skip("numba has one thread here: the cluster path is not taken")
+    cs = sim._cs
+    rc = RunConsts(cs.params[0], cs.params[1], 0.5, 1.0, bool(cs.flags[F_COLLISIONS]),
+                   bool(cs.flags[F_BI]), bool(cs.flags[F_THERMAL]), bool(cs.flags[F_OUTLETS]))
+    assert CL.eligible(rc, sim._bounds_kind) and len(sim) >= S.PARALLEL_MIN
     one = sim.copy()
     one.threads = 1  # the serial event phase
     many = sim.copy()

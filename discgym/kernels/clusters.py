@@ -25,11 +25,13 @@ largest displacement and speed do not depend on the order.
 
 Only scenes whose events touch nothing but the two discs of an event take this path
 (:func:`eligible`): box bounds (a disc gliding along a circle's wall reads the global
-heap), no thermal walls, outlets or bimolecular reactions (they draw random numbers, add
-or remove discs, and may cut a substep short at a global time), no release of internal
-no big discs (every search reads them all). A substep whose clusters would spend more than
-the event budget, or where a collision would release internal energy (which may end the
-substep at its time), runs the serial phase instead, from the same start.
+heap), no thermal walls, outlets or bimolecular reactions (they draw random numbers, add or
+remove discs, and may cut a substep short at a global time), no big discs in the substep
+(every search reads them all; checked by ``step.advance``). A substep whose clusters would
+spend more than the event budget, or in which a collision would release internal energy
+(which may end the substep at its time), runs the serial phase instead, from the same
+start. ``step.advance`` takes this path only on more than one numba thread: on one it
+costs more than the serial phase (docs/performance.md, "The event phase by clusters").
 """
 
 import math
@@ -201,35 +203,27 @@ def _count_parallel(nst, sc, grid, qcnt, need):
 
 
 @njit(cache=True, parallel=True)
-def _claims_parallel(nst, qs, E, cell_of, grid, own, base, parent, bnd, bcap, nbs):
+def _claims_parallel(nst, qs, E, cell_of, grid, own, base, parent, bnd, boff, nbs):
     for k in prange(nst):
         nbs[k] = _claims(k, nst, qs[k], qs[k + 1], E, cell_of, grid, own, base, parent, bnd,
-                         k * bcap)
+                         boff[k])
 
 
 @njit(cache=True)
-def _queue(n, sp_radius, pos, vel, species, sc, grid, icnt, nst, par):
+def _queue(sp_radius, pos, vel, species, sc, grid, icnt, nst):
     """The substep's initial events (``step._queue_initial``'s, in another order), found
-    by nst strips of cell rows (on numba's threads if ``par``) from the scan's overlaps.
-    Returns ``(E, qs)``: the events of strip k are E[qs[k]:qs[k + 1]], their first disc in
-    its rows."""
+    by nst strips of cell rows on numba's threads from the scan's overlaps. Returns ``(E,
+    qs)``: the events of strip k are E[qs[k]:qs[k + 1]] (those of its sorted discs: one disc
+    of each in its rows, the other in them or in the row below)."""
     qcnt = np.zeros((nst, N_ICOUNTERS), dtype=np.int64)
     need = np.empty(nst, dtype=np.int64)
-    if par:
-        _count_parallel(nst, sc, grid, qcnt, need)
-    else:
-        for k in range(nst):
-            need[k] = _count(k, nst, sc, grid, qcnt)
+    _count_parallel(nst, sc, grid, qcnt, need)
     off = np.zeros(nst + 1, dtype=np.int64)
     for k in range(nst):
         off[k + 1] = off[k] + need[k]
     E0 = np.empty((off[nst], 5), dtype=FLOAT)
     got = np.empty(nst, dtype=np.int64)
-    if par:
-        _queue_parallel(nst, E0, off, sp_radius, pos, vel, species, sc, grid, qcnt, got)
-    else:
-        for k in range(nst):
-            got[k] = _fill(k, nst, E0, off[k], sp_radius, pos, vel, species, sc, grid, qcnt)
+    _queue_parallel(nst, E0, off, sp_radius, pos, vel, species, sc, grid, qcnt, got)
     for k in range(nst):
         for q in range(N_ICOUNTERS):
             icnt[q] += qcnt[k, q]
@@ -243,29 +237,33 @@ def _queue(n, sp_radius, pos, vel, species, sc, grid, icnt, nst, par):
 
 
 @njit(cache=True)
-def _cluster(E, qs, nst, par, cell_of, grid, own, base):
+def _cluster(E, qs, nst, cell_of, grid, own, base):
     """Group the events E (strip k's: E[qs[k]:qs[k + 1]]) by the cells they claim, the
-    strips in parallel (``par``), then across the strips' borders. Returns ``(ncl,
-    ev_start, evs, ecl)``: cluster c's events are ``evs[ev_start[c]:ev_start[c + 1]]``
-    (rows of E), event q's cluster ``ecl[q]``; ``own`` holds ``base`` + an event of the
-    cluster that claimed each claimed cell. Clusters are numbered in the order of their
-    first disc's cell."""
+    strips in parallel, then across the strips' borders. Returns ``(ncl, ev_start, evs,
+    ecl)``: cluster c's events are ``evs[ev_start[c]:ev_start[c + 1]]`` (rows of E), event
+    q's cluster ``ecl[q]``; ``own`` holds ``base`` + an event of the cluster that claimed
+    each claimed cell. Clusters are numbered in the order of the cell of the first disc of
+    their lowest event (roughly memory order)."""
     size = E.shape[0]
     parent = np.arange(size)
-    most = 0
+    # room for the claims outside each strip: only its events within CLAIM + 1 rows of its
+    # edges have any, at most a whole block each ((2 CLAIM + 2)^2 cells: two adjacent cells)
+    ncx = int(grid[4])
+    ncy = int(grid[5])
+    boff = np.zeros(nst + 1, dtype=np.int64)
     for k in range(nst):
-        most = max(most, qs[k + 1] - qs[k])
-    bcap = (2 * CLAIM + 2) ** 2 * most  # (a block's cells: at most this many outside)
-    bnd = np.empty((nst * bcap, 2), dtype=np.int64)
+        r0, r1 = _rows(k, nst, ncy)
+        near = 0
+        for q in range(qs[k], qs[k + 1]):
+            cy = cell_of[int(E[q, 1])] // ncx
+            if cy < r0 + CLAIM + 1 or cy >= r1 - CLAIM - 2:
+                near += 1
+        boff[k + 1] = boff[k] + (2 * CLAIM + 2) ** 2 * near
+    bnd = np.empty((boff[nst], 2), dtype=np.int64)
     nbs = np.zeros(nst, dtype=np.int64)
-    if par:
-        _claims_parallel(nst, qs, E, cell_of, grid, own, base, parent, bnd, bcap, nbs)
-    else:
-        for k in range(nst):
-            nbs[k] = _claims(k, nst, qs[k], qs[k + 1], E, cell_of, grid, own, base, parent,
-                             bnd, k * bcap)
+    _claims_parallel(nst, qs, E, cell_of, grid, own, base, parent, bnd, boff, nbs)
     for k in range(nst):  # the claims across the strips' borders
-        for a in range(k * bcap, k * bcap + nbs[k]):
+        for a in range(boff[k], boff[k] + nbs[k]):
             _claim(own, bnd[a, 1], bnd[a, 0], base, parent)
     # number the clusters by the cell of their root event's first disc (memory order)
     ncl = 0
@@ -383,8 +381,8 @@ def _run_py(cid, dynamic, H, size, discs, tables, sc, bounds_kind, bounds_params
     (rows from ``nlog``: disc, velocity, stamp, lastcol; what :func:`_undo` needs). Float
     terms go to ``rec`` rows (t, i, j, which sum, value) from ``nrec``; counts to
     ``cicnt[crow]``. Returns ``(code, other, H, nrec, nlog, events, delta, vfast,
-    dropped)`` (``code``: R_OK, or why it stopped: see :func:`_schedule`; R_FULL also for
-    ``rec`` and ``lg``;
+    dropped)`` (``code``: R_OK, or why it stopped: see :func:`_schedule`; R_FULL: no room
+    left in ``rec`` or ``lg``;
     R_SERIAL past ``budget`` events or at a release of internal energy, which the serial
     phase must handle). Compiled twice: inlined into the loop over a chunk's clusters
     (:func:`_chunk`: a call per cluster would reference-count its dozens of arrays) and as a
@@ -676,11 +674,10 @@ def _repair(ncl, E, ev_start, evs, ecl, discs, tables, sc, bounds_kind, bounds_p
 
 
 @njit(cache=True)
-def events(n, H, tables, discs, sc, bounds, grid, cnt, rc, sub_id, h, vfast, own, gen, threads,
-           par):
+def events(n, H, tables, discs, sc, bounds, grid, cnt, rc, sub_id, h, vfast, own, gen, threads):
     """The initial queue and the event phase of a substep (as ``step._queue_initial`` and
     ``step._events`` for the scenes of :func:`eligible`, after the scan: not the pair
-    list), by clusters, in ``threads`` strips and chunks on numba's threads if ``par``.
+    list), by clusters, in ``threads`` (> 1) strips and chunks on numba's threads.
     ``own``: :func:`new_owner`, ``gen``: the substep's number in the call (from 1): the
     cells it claims hold ``gen`` << 32 + an event, so no cell need be freed after.
     Returns ``(done, H, size, delta, dropped, vfast)``; ``done`` False (nothing changed but
@@ -690,11 +687,11 @@ def events(n, H, tables, discs, sc, bounds, grid, cnt, rc, sub_id, h, vfast, own
     bounds_kind, bounds_params = bounds.kind, bounds.params
     pos, vel = discs.pos, discs.vel
     budget = EVENTS_PER_DISC * n + 1024  # (step._events')
-    nst = max(threads, 1) if par else 1
-    E, qs = _queue(n, tables.sp_radius, pos, vel, discs.species, sc, grid, cnt.icnt, nst, par)
+    nst = max(threads, 2)
+    E, qs = _queue(tables.sp_radius, pos, vel, discs.species, sc, grid, cnt.icnt, nst)
     size = E.shape[0]
     base = np.int64(gen) << 32
-    ncl, ev_start, evs, ecl = _cluster(E, qs, nst, par, sc.cell_of, grid, own, base)
+    ncl, ev_start, evs, ecl = _cluster(E, qs, nst, sc.cell_of, grid, own, base)
     status = np.full(ncl, C_PENDING, dtype=np.int64)
     res = np.zeros((ncl, 7), dtype=np.int64)
     resf = np.zeros((ncl, 2), dtype=FLOAT)
@@ -774,24 +771,11 @@ def events(n, H, tables, discs, sc, bounds, grid, cnt, rc, sub_id, h, vfast, own
 def _add_in_order(R, fsum):
     """Add the recorded terms R (rows t, i, j, which sum, value) to ``fsum`` in the serial
     phase's order: by (t, i, j), terms of one event in the order recorded (a disc at a
-    corner meets both walls at one t)."""
+    corner meets both walls at one t). Three stable sorts, the last key first."""
     m = R.shape[0]
-    order = np.argsort(R[:, 0], kind="mergesort")
-    # ties in t: order by (i, j), stably (insertion sort of each run of equal t)
-    a = 0
-    while a < m:
-        b = a + 1
-        while b < m and R[order[b], 0] == R[order[a], 0]:
-            b += 1
-        for p in range(a + 1, b):
-            q = order[p]
-            s = p
-            while s > a and (R[order[s - 1], 1] > R[q, 1] or (
-                    R[order[s - 1], 1] == R[q, 1] and R[order[s - 1], 2] > R[q, 2])):
-                order[s] = order[s - 1]
-                s -= 1
-            order[s] = q
-        a = b
+    order = np.argsort(R[:, 2], kind="mergesort")
+    order = order[np.argsort(R[order, 1], kind="mergesort")]
+    order = order[np.argsort(R[order, 0], kind="mergesort")]
     for p in range(m):
         q = order[p]
         fsum[int(R[q, 3])] += R[q, 4]

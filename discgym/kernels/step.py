@@ -1267,10 +1267,12 @@ def advance(discs, n, n_steps, dt, bounds, tables, params, flags, rng, cnt, thre
     :func:`empty_work`), replaced by larger ones when they are too small.
 
     ``clusters``: given (True), a box scene whose events are local runs the event phase of
-    its substeps by clusters on the threads, from PARALLEL_MIN discs and ``threads`` > 1
-    (:mod:`~discgym.kernels.clusters`; the same trajectory bit for bit). Omitted, as the
-    single-threaded callers (the vector env's reactors, the event-driven integrator's
-    fallback) omit it, that code is pruned at compile time and not compiled at all.
+    its substeps by clusters on the threads, from PARALLEL_MIN discs with ``threads`` > 1
+    (:mod:`~discgym.kernels.clusters`; the same trajectory bit for bit; a caller on one numba
+    thread passes ``threads`` = 1: there the serial phase and the pair list are faster).
+    Omitted, as the single-threaded callers (the vector env's reactors, the event-driven
+    integrator's fallback) omit it, numba prunes that code at compile time (it compiles
+    only the owner array's one-line constructor).
 
     Returns ``(discs, n, work)``: new (larger) state arrays when a decomposition needed more
     capacity, else the ones passed in; the scratch buffers used.
@@ -1303,15 +1305,15 @@ def advance(discs, n, n_steps, dt, bounds, tables, params, flags, rng, cnt, thre
     # the broad phase: a pair list kept across the substeps of a call long enough to pay
     # (on several threads, from PARALLEL_MIN discs, the scan runs in parallel and beats the
     # serial list: docs/performance.md, "The event phase by clusters")
-    listed = collide and n_steps >= PAIR_MIN_STEPS and n <= PAIR_MAX_DISCS and not (
-        threads > 1 and n >= PARALLEL_MIN)
+    on_threads = threads > 1 and n >= PARALLEL_MIN
+    listed = collide and n_steps >= PAIR_MIN_STEPS and n <= PAIR_MAX_DISCS and not on_threads
     pl = new_pairlist(ws if listed else 0, PAIR_CAP * ws if listed else 0)
     big = sp_radius.max() > rcell  # (discs not in the list: see PairList)
     full = True  # (the list is built at the first substep, and after a reordering)
     # the event phase by clusters (kernels.clusters) where the scene's events are local
     clustered = False
     if clusters is not None:  # (pruned by numba when the argument is omitted)
-        clustered = eligible(rc, bounds_kind) and threads > 1 and n >= PARALLEL_MIN
+        clustered = eligible(rc, bounds_kind) and on_threads
     own = new_owner(grid) if clustered else np.empty(0, dtype=np.int64)
     gen = 1  # (the cluster phase's substeps in this call: see clusters.events)
     nbc = ncx * ncy
@@ -1350,8 +1352,7 @@ def advance(discs, n, n_steps, dt, bounds, tables, params, flags, rng, cnt, thre
                 if clustered and sc.cell_start[nbc + 1] == sc.cell_start[nbc]:
                     done, H, size, delta, dropped, vfast = cluster_events(
                         n, H, tables, Discs(pos, vel, species, internal_energy, ids, idctr), sc,
-                        bounds, grid, cnt, rc, icnt[IC_SUBSTEPS], h, vfast, own, gen, threads,
-                        True)
+                        bounds, grid, cnt, rc, icnt[IC_SUBSTEPS], h, vfast, own, gen, threads)
                     gen += 1
                     queued = True
                     n_dead = 0
