@@ -40,8 +40,8 @@ import numpy as np
 from numba import njit, prange
 
 from .celllist import cell_range
-from .collisions import bounce, normal_at, pair_time
-from .contacts import add_event, queue_scan
+from .collisions import bounce, normal_at
+from .contacts import add_event, push_contacts, queue_scan, schedule_start
 from .heap import new_heap, pop, push, reserve
 from .structs import (
     DISC_EVENTS,
@@ -57,10 +57,10 @@ from .structs import (
     N_ICOUNTERS,
     VR_ROUNDOFF,
 )
-from .walls import contact, push_inside, reflect, settle_after_reflection
+from .walls import contact, reflect, settle_after_reflection
 
 CLAIM = 2  # cells a cluster claims around each disc of its initial events (each side)
-REC_SLACK = 1024  # records a chunk has room for beyond its initial events (more: repair)
+REC_SLACK = 1024  # records and log rows a chunk has room for beyond its events (more: repair)
 
 # a run's outcome
 R_OK, R_ESCAPE, R_CONFLICT, R_FULL, R_SERIAL = range(5)
@@ -323,18 +323,10 @@ def _schedule(d, cid, dynamic, pos, vel, species, sp_radius, tlast, stamp, cell_
     ``dynamic``: a free cell is claimed for the cluster's event ``rep``, a cell of another
     cluster found by ``cparent``). Returns ``(code, other, H, size)``: code R_ESCAPE (a cell
     not its own, not ``dynamic``), R_CONFLICT (``other``: the cluster owning it) or R_OK."""
-    r = sp_radius[species[d]]
-    x = pos[d, 0]
-    y = pos[d, 1]
-    vx = vel[d, 0]
-    vy = vel[d, 1]
-    td = tlast[d]
-    t, axis, inward = contact(x, y, vx, vy, r, bounds_kind, bounds_params)
-    if inward and t == math.inf:
-        push_inside(d, pos, r, bounds_kind, bounds_params)
+    r, x, y, vx, vy, td, t, pushed = schedule_start(d, pos, vel, species, sp_radius, tlast,
+                                                    bounds_kind, bounds_params)
+    if pushed:
         cicnt[crow, IC_PUSHED_INSIDE] += 1
-        x = pos[d, 0]
-        y = pos[d, 1]
     ncx = int(grid[4])
     cx0, cx1, cy0, cy1 = cell_range(x, y, r + reach, grid)
     need = 1
@@ -356,21 +348,9 @@ def _schedule(d, cid, dynamic, pos, vel, species, sp_radius, tlast, stamp, cell_
     H = reserve(H, size, need)
     if t < math.inf:
         size = push(H, size, max(t, td), d, -1, stamp[d], 0)
-    sd = stamp[d]
-    for cy in range(cy0, cy1 + 1):
-        for a in range(cell_start[cx0 + ncx * cy], cell_start[cx1 + 1 + ncx * cy]):
-            k = cell_items[a]
-            if k == d or species[k] < 0:
-                continue
-            tc = pair_time(x, y, vx, vy, r, td, pos[k, 0], pos[k, 1], vel[k, 0], vel[k, 1],
-                           sp_radius[species[k]], tlast[k])
-            if tc == math.inf:
-                cicnt[crow, IC_LEFT_OVERLAPPING] += 1
-            elif not math.isnan(tc):
-                if d < k:
-                    size = push(H, size, tc, d, k, sd, stamp[k])
-                else:
-                    size = push(H, size, tc, k, d, stamp[k], sd)
+    size, left = push_contacts(d, x, y, vx, vy, r, td, cx0, cx1, cy0, cy1, ncx, pos, vel,
+                               species, sp_radius, tlast, stamp, cell_start, cell_items, H, size)
+    cicnt[crow, IC_LEFT_OVERLAPPING] += left
     return R_OK, -1, H, size
 
 

@@ -8,6 +8,7 @@ from numba import njit
 from .collisions import pair_time
 from .heap import push
 from .structs import IC_LEFT_OVERLAPPING, OV_SLOTS
+from .walls import contact, push_inside
 
 
 @njit(cache=True, inline="always")
@@ -88,3 +89,44 @@ def queue_scan(a0, a1, sp_radius, pos, vel, species, sc, grid, H, size, icnt, si
             size = try_pair(i, cell_items[b], sp_radius, pos, vel, species, tlast, stamp, H,
                             size, icnt, sift)
     return size
+
+
+@njit(cache=True, inline="always")
+def push_contacts(d, x, y, vx, vy, r, td, cx0, cx1, cy0, cy1, ncx, pos, vel, species,
+                  sp_radius, tlast, stamp, cell_start, cell_items, H, size):
+    """Push the contacts of disc d (at (x, y) with velocity (vx, vy), radius r, latest event
+    td) with every disc binned in cells [cx0, cx1] x [cy0, cy1] (room reserved). Returns
+    ``(size, left)``: the new size and how many pairs were found overlapping while
+    separating (``pair_time`` +inf; the caller counts them in IC_LEFT_OVERLAPPING)."""
+    sd = stamp[d]
+    left = 0
+    for cy in range(cy0, cy1 + 1):
+        for a in range(cell_start[cx0 + ncx * cy], cell_start[cx1 + 1 + ncx * cy]):
+            k = cell_items[a]
+            if k == d or species[k] < 0:
+                continue
+            tc = pair_time(x, y, vx, vy, r, td, pos[k, 0], pos[k, 1], vel[k, 0], vel[k, 1],
+                           sp_radius[species[k]], tlast[k])
+            if tc == math.inf:
+                left += 1
+            elif not math.isnan(tc):
+                if d < k:
+                    size = push(H, size, tc, d, k, sd, stamp[k])
+                else:
+                    size = push(H, size, tc, k, d, stamp[k], sd)
+    return size, left
+
+
+@njit(cache=True, inline="always")
+def schedule_start(d, pos, vel, species, sp_radius, tlast, bounds_kind, bounds_params):
+    """What a disc's search for its next contacts starts from: ``(r, x, y, vx, vy, td, t,
+    pushed)``, its radius, position, velocity, latest event, next wall contact t; a disc
+    overlapping a wall while moving inward (t +inf) is moved inside first (``pushed``)."""
+    r = sp_radius[species[d]]
+    vx = vel[d, 0]
+    vy = vel[d, 1]
+    t, axis, inward = contact(pos[d, 0], pos[d, 1], vx, vy, r, bounds_kind, bounds_params)
+    pushed = inward and t == math.inf
+    if pushed:
+        push_inside(d, pos, r, bounds_kind, bounds_params)
+    return r, pos[d, 0], pos[d, 1], vx, vy, tlast[d], t, pushed

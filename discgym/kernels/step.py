@@ -36,8 +36,8 @@ from numba import njit, prange
 from .celllist import build, cell_coord, cell_radius, cell_range, make_grid, overlaps_any
 from .clusters import eligible, new_owner
 from .clusters import events as cluster_events
-from .collisions import bounce, normal_at, pair_time
-from .contacts import queue_scan
+from .collisions import bounce, normal_at
+from .contacts import push_contacts, queue_scan, schedule_start
 from .contacts import try_pair as _try_pair
 from .heap import new_heap, pop, push, reserve
 from .reactions import (
@@ -604,18 +604,10 @@ def _schedule(d, sp_radius, pos, vel, species, tlast, stamp, n, collide, bounds_
 
     Reserves room first (one wall event plus every disc in the cells searched), so the loops
     below never reallocate the heap. Returns the heap and its new size."""
-    r = sp_radius[species[d]]
-    x = pos[d, 0]
-    y = pos[d, 1]
-    vx = vel[d, 0]
-    vy = vel[d, 1]
-    td = tlast[d]
-    t, axis, inward = contact(x, y, vx, vy, r, bounds_kind, bounds_params)
-    if inward and t == math.inf:
-        push_inside(d, pos, r, bounds_kind, bounds_params)
+    r, x, y, vx, vy, td, t, pushed = schedule_start(d, pos, vel, species, sp_radius, tlast,
+                                                    bounds_kind, bounds_params)
+    if pushed:
         icnt[IC_PUSHED_INSIDE] += 1
-        x = pos[d, 0]
-        y = pos[d, 1]
     ncx = int(grid[4])
     nbc = ncx * int(grid[5])
     cx0, cx1, cy0, cy1 = cell_range(x, y, r + reach, grid)
@@ -629,21 +621,9 @@ def _schedule(d, sp_radius, pos, vel, species, tlast, stamp, n, collide, bounds_
         size = push(H, size, max(t, td), d, -1, stamp[d], 0)
     if not collide:
         return H, size
-    sd = stamp[d]
-    for cy in range(cy0, cy1 + 1):
-        for a in range(cell_start[cx0 + ncx * cy], cell_start[cx1 + 1 + ncx * cy]):
-            k = cell_items[a]
-            if k == d or species[k] < 0:
-                continue
-            tc = pair_time(x, y, vx, vy, r, td, pos[k, 0], pos[k, 1], vel[k, 0], vel[k, 1],
-                           sp_radius[species[k]], tlast[k])
-            if tc == math.inf:
-                icnt[IC_LEFT_OVERLAPPING] += 1
-            elif not math.isnan(tc):
-                if d < k:
-                    size = push(H, size, tc, d, k, sd, stamp[k])
-                else:
-                    size = push(H, size, tc, k, d, stamp[k], sd)
+    size, left = push_contacts(d, x, y, vx, vy, r, td, cx0, cx1, cy0, cy1, ncx, pos, vel,
+                               species, sp_radius, tlast, stamp, cell_start, cell_items, H, size)
+    icnt[IC_LEFT_OVERLAPPING] += left
     for a in range(cell_start[nbc], cell_start[nbc + 1]):  # the big discs (celllist)
         k = cell_items[a]
         if k != d and species[k] >= 0:
