@@ -5,9 +5,9 @@ Most of its events have nothing to do with each other: a collision at one end of
 cannot change what happens at the other end within a substep unless a chain of contacts
 links them. Here the substep's initial events (its wall contacts and overlapping pairs) are
 grouped by the cells they claim, each disc's cell and the cells within ``CLAIM`` cells of
-it, merged by union-find; each group (a *cluster*) is processed alone, in its own time
-order, from its own small heap, clusters in memory order, and on several threads the
-clusters of one chunk on one thread (:func:`events`).
+it (in blocks of 2 x 2 cells), merged by union-find; each group (a *cluster*) is processed
+alone, in its own time order, from its own small heap, clusters in memory order, and on
+several threads the clusters of one chunk on one thread (:func:`events`).
 
 Why the result is the serial phase's, bit for bit: a cluster reads the discs of the cells
 it searches and changes only discs it found there, so when no two clusters search the same
@@ -60,6 +60,11 @@ from .structs import (
 from .walls import contact, reflect, settle_after_reflection
 
 CLAIM = 2  # cells a cluster claims around each disc of its initial events (each side)
+# Cells are claimed in blocks of 2^OWN_SHIFT x 2^OWN_SHIFT (one owner entry each): a claim
+# touches 2-3 cache lines instead of 5-6 rows of the finer array, which at 10^5 discs and
+# more is out of the L2 cache (docs/performance.md, "The event phase by clusters")
+OWN_SHIFT = 1
+OWN_LIMIT = 2**31 - 1  # (owner entries are int32)
 REC_SLACK = 1024  # records and log rows a chunk has room for beyond its events (more: repair)
 
 # a run's outcome
@@ -76,10 +81,21 @@ def eligible(rc, bounds_kind):
             and bounds_kind == 0)
 
 
+@njit(cache=True, inline="always")
+def _blocks(grid):
+    """The owner blocks' grid: (columns, rows)."""
+    m = (1 << OWN_SHIFT) - 1
+    return (int(grid[4]) + m) >> OWN_SHIFT, (int(grid[5]) + m) >> OWN_SHIFT
+
+
 @njit(cache=True)
 def new_owner(grid):
-    """The owner of each cell (-1: none) for a call's substeps (:func:`events`)."""
-    return np.full(int(grid[4]) * int(grid[5]), -1, dtype=np.int64)
+    """The owner of each block of cells for a call's substeps (:func:`events`): -1, none
+    yet; the last entry is the base of the next substep's entries (0)."""
+    nbx, nby = _blocks(grid)
+    own = np.full(nbx * nby + 1, -1, dtype=np.int32)
+    own[-1] = 0
+    return own
 
 
 @njit(cache=True, inline="always")
@@ -92,8 +108,10 @@ def _find(parent, a):
 
 @njit(cache=True, inline="always")
 def _rows(k, nst, ncy):
-    """The cell rows [r0, r1) of strip k of nst."""
-    return k * ncy // nst, (k + 1) * ncy // nst
+    """The cell rows [r0, r1) of strip k of nst (whole rows of owner blocks)."""
+    nby = (ncy + (1 << OWN_SHIFT) - 1) >> OWN_SHIFT
+    return (min((k * nby // nst) << OWN_SHIFT, ncy),
+            min(((k + 1) * nby // nst) << OWN_SHIFT, ncy))
 
 
 @njit(cache=True)
@@ -136,9 +154,9 @@ def _fill(k, nst, E, off, sp_radius, pos, vel, species, sc, grid, qcnt):
 
 @njit(cache=True, inline="always")
 def _claim(own, cc, q, base, parent):
-    """Event q claims cell cc (``own``: ``base`` + the event of a cell claimed in this
-    substep; anything below ``base``: free): a free cell becomes its, a cell of another
-    event joins the two in ``parent``."""
+    """Event q claims owner block cc (``own``: ``base`` + the event of a block claimed in
+    this substep; anything below ``base``: free): a free block becomes its, a block of
+    another event joins the two in ``parent``."""
     o = own[cc] - base
     if o < 0:
         own[cc] = base + q
@@ -148,12 +166,13 @@ def _claim(own, cc, q, base, parent):
 
 @njit(cache=True)
 def _claims(k, nst, q0, q1, E, cell_of, grid, own, base, parent, bnd, b0):
-    """Strip k's claims for the events E[q0:q1]: the cells within CLAIM of its discs' cells
-    (one block for both), those in the strip's rows in ``own`` (:func:`_claim`), the others
-    noted in ``bnd`` from row b0 (event, cell) for the serial pass after. Returns how many
-    were noted."""
+    """Strip k's claims for the events E[q0:q1]: the owner blocks of the cells within CLAIM
+    of its discs' cells (one rectangle for both), those in the strip's rows in ``own``
+    (:func:`_claim`), the others noted in ``bnd`` from row b0 (event, block) for the serial
+    pass after. Returns how many were noted."""
     ncx = int(grid[4])
     ncy = int(grid[5])
+    nbx = _blocks(grid)[0]
     r0, r1 = _rows(k, nst, ncy)
     nb = b0
     for q in range(q0, q1):
@@ -167,10 +186,13 @@ def _claims(k, nst, q0, q1, E, cell_of, grid, own, base, parent, bnd, b0):
             cx1 = max(cx1, c % ncx)
             cy0 = min(cy0, c // ncx)
             cy1 = max(cy1, c // ncx)
-        for yy in range(max(cy0 - CLAIM, 0), min(cy1 + CLAIM, ncy - 1) + 1):
-            inside = r0 <= yy < r1
-            for xx in range(max(cx0 - CLAIM, 0), min(cx1 + CLAIM, ncx - 1) + 1):
-                cc = xx + ncx * yy
+        bx0 = max(cx0 - CLAIM, 0) >> OWN_SHIFT
+        bx1 = min(cx1 + CLAIM, ncx - 1) >> OWN_SHIFT
+        for by in range(max(cy0 - CLAIM, 0) >> OWN_SHIFT,
+                        (min(cy1 + CLAIM, ncy - 1) >> OWN_SHIFT) + 1):
+            inside = r0 <= (by << OWN_SHIFT) < r1
+            for bx in range(bx0, bx1 + 1):
+                cc = bx + nbx * by
                 if inside:
                     _claim(own, cc, q, base, parent)
                 else:
@@ -242,7 +264,7 @@ def _cluster(E, qs, nst, cell_of, grid, own, base):
     strips in parallel, then across the strips' borders. Returns ``(ncl, ev_start, evs,
     ecl)``: cluster c's events are ``evs[ev_start[c]:ev_start[c + 1]]`` (rows of E), event
     q's cluster ``ecl[q]``; ``own`` holds ``base`` + an event of the cluster that claimed
-    each claimed cell. Clusters are numbered in the order of the cell of the first disc of
+    each claimed block of cells. Clusters are numbered in the order of the cell of the first disc of
     their lowest event (roughly memory order)."""
     size = E.shape[0]
     parent = np.arange(size)
@@ -319,20 +341,21 @@ def _schedule(d, cid, dynamic, pos, vel, species, sp_radius, tlast, stamp, cell_
               cell_items, bounds_kind, bounds_params, grid, reach, own, base, ecl, rep, cparent,
               H, size, cicnt, crow):
     """``step._schedule`` for a cluster: first checks that every cell it searches is the
-    cluster's (``own``: an event of the cell's cluster, ``ecl``: the cluster of an event;
-    ``dynamic``: a free cell is claimed for the cluster's event ``rep``, a cell of another
-    cluster found by ``cparent``). Returns ``(code, other, H, size)``: code R_ESCAPE (a cell
-    not its own, not ``dynamic``), R_CONFLICT (``other``: the cluster owning it) or R_OK."""
+    cluster's (``own``: an event of the cluster of the cell's owner block, ``ecl``: the
+    cluster of an event; ``dynamic``: a free block is claimed for the cluster's event
+    ``rep``, a block of another cluster found by ``cparent``). Returns ``(code, other, H,
+    size)``: code R_ESCAPE (a cell not its own, not ``dynamic``), R_CONFLICT (``other``:
+    the cluster owning it) or R_OK."""
     r, x, y, vx, vy, td, t, pushed = schedule_start(d, pos, vel, species, sp_radius, tlast,
                                                     bounds_kind, bounds_params)
     if pushed:
         cicnt[crow, IC_PUSHED_INSIDE] += 1
     ncx = int(grid[4])
+    nbx = _blocks(grid)[0]
     cx0, cx1, cy0, cy1 = cell_range(x, y, r + reach, grid)
-    need = 1
-    for cy in range(cy0, cy1 + 1):
-        for cx in range(cx0, cx1 + 1):
-            c = cx + ncx * cy
+    for by in range(cy0 >> OWN_SHIFT, (cy1 >> OWN_SHIFT) + 1):
+        for bx in range(cx0 >> OWN_SHIFT, (cx1 >> OWN_SHIFT) + 1):
+            c = bx + nbx * by
             o = own[c] - base
             if o >= 0 and ecl[o] == cid:
                 continue
@@ -344,6 +367,8 @@ def _schedule(d, cid, dynamic, pos, vel, species, sp_radius, tlast, stamp, cell_
                 g = _find(cparent, ecl[o])
                 if g != cid:
                     return R_CONFLICT, g, H, size
+    need = 1
+    for cy in range(cy0, cy1 + 1):
         need += cell_start[cx1 + 1 + ncx * cy] - cell_start[cx0 + ncx * cy]
     H = reserve(H, size, need)
     if t < math.inf:
@@ -654,12 +679,12 @@ def _repair(ncl, E, ev_start, evs, ecl, discs, tables, sc, bounds_kind, bounds_p
 
 
 @njit(cache=True)
-def events(n, H, tables, discs, sc, bounds, grid, cnt, rc, sub_id, h, vfast, own, gen, threads):
+def events(n, H, tables, discs, sc, bounds, grid, cnt, rc, sub_id, h, vfast, own, threads):
     """The initial queue and the event phase of a substep (as ``step._queue_initial`` and
     ``step._events`` for the scenes of :func:`eligible`, after the scan: not the pair
     list), by clusters, in ``threads`` (> 1) strips and chunks on numba's threads.
-    ``own``: :func:`new_owner`, ``gen``: the substep's number in the call (from 1): the
-    cells it claims hold ``gen`` << 32 + an event, so no cell need be freed after.
+    ``own``: :func:`new_owner`; the blocks a substep claims hold its base (``own[-1]``, then
+    raised past its events) + an event, so no block need be freed after.
     Returns ``(done, H, size, delta, dropped, vfast)``; ``done`` False (nothing changed but
     the queue's counts) when the clusters would spend more than the substep's event budget
     or reach a release of internal energy: the caller then runs the serial phase on the
@@ -670,7 +695,11 @@ def events(n, H, tables, discs, sc, bounds, grid, cnt, rc, sub_id, h, vfast, own
     nst = max(threads, 2)
     E, qs = _queue(tables.sp_radius, pos, vel, discs.species, sc, grid, cnt.icnt, nst)
     size = E.shape[0]
-    base = np.int64(gen) << 32
+    base = np.int64(own[-1])
+    if base + size >= OWN_LIMIT:  # (rare: after about 2^31 events in one call)
+        own[:] = -1
+        base = 0
+    own[-1] = base + size + 1
     ncl, ev_start, evs, ecl = _cluster(E, qs, nst, sc.cell_of, grid, own, base)
     status = np.full(ncl, C_PENDING, dtype=np.int64)
     res = np.zeros((ncl, 7), dtype=np.int64)

@@ -1294,8 +1294,7 @@ def advance(discs, n, n_steps, dt, bounds, tables, params, flags, rng, cnt, thre
     clustered = False
     if clusters is not None:  # (pruned by numba when the argument is omitted)
         clustered = eligible(rc, bounds_kind) and on_threads
-    own = new_owner(grid) if clustered else np.empty(0, dtype=np.int64)
-    gen = 1  # (the cluster phase's substeps in this call: see clusters.events)
+    own = new_owner(grid) if clustered else np.empty(0, dtype=np.int32)
     nbc = ncx * ncy
     for s in range(n_steps):
         if reorder_every > 0 and n >= REORDER_MIN and (step0 + s) % reorder_every == 0:
@@ -1332,8 +1331,7 @@ def advance(discs, n, n_steps, dt, bounds, tables, params, flags, rng, cnt, thre
                 if clustered and sc.cell_start[nbc + 1] == sc.cell_start[nbc]:
                     done, H, size, delta, dropped, vfast = cluster_events(
                         n, H, tables, Discs(pos, vel, species, internal_energy, ids, idctr), sc,
-                        bounds, grid, cnt, rc, icnt[IC_SUBSTEPS], h, vfast, own, gen, threads)
-                    gen += 1
+                        bounds, grid, cnt, rc, icnt[IC_SUBSTEPS], h, vfast, own, threads)
                     queued = True
                     n_dead = 0
                     vrel = 0.0
