@@ -37,7 +37,7 @@ from .celllist import build, cell_coord, cell_radius, cell_range, make_grid, ove
 from .clusters import eligible, new_owner
 from .clusters import events as cluster_events
 from .collisions import bounce, normal_at
-from .contacts import push_contacts, queue_scan, schedule_start
+from .contacts import drift_chunk, push_contacts, queue_scan, scan_chunk, schedule_start
 from .contacts import try_pair as _try_pair
 from .heap import new_heap, pop, push, reserve
 from .reactions import (
@@ -142,10 +142,11 @@ PAIR_MAX_DISCS = 1 << 17  # calls on more discs use the scan: the list's scatter
 # ----------------------------------------------------------------------------- phase 1: drift
 @njit(cache=True)
 def _drift_range(lo, hi, h, pos, vel, species, sp_radius, bounds_kind, bounds_params, tlast,
-                 wall_t, wflag, grid, cell_of, collide, nev, binx, biny, partner):
-    """Move discs [lo, hi) by h; note their wall contacts; reset their event counts; bin
-    them (if collide: their cell, where they were binned, no partner yet). One pass does it
-    all (these were separate passes over the discs).
+                 wall_t, wflag, wl, grid, cell_of, collide, nev, binx, biny, partner):
+    """Move discs [lo, hi) by h; note their wall contacts (and list the discs that have
+    one or were pushed inside in ``wl[lo:hi]``, ended by -1: ``contacts.drift_chunk``);
+    reset their event counts; bin them (if collide: their cell, where they were binned, no
+    partner yet). One pass does it all (these were separate passes over the discs).
 
     Bounds are unpacked to scalars once: helpers taking arrays cost a reference count per
     call, which in this loop would dominate its time.
@@ -156,6 +157,7 @@ def _drift_range(lo, hi, h, pos, vel, species, sp_radius, bounds_kind, bounds_pa
     rcell = grid[6]
     nbc = ncx * ncy  # the big cell (celllist)
     b0, b1, b2, b3 = bounds_params[0], bounds_params[1], bounds_params[2], bounds_params[3]
+    m = lo
     for i in range(lo, hi):
         vx = vel[i, 0]
         vy = vel[i, 1]
@@ -177,6 +179,9 @@ def _drift_range(lo, hi, h, pos, vel, species, sp_radius, bounds_kind, bounds_pa
             wflag[i] = 1
             x = pos[i, 0]
             y = pos[i, 1]
+        if inward or t < math.inf:
+            wl[m] = i
+            m += 1
         if collide:
             if r > rcell:
                 cell_of[i] = nbc
@@ -185,15 +190,17 @@ def _drift_range(lo, hi, h, pos, vel, species, sp_radius, bounds_kind, bounds_pa
             binx[i] = x
             biny[i] = y
             partner[i] = -1
+    if m < hi:
+        wl[m] = -1
 
 
 @njit(cache=True, parallel=True)
 def _drift_parallel(nch, n, h, pos, vel, species, sp_radius, bounds_kind, bounds_params, tlast,
-                    wall_t, wflag, grid, cell_of, collide, nev, binx, biny, partner):
+                    wall_t, wflag, wl, grid, cell_of, collide, nev, binx, biny, partner):
     for c in prange(nch):
-        _drift_range(c * n // nch, (c + 1) * n // nch, h, pos, vel, species, sp_radius,
-                     bounds_kind, bounds_params, tlast, wall_t, wflag, grid, cell_of, collide,
-                     nev, binx, biny, partner)
+        lo, hi = drift_chunk(c, nch, n)
+        _drift_range(lo, hi, h, pos, vel, species, sp_radius, bounds_kind, bounds_params, tlast,
+                     wall_t, wflag, wl, grid, cell_of, collide, nev, binx, biny, partner)
 
 
 # ----------------------------------------------------------------------- phase 2: broad phase
@@ -216,13 +223,14 @@ def _sort(n, cell_of, cell_start, cell_items):
 
 
 @njit(cache=True)
-def _scan_rows(r0, r1, grid, cell_start, sx, sy, sr, ov_n, ov_b):
+def _scan_rows(r0, r1, grid, cell_start, sx, sy, sr, ov_n, ov_b, ol):
     """Overlapping pairs among discs binned in rows [r0, r1), in sorted order.
 
     Reads the gathered (sorted, contiguous) ``sx, sy, sr``. ``ov_n[a]`` gets the number of
     partners b > a (in the half stencil, ``contacts.half_stencil``) of sorted disc a, the first
-    OV_SLOTS of them, in increasing b, in ``ov_b[a]``. Each call writes only its own rows'
-    discs, so row chunks run in parallel.
+    OV_SLOTS of them, in increasing b, in ``ov_b[a]``; the discs with any are listed in
+    ``ol`` from the rows' first sorted disc on, ended by -1 (``contacts.scan_chunk``). Each
+    call writes only its own rows' discs, so row chunks run in parallel.
 
     The loop runs over the discs of a row (a disc's column from its x, as it was binned),
     not over the cells: most cells are empty (about 60% at packing 0.3), and a branch on
@@ -232,6 +240,7 @@ def _scan_rows(r0, r1, grid, cell_start, sx, sy, sr, ov_n, ov_b):
     x0, icx = grid[0], grid[2]
     ncx = int(grid[4])
     ncy = int(grid[5])
+    m = cell_start[r0 * ncx]
     for cy in range(r0, r1):
         rowc = ncx * cy
         below = cy + 1 < ncy
@@ -249,7 +258,13 @@ def _scan_rows(r0, r1, grid, cell_start, sx, sy, sr, ov_n, ov_b):
                 lo2 = 0
                 hi2 = 0
             k = _overlaps_in(a, a + 1, e1, 0, xi, yi, ri, sx, sy, sr, ov_b)
-            ov_n[a] = _overlaps_in(a, lo2, hi2, k, xi, yi, ri, sx, sy, sr, ov_b)
+            k = _overlaps_in(a, lo2, hi2, k, xi, yi, ri, sx, sy, sr, ov_b)
+            ov_n[a] = k
+            if k > 0:
+                ol[m] = a
+                m += 1
+    if m < cell_start[r1 * ncx]:
+        ol[m] = -1
 
 
 @njit(cache=True, inline="always")
@@ -279,12 +294,13 @@ def _gather(lo, hi, cell_items, pos, species, sp_radius, sx, sy, sr):
 
 @njit(cache=True, parallel=True)
 def _broad_parallel(nch, n, ncy, grid, cell_start, cell_items, pos, species, sp_radius, sx, sy,
-                    sr, ov_n, ov_b):
+                    sr, ov_n, ov_b, ol):
+    ncx = int(grid[4])
     for c in prange(nch):
         _gather(c * n // nch, (c + 1) * n // nch, cell_items, pos, species, sp_radius, sx, sy, sr)
     for c in prange(nch):
-        _scan_rows(c * ncy // nch, (c + 1) * ncy // nch, grid, cell_start, sx, sy, sr, ov_n,
-                   ov_b)
+        r0, r1, a0, a1 = scan_chunk(c, nch, ncx, ncy, cell_start)
+        _scan_rows(r0, r1, grid, cell_start, sx, sy, sr, ov_n, ov_b, ol)
 
 
 # ------------------------------------------------------------ phase 2 (list): the pair list
@@ -539,29 +555,48 @@ def _queue_initial(n, collide, sp_radius, pos, vel, species, sc, grid, H, icnt, 
     big discs after it). ``sc``: the :class:`~.structs.Scratch`."""
     tlast, stamp, wall_t, wflag = sc.tlast, sc.stamp, sc.wall_t, sc.wflag
     cell_start, cell_items = sc.cell_start, sc.cell_items
-    sx, sy, sr, ov_n = sc.sx, sc.sy, sc.sr, sc.ov_n
+    sx, sy, sr, ov_n, wl, ol = sc.sx, sc.sy, sc.sr, sc.ov_n, sc.wl, sc.ol
     ncx = int(grid[4])
     ncy = int(grid[5])
     rcell = grid[6]
     nbc = ncx * ncy
+    # the drift's and the scan's lists (contacts.drift_chunk, scan_chunk), in the order of
+    # the discs (of the sorted discs) as a pass over all of them would take them
+    nd = sc.nlist[0]
     need = 0
-    for i in range(n):
-        if wall_t[i] < math.inf:
-            need += 1
-        if wflag[i]:
-            icnt[IC_PUSHED_INSIDE] += 1
+    for c in range(nd):
+        lo, hi = drift_chunk(c, nd, n)
+        for p in range(lo, hi):
+            i = wl[p]
+            if i < 0:
+                break
+            if wall_t[i] < math.inf:
+                need += 1
+            icnt[IC_PUSHED_INSIDE] += wflag[i]
     if collide:
         if listed:
             need += pl.count[1]
-        for a in range(0 if listed else cell_start[nbc]):
-            need += ov_n[a]
+        else:
+            ns = sc.nlist[1]
+            for c in range(ns):
+                r0, r1, lo, hi = scan_chunk(c, ns, ncx, ncy, cell_start)
+                for p in range(lo, hi):
+                    a = ol[p]
+                    if a < 0:
+                        break
+                    need += ov_n[a]
         for a in range(cell_start[nbc], cell_start[nbc + 1]):
             need += _big_candidates(a, sx, sy, sr, rcell, grid, cell_start)
     H = reserve(H, 0, need)
     size = 0
-    for i in range(n):
-        if wall_t[i] < math.inf:
-            size = push(H, size, wall_t[i], i, -1, stamp[i], 0)
+    for c in range(nd):
+        lo, hi = drift_chunk(c, nd, n)
+        for p in range(lo, hi):
+            i = wl[p]
+            if i < 0:
+                break
+            if wall_t[i] < math.inf:
+                size = push(H, size, wall_t[i], i, -1, stamp[i], 0)
     if not collide:
         return H, size
     if listed:
@@ -1150,7 +1185,7 @@ def _resplit(n, vel, species, rem, h, cut, dt, maxdisp, vfast, capped, k, sub, i
 
 # --------------------------------------------------------------------------------- the driver
 N_FWORK = 7  # float scratch arrays per disc (see _carve)
-N_IWORK = 6 + OV_SLOTS  # INDEX scratch per disc (cell_start comes after them)
+N_IWORK = 8 + OV_SLOTS  # INDEX scratch per disc (cell_start and nlist come after them)
 N_CWORK = 2  # COUNT scratch arrays per disc
 
 
@@ -1168,10 +1203,10 @@ def _fit_work(work, ws, nstart):
     """``work`` if its buffers hold ``ws`` discs and a cell index of ``nstart``, else new
     buffers of exactly that size."""
     fw, iw, cw = work
-    if fw.shape[0] >= N_FWORK * ws and iw.shape[0] >= N_IWORK * ws + nstart and \
+    if fw.shape[0] >= N_FWORK * ws and iw.shape[0] >= N_IWORK * ws + nstart + 2 and \
             cw.shape[0] >= N_CWORK * ws:
         return work
-    return (np.empty(N_FWORK * ws, dtype=FLOAT), np.empty(N_IWORK * ws + nstart, dtype=INDEX),
+    return (np.empty(N_FWORK * ws, dtype=FLOAT), np.empty(N_IWORK * ws + nstart + 2, dtype=INDEX),
             np.empty(N_CWORK * ws, dtype=COUNT))
 
 
@@ -1204,10 +1239,13 @@ def _carve(work, ws, nstart):
     partner = iw[4 * ws:5 * ws]
     nev = iw[5 * ws:6 * ws]
     nev[:] = 0
-    ov_b = iw[6 * ws:N_IWORK * ws].reshape((ws, OV_SLOTS))
+    wl = iw[6 * ws:7 * ws]
+    ol = iw[7 * ws:8 * ws]
+    ov_b = iw[8 * ws:N_IWORK * ws].reshape((ws, OV_SLOTS))
     cell_start = iw[N_IWORK * ws:N_IWORK * ws + nstart]
+    nlist = iw[N_IWORK * ws + nstart:N_IWORK * ws + nstart + 2]
     return Scratch(stamp, lastcol, tlast, wall_t, wflag, cell_of, cell_items, sx, sy, sr, ov_n,
-                   ov_b, binx, biny, partner, nev, cell_start)
+                   ov_b, binx, biny, partner, nev, cell_start, wl, ol, nlist)
 
 
 @njit(cache=True)
@@ -1436,14 +1474,17 @@ def _drift_and_bin(threads, n, h, pos, vel, species, sp_radius, bounds_kind, bou
     resets the per-disc event counts.
     Returns the pair list (a new one if it had to grow)."""
     par = threads > 1 and n >= PARALLEL_MIN
+    nch = threads if par else 1
+    sc.nlist[0] = nch
+    sc.nlist[1] = nch
     if par:
         _drift_parallel(threads, n, h, pos, vel, species, sp_radius, bounds_kind, bounds_params,
-                        sc.tlast, sc.wall_t, sc.wflag, grid, sc.cell_of, collide, sc.nev,
+                        sc.tlast, sc.wall_t, sc.wflag, sc.wl, grid, sc.cell_of, collide, sc.nev,
                         sc.binx, sc.biny, sc.partner)
     else:
         _drift_range(0, n, h, pos, vel, species, sp_radius, bounds_kind, bounds_params, sc.tlast,
-                     sc.wall_t, sc.wflag, grid, sc.cell_of, collide, sc.nev, sc.binx, sc.biny,
-                     sc.partner)
+                     sc.wall_t, sc.wflag, sc.wl, grid, sc.cell_of, collide, sc.nev, sc.binx,
+                     sc.biny, sc.partner)
     if collide:
         ncy = int(grid[5])
         cell_start, cell_items = sc.cell_start, sc.cell_items
@@ -1452,10 +1493,10 @@ def _drift_and_bin(threads, n, h, pos, vel, species, sp_radius, bounds_kind, bou
             return _pl_broad(n, pos, species, sp_radius, grid, sc, pl, full, big)
         if par:
             _broad_parallel(threads, n, ncy, grid, cell_start, cell_items, pos, species,
-                            sp_radius, sc.sx, sc.sy, sc.sr, sc.ov_n, sc.ov_b)
+                            sp_radius, sc.sx, sc.sy, sc.sr, sc.ov_n, sc.ov_b, sc.ol)
         else:
             _gather(0, n, cell_items, pos, species, sp_radius, sc.sx, sc.sy, sc.sr)
-            _scan_rows(0, ncy, grid, cell_start, sc.sx, sc.sy, sc.sr, sc.ov_n, sc.ov_b)
+            _scan_rows(0, ncy, grid, cell_start, sc.sx, sc.sy, sc.sr, sc.ov_n, sc.ov_b, sc.ol)
     return pl
 
 
