@@ -6,11 +6,12 @@ with ``threads`` work chunks (default: discgym's, 4 per numba thread), step in a
 end (bit for bit: the result does not depend on the number of threads). Prints ns per
 disc-step of each and the speed-up of each pair (median, min, max).
 
-    python benchmarks/bench_threads.py                      # 1e5 (5 steps), 3e5, 1e6
+    python benchmarks/bench_threads.py                      # 1e4 (20 steps) to 1e6
     python benchmarks/bench_threads.py --cases 1e5:40 --pairs 9
 
-From PARALLEL_MIN = 65,536 discs the drift, the scan and (by clusters, kernels.clusters)
-the event phase run on the threads; below it a step runs on one thread either way.
+From PARALLEL_MIN = 8,192 discs the drift, the scan and (by clusters, kernels.clusters)
+the event phase run on the threads (at most one work chunk per CHUNK_MIN = 1,024 discs);
+below it a step runs on one thread either way.
 """
 
 from __future__ import annotations
@@ -57,8 +58,8 @@ def pair_run(n: int, steps: int, pairs: int, threads: int | None = None, seed: i
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--cases", default="1e5:5,3e5:10,1e6:4",
-                    help="comma-separated N:steps per call (default 1e5:5,3e5:10,1e6:4)")
+    ap.add_argument("--cases", default="1e4:20,3e4:10,1e5:5,3e5:10,1e6:4",
+                    help="comma-separated N:steps per call")
     ap.add_argument("--pairs", type=int, default=9)
     ap.add_argument("--threads", type=int, default=None,
                     help="work chunks of the threaded simulation (default: discgym's)")

@@ -33,7 +33,8 @@ from discgym.kernels.structs import (
     RunConsts,
 )
 
-N = S.PARALLEL_MIN + 4464  # 70,000 discs
+N = 20000  # (from PARALLEL_MIN discs, 8 chunks from 8 CHUNK_MIN)
+assert N >= S.PARALLEL_MIN and N >= 8 * S.CHUNK_MIN
 
 
 def _same(a, b):

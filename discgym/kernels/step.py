@@ -123,8 +123,10 @@ W_NONE, W_REFLECTED, W_THERMAL, W_LEFT = range(4)
 
 MAX_SUBSTEPS = 1 << 16
 REBUILD_UNBINNED = 256  # rebuild the grid when this many discs were created since it was built
-PARALLEL_MIN = 65536  # below this many discs a step runs on one thread: waking numba's
-# threads for the two parallel regions of a step costs more than they save
+PARALLEL_MIN = 8192  # below this many discs a step runs on one thread: waking numba's
+# threads for the parallel regions of a substep costs more than they save (2 threads against
+# 1: 1.3-1.4x at 8,200 discs, docs/performance.md)
+CHUNK_MIN = 1024  # discs per work chunk at least (more chunks than this allows: fewer)
 REORDER_MIN = 16384  # from this many discs, discs are periodically put in cell order in memory
 REORDER_EVERY = 8  # steps between reorderings (Simulation's default)
 REORDER_CELLS = 1 << 19  # the reordering grid: cells of 2 r_max, at most about this many
@@ -1275,11 +1277,12 @@ def advance(discs, n, n_steps, dt, bounds, tables, params, flags, rng, cnt, thre
     ``params``, ``flags``: see :mod:`discgym.compiled`. The counters ``cnt`` (a
     :class:`~.structs.Counters`) are accumulated in place. ``threads``: the number of chunks
     to split the drift and the broad phase into across numba's threads (4 per thread is a
-    good choice); 0 or 1 runs everything on the calling thread (as it must inside another
-    parallel loop). New discs take the identity ``discs.next_id[0]``, which is incremented;
-    when ``reorder_every`` > 0 and n >= REORDER_MIN, the discs are put in cell order in
-    memory before every step whose global index ``step0 + s`` is a multiple of it (so the
-    result does not depend on how a run is split into calls).
+    good choice; at most one per CHUNK_MIN discs is used); 0 or 1 runs everything on the
+    calling thread (as it must inside another parallel loop). New discs take the identity
+    ``discs.next_id[0]``, which is incremented; when ``reorder_every`` > 0 and n >=
+    REORDER_MIN, the discs are put in cell order in memory before every step whose global
+    index ``step0 + s`` is a multiple of it (so the result does not depend on how a run is
+    split into calls).
 
     ``work``: scratch buffers (a tuple of 1-D FLOAT, INDEX and COUNT arrays, e.g.
     :func:`empty_work`), replaced by larger ones when they are too small.
@@ -1323,6 +1326,7 @@ def advance(discs, n, n_steps, dt, bounds, tables, params, flags, rng, cnt, thre
     # the broad phase: a pair list kept across the substeps of a call long enough to pay
     # (on several threads, from PARALLEL_MIN discs, the scan runs in parallel and beats the
     # serial list: docs/performance.md, "The event phase by clusters")
+    threads = min(threads, max(n // CHUNK_MIN, 1))
     on_threads = threads > 1 and n >= PARALLEL_MIN
     listed = collide and n_steps >= PAIR_MIN_STEPS and n <= PAIR_MAX_DISCS and not on_threads
     pl = new_pairlist(ws if listed else 0, PAIR_CAP * ws if listed else 0)
