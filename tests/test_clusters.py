@@ -30,7 +30,12 @@ from discgym.kernels.structs import (
     FLOAT,
     FS_DISSIPATED,
     FS_WALL_MOMENTUM,
+    Bounds,
+    Counters,
+    Discs,
     RunConsts,
+    Tables,
+    fields,
 )
 
 N = 20000  # (from PARALLEL_MIN discs, 8 chunks from 8 CHUNK_MIN)
@@ -112,6 +117,37 @@ def test_a_long_call_takes_the_list_on_one_thread_and_the_scan_and_clusters_on_s
     assert N <= S.PAIR_MAX_DISCS
     sim = dg.Simulation(bench_scene(N), seed=13)
     _serial_vs_clusters(sim, 1, S.PAIR_MIN_STEPS)
+
+
+@numba.njit
+def _serial_advance(discs, n, n_steps, dt, bounds, tables, params, flags, rngs, cnt, step0,
+                    reorder_every, work):
+    # Simulation's call (kernels.step.advance_rngs) without ``clusters``: the serial phase
+    d, n, work = S.advance(Discs(*discs), n, n_steps, dt, Bounds(*bounds), Tables(*tables),
+                           params, flags, rngs[0], Counters(*cnt), 1, step0, reorder_every,
+                           work)
+    return fields(d), n, work
+
+
+def test_one_thread_above_the_pair_lists_range_takes_the_clusters():
+    """Above PAIR_MAX_DISCS discs a simulation on one thread runs the clusters on it (one
+    strip, one chunk): the serial phase's trajectory."""
+    sim = dg.Simulation(bench_scene(S.PAIR_MAX_DISCS + 3000, eta=0.5), seed=16)
+    sim.threads = 1
+    ref = sim.copy()
+    sim.step(3)
+    cs = ref._cs
+    discs = (ref._pos, ref._vel, ref._species, ref._internal_energy, ref._ids, ref._idctr)
+    d, n, ref._work = _serial_advance(
+        discs, ref._n, 3, ref.scene.dt, (ref._bounds_kind, ref._bounds_params, ref._walls),
+        tuple(cs.tables), cs.params, cs.flags, ref._rngs,
+        (ref._icnt, ref._fsum, ref._ch_count, ref._outflow), ref._steps, S.REORDER_EVERY,
+        ref._work)
+    ref._pos, ref._vel, ref._species, ref._internal_energy, ref._ids = d[:5]
+    ref._n = n
+    ref._steps += 3
+    _same(ref, sim)
+    assert sim.counters()["collisions"] > 0
 
 
 def test_scenes_whose_events_are_not_local_keep_the_serial_phase():

@@ -30,8 +30,10 @@ remove discs, and may cut a substep short at a global time), no big discs in the
 (every search reads them all; checked by ``step.advance``). A substep whose clusters would
 spend more than the event budget, or in which a collision would release internal energy
 (which may end the substep at its time), runs the serial phase instead, from the same
-start. ``step.advance`` takes this path only on more than one numba thread: on one it
-costs more than the serial phase (docs/performance.md, "The event phase by clusters").
+start. ``step.advance`` takes this path on several threads from PARALLEL_MIN discs, and on
+one thread above PAIR_MAX_DISCS discs, where its local order of events beats the global
+one (below, on one thread, the serial phase is as fast or faster; docs/performance.md, "The
+event phase by clusters").
 """
 
 import math
@@ -272,13 +274,19 @@ def _queue(n, sp_radius, pos, vel, species, sc, grid, icnt, nst):
     of each in its rows, the other in them or in the row below)."""
     qcnt = np.zeros((nst, N_ICOUNTERS), dtype=np.int64)
     need = np.empty(nst, dtype=np.int64)
-    _count_parallel(nst, n, sc, grid, qcnt, need)
+    if nst > 1:
+        _count_parallel(nst, n, sc, grid, qcnt, need)
+    else:
+        need[0] = _count(0, 1, n, sc, grid, qcnt)
     off = np.zeros(nst + 1, dtype=np.int64)
     for k in range(nst):
         off[k + 1] = off[k] + need[k]
     E0 = np.empty((off[nst], 5), dtype=FLOAT)
     got = np.empty(nst, dtype=np.int64)
-    _queue_parallel(nst, n, E0, off, sp_radius, pos, vel, species, sc, grid, qcnt, got)
+    if nst > 1:
+        _queue_parallel(nst, n, E0, off, sp_radius, pos, vel, species, sc, grid, qcnt, got)
+    else:
+        got[0] = _fill(0, 1, n, E0, 0, sp_radius, pos, vel, species, sc, grid, qcnt)
     for k in range(nst):
         for q in range(N_ICOUNTERS):
             icnt[q] += qcnt[k, q]
@@ -316,7 +324,10 @@ def _cluster(E, qs, nst, cell_of, grid, own, base):
         boff[k + 1] = boff[k] + (2 * CLAIM + 2) ** 2 * near
     bnd = np.empty((boff[nst], 2), dtype=np.int64)
     nbs = np.zeros(nst, dtype=np.int64)
-    _claims_parallel(nst, qs, E, cell_of, grid, own, base, parent, bnd, boff, nbs)
+    if nst > 1:
+        _claims_parallel(nst, qs, E, cell_of, grid, own, base, parent, bnd, boff, nbs)
+    else:
+        nbs[0] = _claims(0, 1, qs[0], qs[1], E, cell_of, grid, own, base, parent, bnd, 0)
     for k in range(nst):  # the claims across the strips' borders
         for a in range(boff[k], boff[k] + nbs[k]):
             _claim(own, bnd[a, 1], bnd[a, 0], base, parent)
@@ -715,7 +726,8 @@ def _repair(ncl, E, ev_start, evs, ecl, discs, tables, sc, bounds_kind, bounds_p
 def events(n, H, tables, discs, sc, bounds, grid, cnt, rc, sub_id, h, vfast, own, threads):
     """The initial queue and the event phase of a substep (as ``step._queue_initial`` and
     ``step._events`` for the scenes of :func:`eligible`, after the scan: not the pair
-    list), by clusters, in ``threads`` (> 1) strips and chunks on numba's threads.
+    list), by clusters, in ``threads`` strips and chunks on numba's threads (one: all on
+    the calling thread).
     ``own``: :func:`new_owner`; the blocks a substep claims hold its base (``own[-1]``, then
     raised past its events) + an event, so no block need be freed after.
     Returns ``(done, H, size, delta, dropped, vfast)``; ``done`` False (nothing changed but
@@ -725,7 +737,7 @@ def events(n, H, tables, discs, sc, bounds, grid, cnt, rc, sub_id, h, vfast, own
     bounds_kind, bounds_params = bounds.kind, bounds.params
     pos, vel = discs.pos, discs.vel
     budget = EVENTS_PER_DISC * n + 1024  # (step._events')
-    nst = max(threads, 2)
+    nst = max(threads, 1)
     E, qs = _queue(n, tables.sp_radius, pos, vel, discs.species, sc, grid, cnt.icnt, nst)
     size = E.shape[0]
     base = np.int64(own[-1])

@@ -1288,9 +1288,10 @@ def advance(discs, n, n_steps, dt, bounds, tables, params, flags, rng, cnt, thre
     :func:`empty_work`), replaced by larger ones when they are too small.
 
     ``clusters``: given (True), a box scene whose events are local runs the event phase of
-    its substeps by clusters on the threads, from PARALLEL_MIN discs with ``threads`` > 1
-    (:mod:`~discgym.kernels.clusters`; the same trajectory bit for bit; a caller on one numba
-    thread passes ``threads`` = 1: there the serial phase and the pair list are faster).
+    its substeps by clusters (:mod:`~discgym.kernels.clusters`; the same trajectory bit for
+    bit): on the threads from PARALLEL_MIN discs with ``threads`` > 1, on the calling thread
+    above PAIR_MAX_DISCS discs (below that, on one thread, the serial phase and the pair list
+    are as fast or faster; a caller on one numba thread passes ``threads`` = 1).
     Omitted, as the single-threaded callers (the vector env's reactors, the event-driven
     integrator's fallback) omit it, numba prunes that code at compile time (it compiles
     only the owner array's one-line constructor).
@@ -1335,7 +1336,7 @@ def advance(discs, n, n_steps, dt, bounds, tables, params, flags, rng, cnt, thre
     # the event phase by clusters (kernels.clusters) where the scene's events are local
     clustered = False
     if clusters is not None:  # (pruned by numba when the argument is omitted)
-        clustered = eligible(rc, bounds_kind) and on_threads
+        clustered = eligible(rc, bounds_kind) and (on_threads or n > PAIR_MAX_DISCS)
     own = new_owner(grid) if clustered else np.empty(0, dtype=np.int32)
     nbc = ncx * ncy
     for s in range(n_steps):
