@@ -116,11 +116,10 @@ def profiled_advance(discs, n, n_steps, dt, bounds, tables, params, flags, rng, 
         for _ in range(k):
             icnt[S.IC_SUBSTEPS] += 1
             t0 = _now(clk)
-            sc.nlist[0] = 1  # (one chunk of the drift, one of the scan: one thread)
-            sc.nlist[1] = 1
-            S._drift_range(0, n, h, pos, vel, species, sp_radius, bounds_kind, bounds_params,
-                           sc.tlast, sc.wall_t, sc.wflag, sc.wl, grid, sc.cell_of, collide,
-                           sc.nev, sc.binx, sc.biny, sc.partner)
+            sc.nlist[0] = S._drift_range(0, n, h, pos, vel, species, sp_radius, bounds_kind,
+                                         bounds_params, sc.tlast, sc.wall_t, sc.wflag, sc.wl,
+                                         grid, sc.cell_of, collide, sc.nev, sc.binx, sc.biny,
+                                         sc.partner)
             t1 = _now(clk)
             T[2] += t1 - t0
             S._sort(n, sc.cell_of, sc.cell_start, sc.cell_items)
@@ -152,8 +151,8 @@ def profiled_advance(discs, n, n_steps, dt, bounds, tables, params, flags, rng, 
                 S._gather(0, n, sc.cell_items, pos, species, sp_radius, sc.sx, sc.sy, sc.sr)
                 t1 = _now(clk)
                 T[4] += t1 - t0
-                S._scan_rows(0, ncy, grid, sc.cell_start, sc.sx, sc.sy, sc.sr, sc.ov_n,
-                             sc.ov_b, sc.ol)
+                sc.nlist[1] = S._scan_rows(0, ncy, grid, sc.cell_start, sc.sx, sc.sy, sc.sr,
+                                           sc.ov_n, sc.ov_b, sc.ol)
                 t0 = _now(clk)
                 T[5] += t0 - t1
             left0 = icnt[S.IC_LEFT_OVERLAPPING]

@@ -2,8 +2,10 @@
 
 From PARALLEL_MIN discs with more than one work chunk, a box scene whose events are local
 (no thermal walls, outlets, bimolecular reactions or big discs) processes each substep's
-events by clusters, on numba's threads; one chunk runs the serial event phase. Both must
-give the same trajectory bit for bit, and so the same as before the clusters existed.
+events by clusters, on numba's threads; below PAIR_MAX_DISCS one chunk runs the serial
+event phase (above, the clusters on the calling thread: compared with ``advance``
+compiled without them). All must give the same trajectory bit for bit, and so the same as
+before the clusters existed.
 
 The scenes below take every path of the cluster phase: in a dense gas (packing 0.6, and
 0.5 at e = 0.7) clusters escape their cells and are repaired, some merged with clusters
@@ -134,9 +136,14 @@ def test_one_thread_above_the_pair_lists_range_takes_the_clusters():
     strip, one chunk): the serial phase's trajectory."""
     sim = dg.Simulation(bench_scene(S.PAIR_MAX_DISCS + 3000, eta=0.5), seed=16)
     sim.threads = 1
+    cs = sim._cs
+    rc = RunConsts(cs.params[0], cs.params[1], 0.5, 1.0, bool(cs.flags[F_COLLISIONS]),
+                   bool(cs.flags[F_BI]), bool(cs.flags[F_THERMAL]), bool(cs.flags[F_OUTLETS]))
+    assert CL.eligible(rc, sim._bounds_kind) and len(sim) > S.PAIR_MAX_DISCS
+    # (checked on 2026-12-03 that the clusters run here: a change of one position inside
+    # clusters.events on one strip made this test fail)
     ref = sim.copy()
     sim.step(3)
-    cs = ref._cs
     discs = (ref._pos, ref._vel, ref._species, ref._internal_energy, ref._ids, ref._idctr)
     d, n, ref._work = _serial_advance(
         discs, ref._n, 3, ref.scene.dt, (ref._bounds_kind, ref._bounds_params, ref._walls),

@@ -43,14 +43,7 @@ from numba import njit, prange
 
 from .celllist import cell_range
 from .collisions import bounce, normal_at
-from .contacts import (
-    add_event,
-    drift_chunk,
-    push_contacts,
-    queue_scan,
-    scan_chunk,
-    schedule_start,
-)
+from .contacts import add_event, push_contacts, queue_scan, schedule_start
 from .heap import new_heap, pop, push, reserve
 from .structs import (
     DISC_EVENTS,
@@ -124,7 +117,7 @@ def _rows(k, nst, ncy):
 
 
 @njit(cache=True)
-def _count(k, nst, n, sc, grid, qcnt):
+def _count(k, nst, sc, grid, qcnt):
     """How many events strip k may queue: the wall contacts of its discs and the overlaps
     of its sorted discs found by the scan (from the drift's and the scan's lists). Counts
     its discs the drift pushed inside (in ``qcnt[k]``)."""
@@ -136,52 +129,34 @@ def _count(k, nst, n, sc, grid, qcnt):
     cell_of, wall_t, wflag, ov_n, wl, ol = sc.cell_of, sc.wall_t, sc.wflag, sc.ov_n, sc.wl, sc.ol
     need = 0
     pushed = 0
-    nd = sc.nlist[0]
-    for c in range(nd):
-        lo, hi = drift_chunk(c, nd, n)
-        for p in range(lo, hi):
-            i = wl[p]
-            if i < 0:
-                break
-            if r0 <= cell_of[i] // ncx < r1:
-                if wall_t[i] < math.inf:
-                    need += 1
-                pushed += wflag[i]
-    ns = sc.nlist[1]
-    for c in range(ns):
-        s0, s1, lo, hi = scan_chunk(c, ns, ncx, ncy, sc.cell_start)
-        if hi <= a0 or lo >= a1:
-            continue
-        for p in range(lo, hi):
-            a = ol[p]
-            if a < a0:
-                if a < 0:
-                    break
-                continue
-            if a >= a1:
-                break
-            need += ov_n[a]
+    for p in range(sc.nlist[0]):
+        i = wl[p]
+        if r0 <= cell_of[i] // ncx < r1:
+            if wall_t[i] < math.inf:
+                need += 1
+            pushed += wflag[i]
+    m = sc.nlist[1]
+    for p in range(np.searchsorted(ol[:m], a0), m):
+        a = ol[p]
+        if a >= a1:
+            break
+        need += ov_n[a]
     qcnt[k, IC_PUSHED_INSIDE] += pushed
     return need
 
 
 @njit(cache=True)
-def _fill(k, nst, n, E, off, sp_radius, pos, vel, species, sc, grid, qcnt):
+def _fill(k, nst, E, off, sp_radius, pos, vel, species, sc, grid, qcnt):
     """Append strip k's initial events (those :func:`_count` counted that occur) to E from
     row ``off``, as ``step._queue_initial`` queues them; returns how many."""
     ncx = int(grid[4])
     r0, r1 = _rows(k, nst, int(grid[5]))
     cell_of, wall_t, stamp, wl = sc.cell_of, sc.wall_t, sc.stamp, sc.wl
     size = off
-    nd = sc.nlist[0]
-    for c in range(nd):
-        lo, hi = drift_chunk(c, nd, n)
-        for p in range(lo, hi):
-            i = wl[p]
-            if i < 0:
-                break
-            if wall_t[i] < math.inf and r0 <= cell_of[i] // ncx < r1:
-                size = add_event(E, size, False, wall_t[i], i, -1, stamp[i], 0)
+    for p in range(sc.nlist[0]):
+        i = wl[p]
+        if wall_t[i] < math.inf and r0 <= cell_of[i] // ncx < r1:
+            size = add_event(E, size, False, wall_t[i], i, -1, stamp[i], 0)
     size = queue_scan(sc.cell_start[r0 * ncx], sc.cell_start[r1 * ncx], sp_radius, pos, vel,
                       species, sc, grid, E, size, qcnt[k], False)
     return size - off
@@ -248,15 +223,15 @@ def _union(parent, a, b):
 
 
 @njit(cache=True, parallel=True)
-def _queue_parallel(nst, n, E, off, sp_radius, pos, vel, species, sc, grid, qcnt, got):
+def _queue_parallel(nst, E, off, sp_radius, pos, vel, species, sc, grid, qcnt, got):
     for k in prange(nst):
-        got[k] = _fill(k, nst, n, E, off[k], sp_radius, pos, vel, species, sc, grid, qcnt)
+        got[k] = _fill(k, nst, E, off[k], sp_radius, pos, vel, species, sc, grid, qcnt)
 
 
 @njit(cache=True, parallel=True)
-def _count_parallel(nst, n, sc, grid, qcnt, need):
+def _count_parallel(nst, sc, grid, qcnt, need):
     for k in prange(nst):
-        need[k] = _count(k, nst, n, sc, grid, qcnt)
+        need[k] = _count(k, nst, sc, grid, qcnt)
 
 
 @njit(cache=True, parallel=True)
@@ -267,26 +242,27 @@ def _claims_parallel(nst, qs, E, cell_of, grid, own, base, parent, bnd, boff, nb
 
 
 @njit(cache=True)
-def _queue(n, sp_radius, pos, vel, species, sc, grid, icnt, nst):
+def _queue(sp_radius, pos, vel, species, sc, grid, icnt, nst):
     """The substep's initial events (``step._queue_initial``'s, in another order), found
-    by nst strips of cell rows on numba's threads from the scan's overlaps. Returns ``(E,
+    by nst strips of cell rows on numba's threads (one: on the calling thread) from the
+    drift's and the scan's lists. Returns ``(E,
     qs)``: the events of strip k are E[qs[k]:qs[k + 1]] (those of its sorted discs: one disc
     of each in its rows, the other in them or in the row below)."""
     qcnt = np.zeros((nst, N_ICOUNTERS), dtype=np.int64)
     need = np.empty(nst, dtype=np.int64)
     if nst > 1:
-        _count_parallel(nst, n, sc, grid, qcnt, need)
+        _count_parallel(nst, sc, grid, qcnt, need)
     else:
-        need[0] = _count(0, 1, n, sc, grid, qcnt)
+        need[0] = _count(0, 1, sc, grid, qcnt)
     off = np.zeros(nst + 1, dtype=np.int64)
     for k in range(nst):
         off[k + 1] = off[k] + need[k]
     E0 = np.empty((off[nst], 5), dtype=FLOAT)
     got = np.empty(nst, dtype=np.int64)
     if nst > 1:
-        _queue_parallel(nst, n, E0, off, sp_radius, pos, vel, species, sc, grid, qcnt, got)
+        _queue_parallel(nst, E0, off, sp_radius, pos, vel, species, sc, grid, qcnt, got)
     else:
-        got[0] = _fill(0, 1, n, E0, 0, sp_radius, pos, vel, species, sc, grid, qcnt)
+        got[0] = _fill(0, 1, E0, 0, sp_radius, pos, vel, species, sc, grid, qcnt)
     for k in range(nst):
         for q in range(N_ICOUNTERS):
             icnt[q] += qcnt[k, q]
@@ -309,8 +285,9 @@ def _cluster(E, qs, nst, cell_of, grid, own, base):
     their lowest event (roughly memory order)."""
     size = E.shape[0]
     parent = np.arange(size)
-    # room for the claims outside each strip: only its events within CLAIM + 1 rows of its
-    # edges have any, at most a whole block each ((2 CLAIM + 2)^2 cells: two adjacent cells)
+    # room for the claims outside each strip: only its events near its edges (first disc
+    # within CLAIM + 1 rows of the top, CLAIM + 2 of the bottom: the partner may be a row
+    # below) have any, at most a whole claim each (4 x 4 blocks for two adjacent cells)
     ncx = int(grid[4])
     ncy = int(grid[5])
     boff = np.zeros(nst + 1, dtype=np.int64)
@@ -321,7 +298,7 @@ def _cluster(E, qs, nst, cell_of, grid, own, base):
             cy = cell_of[int(E[q, 1])] // ncx
             if cy < r0 + CLAIM + 1 or cy >= r1 - CLAIM - 2:
                 near += 1
-        boff[k + 1] = boff[k] + (2 * CLAIM + 2) ** 2 * near
+        boff[k + 1] = boff[k] + (((2 * CLAIM + 2) >> OWN_SHIFT) + 1) ** 2 * near
     bnd = np.empty((boff[nst], 2), dtype=np.int64)
     nbs = np.zeros(nst, dtype=np.int64)
     if nst > 1:
@@ -738,7 +715,7 @@ def events(n, H, tables, discs, sc, bounds, grid, cnt, rc, sub_id, h, vfast, own
     pos, vel = discs.pos, discs.vel
     budget = EVENTS_PER_DISC * n + 1024  # (step._events')
     nst = max(threads, 1)
-    E, qs = _queue(n, tables.sp_radius, pos, vel, discs.species, sc, grid, cnt.icnt, nst)
+    E, qs = _queue(tables.sp_radius, pos, vel, discs.species, sc, grid, cnt.icnt, nst)
     size = E.shape[0]
     base = np.int64(own[-1])
     if base + size >= OWN_LIMIT:  # (rare: after about 2^31 events in one call)

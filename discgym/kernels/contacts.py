@@ -1,16 +1,17 @@
 """Queueing the contacts of a substep (``kernels.step`` and ``kernels.clusters``): an event
 appended or pushed, a pair's contact tested and queued, the half stencil of the scan, the
-chunks of the drift's and the scan's lists.
+drift's and the scan's lists of the discs with contacts.
 
 The drift lists the discs with a wall contact (or pushed inside) and the scan the sorted
-discs with overlapping partners (``Scratch.wl``, ``Scratch.ol``), so that queueing the
-substep's contacts costs what it queues, not a pass over every disc: fewer than 4% of the
-discs have either. Each chunk of the drift (of the scan) writes its list into its own range
-of the array, from the range's start, ended by -1 unless full; ``Scratch.nlist`` holds the
-number of chunks of each."""
+discs with overlapping partners (``Scratch.wl``, ``Scratch.ol``, how many of each in
+``Scratch.nlist``; in increasing order), so that queueing the substep's contacts costs
+what it queues, not a pass over every disc: fewer than 4% of the discs have either. Each
+chunk of a parallel drift (scan) writes its list into its own range of the array, from the
+range's start; :func:`close_lists` then moves them together."""
 
 import math
 
+import numpy as np
 from numba import njit
 
 from .collisions import pair_time
@@ -52,19 +53,18 @@ def try_pair(i, j, sp_radius, pos, vel, species, tlast, stamp, H, size, icnt, si
     return add_event(H, size, sift, t, j, i, stamp[j], stamp[i])
 
 
-@njit(cache=True, inline="always")
-def drift_chunk(c, nch, n):
-    """The discs [lo, hi) of chunk c of the drift's nch; its list: ``wl[lo:hi]``."""
-    return c * n // nch, (c + 1) * n // nch
-
-
-@njit(cache=True, inline="always")
-def scan_chunk(c, nch, ncx, ncy, cell_start):
-    """The cell rows [r0, r1) of chunk c of the scan's nch and the range of sorted discs
-    [a0, a1) binned in them; its list: ``ol[a0:a1]``."""
-    r0 = c * ncy // nch
-    r1 = (c + 1) * ncy // nch
-    return r0, r1, cell_start[r0 * ncx], cell_start[r1 * ncx]
+@njit(cache=True)
+def close_lists(lst, starts, counts):
+    """Move the lists of the chunks, ``lst[starts[c]:starts[c] + counts[c]]`` (chunks in
+    increasing order of ``starts``, each list within its chunk's range), together to the
+    front of ``lst``, in order; returns how many entries there are."""
+    m = 0
+    for c in range(starts.shape[0]):
+        lo = starts[c]
+        for p in range(lo, lo + counts[c]):
+            lst[m] = lst[p]  # (m <= p: the earlier chunks' lists fit in their ranges)
+            m += 1
+    return m
 
 
 @njit(cache=True)
@@ -94,21 +94,13 @@ def queue_scan(a0, a1, sp_radius, pos, vel, species, sc, grid, H, size, icnt, si
     ncy = int(grid[5])
     cell_start, cell_items, cell_of = sc.cell_start, sc.cell_items, sc.cell_of
     tlast, stamp, ov_n, ov_b, ol = sc.tlast, sc.stamp, sc.ov_n, sc.ov_b, sc.ol
-    nch = sc.nlist[1]
-    for c in range(nch):
-        s0, s1, p0, p1 = scan_chunk(c, nch, ncx, ncy, cell_start)
-        if p1 <= a0 or p0 >= a1:
-            continue
-        for p in range(p0, p1):
-            a = ol[p]
-            if a < a0:
-                if a < 0:
-                    break
-                continue
-            if a >= a1:
-                break
-            size = _queue_slot(a, sp_radius, pos, vel, species, cell_start, cell_items, cell_of,
-                               tlast, stamp, ov_n[a], ov_b, ncx, ncy, H, size, icnt, sift)
+    m = sc.nlist[1]
+    for p in range(np.searchsorted(ol[:m], a0), m):
+        a = ol[p]
+        if a >= a1:
+            break
+        size = _queue_slot(a, sp_radius, pos, vel, species, cell_start, cell_items, cell_of,
+                           tlast, stamp, ov_n[a], ov_b, ncx, ncy, H, size, icnt, sift)
     return size
 
 

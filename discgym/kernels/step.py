@@ -37,7 +37,7 @@ from .celllist import build, cell_coord, cell_radius, cell_range, make_grid, ove
 from .clusters import eligible, new_owner
 from .clusters import events as cluster_events
 from .collisions import bounce, normal_at
-from .contacts import drift_chunk, push_contacts, queue_scan, scan_chunk, schedule_start
+from .contacts import close_lists, push_contacts, queue_scan, schedule_start
 from .contacts import try_pair as _try_pair
 from .heap import new_heap, pop, push, reserve
 from .reactions import (
@@ -146,9 +146,9 @@ PAIR_MAX_DISCS = 1 << 17  # calls on more discs use the scan: the list's scatter
 def _drift_range(lo, hi, h, pos, vel, species, sp_radius, bounds_kind, bounds_params, tlast,
                  wall_t, wflag, wl, grid, cell_of, collide, nev, binx, biny, partner):
     """Move discs [lo, hi) by h; note their wall contacts (and list the discs that have
-    one or were pushed inside in ``wl[lo:hi]``, ended by -1: ``contacts.drift_chunk``);
-    reset their event counts; bin them (if collide: their cell, where they were binned, no
-    partner yet). One pass does it all (these were separate passes over the discs).
+    one or were pushed inside in ``wl`` from ``lo`` on; returns how many); reset their
+    event counts; bin them (if collide: their cell, where they were binned, no partner
+    yet). One pass does it all (these were separate passes over the discs).
 
     Bounds are unpacked to scalars once: helpers taking arrays cost a reference count per
     call, which in this loop would dominate its time.
@@ -192,17 +192,22 @@ def _drift_range(lo, hi, h, pos, vel, species, sp_radius, bounds_kind, bounds_pa
             binx[i] = x
             biny[i] = y
             partner[i] = -1
-    if m < hi:
-        wl[m] = -1
+    return m - lo
 
 
 @njit(cache=True, parallel=True)
 def _drift_parallel(nch, n, h, pos, vel, species, sp_radius, bounds_kind, bounds_params, tlast,
                     wall_t, wflag, wl, grid, cell_of, collide, nev, binx, biny, partner):
+    """_drift_range in nch chunks of discs; returns how many discs are listed in ``wl``."""
+    starts = np.empty(nch, dtype=np.int64)
+    counts = np.empty(nch, dtype=np.int64)
     for c in prange(nch):
-        lo, hi = drift_chunk(c, nch, n)
-        _drift_range(lo, hi, h, pos, vel, species, sp_radius, bounds_kind, bounds_params, tlast,
-                     wall_t, wflag, wl, grid, cell_of, collide, nev, binx, biny, partner)
+        lo = c * n // nch
+        starts[c] = lo
+        counts[c] = _drift_range(lo, (c + 1) * n // nch, h, pos, vel, species, sp_radius,
+                                 bounds_kind, bounds_params, tlast, wall_t, wflag, wl, grid,
+                                 cell_of, collide, nev, binx, biny, partner)
+    return close_lists(wl, starts, counts)
 
 
 # ----------------------------------------------------------------------- phase 2: broad phase
@@ -231,8 +236,8 @@ def _scan_rows(r0, r1, grid, cell_start, sx, sy, sr, ov_n, ov_b, ol):
     Reads the gathered (sorted, contiguous) ``sx, sy, sr``. ``ov_n[a]`` gets the number of
     partners b > a (in the half stencil, ``contacts.half_stencil``) of sorted disc a, the first
     OV_SLOTS of them, in increasing b, in ``ov_b[a]``; the discs with any are listed in
-    ``ol`` from the rows' first sorted disc on, ended by -1 (``contacts.scan_chunk``). Each
-    call writes only its own rows' discs, so row chunks run in parallel.
+    ``ol`` from the rows' first sorted disc on (returns how many). Each call writes only its
+    own rows' discs, so row chunks run in parallel.
 
     The loop runs over the discs of a row (a disc's column from its x, as it was binned),
     not over the cells: most cells are empty (about 60% at packing 0.3), and a branch on
@@ -265,8 +270,7 @@ def _scan_rows(r0, r1, grid, cell_start, sx, sy, sr, ov_n, ov_b, ol):
             if k > 0:
                 ol[m] = a
                 m += 1
-    if m < cell_start[r1 * ncx]:
-        ol[m] = -1
+    return m - cell_start[r0 * ncx]
 
 
 @njit(cache=True, inline="always")
@@ -297,12 +301,18 @@ def _gather(lo, hi, cell_items, pos, species, sp_radius, sx, sy, sr):
 @njit(cache=True, parallel=True)
 def _broad_parallel(nch, n, ncy, grid, cell_start, cell_items, pos, species, sp_radius, sx, sy,
                     sr, ov_n, ov_b, ol):
+    """_gather and _scan_rows in nch chunks; returns how many discs are listed in ``ol``."""
     ncx = int(grid[4])
     for c in prange(nch):
         _gather(c * n // nch, (c + 1) * n // nch, cell_items, pos, species, sp_radius, sx, sy, sr)
+    starts = np.empty(nch, dtype=np.int64)
+    counts = np.empty(nch, dtype=np.int64)
     for c in prange(nch):
-        r0, r1, a0, a1 = scan_chunk(c, nch, ncx, ncy, cell_start)
-        _scan_rows(r0, r1, grid, cell_start, sx, sy, sr, ov_n, ov_b, ol)
+        r0 = c * ncy // nch
+        starts[c] = cell_start[r0 * ncx]
+        counts[c] = _scan_rows(r0, (c + 1) * ncy // nch, grid, cell_start, sx, sy, sr, ov_n,
+                               ov_b, ol)
+    return close_lists(ol, starts, counts)
 
 
 # ------------------------------------------------------------ phase 2 (list): the pair list
@@ -562,43 +572,29 @@ def _queue_initial(n, collide, sp_radius, pos, vel, species, sc, grid, H, icnt, 
     ncy = int(grid[5])
     rcell = grid[6]
     nbc = ncx * ncy
-    # the drift's and the scan's lists (contacts.drift_chunk, scan_chunk), in the order of
-    # the discs (of the sorted discs) as a pass over all of them would take them
-    nd = sc.nlist[0]
+    # the drift's and the scan's lists (contacts), in the order of the discs (of the sorted
+    # discs) as a pass over all of them would take them
+    nw = sc.nlist[0]
     need = 0
-    for c in range(nd):
-        lo, hi = drift_chunk(c, nd, n)
-        for p in range(lo, hi):
-            i = wl[p]
-            if i < 0:
-                break
-            if wall_t[i] < math.inf:
-                need += 1
-            icnt[IC_PUSHED_INSIDE] += wflag[i]
+    for p in range(nw):
+        i = wl[p]
+        if wall_t[i] < math.inf:
+            need += 1
+        icnt[IC_PUSHED_INSIDE] += wflag[i]
     if collide:
         if listed:
             need += pl.count[1]
         else:
-            ns = sc.nlist[1]
-            for c in range(ns):
-                r0, r1, lo, hi = scan_chunk(c, ns, ncx, ncy, cell_start)
-                for p in range(lo, hi):
-                    a = ol[p]
-                    if a < 0:
-                        break
-                    need += ov_n[a]
+            for p in range(sc.nlist[1]):
+                need += ov_n[ol[p]]
         for a in range(cell_start[nbc], cell_start[nbc + 1]):
             need += _big_candidates(a, sx, sy, sr, rcell, grid, cell_start)
     H = reserve(H, 0, need)
     size = 0
-    for c in range(nd):
-        lo, hi = drift_chunk(c, nd, n)
-        for p in range(lo, hi):
-            i = wl[p]
-            if i < 0:
-                break
-            if wall_t[i] < math.inf:
-                size = push(H, size, wall_t[i], i, -1, stamp[i], 0)
+    for p in range(nw):
+        i = wl[p]
+        if wall_t[i] < math.inf:
+            size = push(H, size, wall_t[i], i, -1, stamp[i], 0)
     if not collide:
         return H, size
     if listed:
@@ -1367,7 +1363,8 @@ def advance(discs, n, n_steps, dt, bounds, tables, params, flags, rng, cnt, thre
             cut_after = dt / MAX_SUBSTEPS if taken < MAX_SUBSTEPS else math.inf
             taken += 1
             # the event phase by clusters where the scene allows (no big discs now), on the
-            # threads from PARALLEL_MIN discs; else (or if it declines) the serial one
+            # threads from PARALLEL_MIN discs or on this one above PAIR_MAX_DISCS; else (or
+            # if it declines) the serial one
             done = False
             queued = False
             if clusters is not None:
@@ -1479,17 +1476,16 @@ def _drift_and_bin(threads, n, h, pos, vel, species, sp_radius, bounds_kind, bou
     resets the per-disc event counts.
     Returns the pair list (a new one if it had to grow)."""
     par = threads > 1 and n >= PARALLEL_MIN
-    nch = threads if par else 1
-    sc.nlist[0] = nch
-    sc.nlist[1] = nch
+    sc.nlist[1] = 0  # (no scan: no overlapping discs listed)
     if par:
-        _drift_parallel(threads, n, h, pos, vel, species, sp_radius, bounds_kind, bounds_params,
-                        sc.tlast, sc.wall_t, sc.wflag, sc.wl, grid, sc.cell_of, collide, sc.nev,
-                        sc.binx, sc.biny, sc.partner)
+        sc.nlist[0] = _drift_parallel(threads, n, h, pos, vel, species, sp_radius, bounds_kind,
+                                      bounds_params, sc.tlast, sc.wall_t, sc.wflag, sc.wl, grid,
+                                      sc.cell_of, collide, sc.nev, sc.binx, sc.biny,
+                                      sc.partner)
     else:
-        _drift_range(0, n, h, pos, vel, species, sp_radius, bounds_kind, bounds_params, sc.tlast,
-                     sc.wall_t, sc.wflag, sc.wl, grid, sc.cell_of, collide, sc.nev, sc.binx,
-                     sc.biny, sc.partner)
+        sc.nlist[0] = _drift_range(0, n, h, pos, vel, species, sp_radius, bounds_kind,
+                                   bounds_params, sc.tlast, sc.wall_t, sc.wflag, sc.wl, grid,
+                                   sc.cell_of, collide, sc.nev, sc.binx, sc.biny, sc.partner)
     if collide:
         ncy = int(grid[5])
         cell_start, cell_items = sc.cell_start, sc.cell_items
@@ -1497,11 +1493,13 @@ def _drift_and_bin(threads, n, h, pos, vel, species, sp_radius, bounds_kind, bou
         if listed:
             return _pl_broad(n, pos, species, sp_radius, grid, sc, pl, full, big)
         if par:
-            _broad_parallel(threads, n, ncy, grid, cell_start, cell_items, pos, species,
-                            sp_radius, sc.sx, sc.sy, sc.sr, sc.ov_n, sc.ov_b, sc.ol)
+            sc.nlist[1] = _broad_parallel(threads, n, ncy, grid, cell_start, cell_items, pos,
+                                          species, sp_radius, sc.sx, sc.sy, sc.sr, sc.ov_n,
+                                          sc.ov_b, sc.ol)
         else:
             _gather(0, n, cell_items, pos, species, sp_radius, sc.sx, sc.sy, sc.sr)
-            _scan_rows(0, ncy, grid, cell_start, sc.sx, sc.sy, sc.sr, sc.ov_n, sc.ov_b, sc.ol)
+            sc.nlist[1] = _scan_rows(0, ncy, grid, cell_start, sc.sx, sc.sy, sc.sr, sc.ov_n,
+                                     sc.ov_b, sc.ol)
     return pl
 
 

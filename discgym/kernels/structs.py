@@ -155,9 +155,9 @@ class Scratch(NamedTuple):
     partner: np.ndarray  #: (ws,) INDEX a disc's latest collision partner in the substep, or -1
     nev: np.ndarray  #: (ws,) INDEX events a disc took part in in the substep
     cell_start: np.ndarray  #: (cells + 2,) INDEX CSR offsets of the cells into cell_items
-    wl: np.ndarray  #: (ws,) INDEX discs with a wall contact or pushed inside, by drift chunk
-    ol: np.ndarray  #: (ws,) INDEX sorted discs with overlapping partners, by scan chunk
-    nlist: np.ndarray  #: (2,) INDEX chunks of the drift and of the scan (kernels.contacts)
+    wl: np.ndarray  #: (ws,) INDEX discs with a wall contact or pushed inside (increasing)
+    ol: np.ndarray  #: (ws,) INDEX sorted discs with overlapping partners (increasing)
+    nlist: np.ndarray  #: (2,) INDEX how many discs wl and ol list (kernels.contacts)
 
 
 class PairList(NamedTuple):
