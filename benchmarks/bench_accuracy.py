@@ -3,7 +3,11 @@
 event-driven one (``Simulation(..., integrator="event")``) and against theory.
 
     python benchmarks/bench_accuracy.py            # the full run quoted in docs/accuracy.md
+    python benchmarks/bench_accuracy.py --plot docs/img/accuracy.png   # and its figure
     python benchmarks/bench_accuracy.py --quick    # a smoke run, under a minute (warm cache)
+
+The figure goes to ``out/accuracy.png`` (gitignored) unless ``--plot PATH`` says where: the
+tracked one changes only when asked to.
 
 Scenes: hard discs (r = 1, m = 1, kT = 1) in a box at packing fractions 0.1 to 0.6, and one
 scene per reaction type (transformation, decomposition, combination, exchange). Every run of a
@@ -55,6 +59,7 @@ from numba import njit
 import discgym as dg
 
 ROOT = Path(__file__).resolve().parents[1]
+OUT = ROOT / "out"  # (gitignored)
 R = 1.0  # disc radius
 M = 1.0  # disc mass
 KT = 1.0
@@ -408,8 +413,9 @@ def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--quick", action="store_true", help="small and short: under a minute")
     ap.add_argument("--plot", default=None,
-                    help="where to write the figure (default docs/img/accuracy.png; "
-                         "'none' for no figure; --quick writes none unless given)")
+                    help=f"where to write the figure (default {OUT / 'accuracy.png'}; "
+                         "'none' for no figure; --quick writes none unless given; "
+                         "docs/img/accuracy.png for the figure of docs/accuracy.md)")
     ap.add_argument("--markdown", default=None, help="also write the tables to this file")
     ap.add_argument("--seed", type=int, default=1)
     args = ap.parse_args(argv)
@@ -422,7 +428,7 @@ def main(argv=None):
     t_eq = 5.0 if quick else 30.0
     plot = args.plot
     if plot is None:
-        plot = "none" if quick else str(ROOT / "docs" / "img" / "accuracy.png")
+        plot = "none" if quick else str(OUT / "accuracy.png")
 
     t_start = time.time()
     print(f"discgym {dg.__version__}: accuracy against time "

@@ -3,12 +3,14 @@
 threads, and the cost of each effect (absent effects cost nothing), next to a minimal
 reference kernel.
 
-    python benchmarks/bench_core.py           # the full run quoted in docs/performance.md
-    python benchmarks/bench_core.py --quick   # a smoke run (no figures written)
+    python benchmarks/bench_core.py                  # the full run, figures into out/
+    python benchmarks/bench_core.py --plot docs/img  # the figures of docs/performance.md
+    python benchmarks/bench_core.py --quick          # a smoke run (no figures written)
 
-Prints plain-text tables and writes docs/img/perf_scaling.png and docs/img/perf_effects.png
-(unless ``--quick`` or ``--plot DIR``). The sections and their options are those of
-``discgym bench`` (:mod:`discgym.bench`; ``--help``), e.g. ``--markdown FILE`` or
+Prints plain-text tables and writes perf_scaling.png and perf_effects.png into ``--plot DIR``,
+by default ``out/`` (gitignored: the tracked figures change only when asked to, with ``--plot
+docs/img``); ``--quick`` writes none unless given ``--plot``. The sections and their options
+are those of ``discgym bench`` (:mod:`discgym.bench`; ``--help``), e.g. ``--markdown FILE`` or
 ``--sizes 1e3,1e4``; this script adds the reference kernel :func:`lean_run` to the effect
 table and draws the figures.
 """
@@ -27,7 +29,7 @@ from numba import njit
 from discgym import Simulation, bench
 from discgym.bench import RADIUS, Runner, Timing, time_steps
 
-IMG = Path(__file__).resolve().parents[1] / "docs" / "img"
+OUT = Path(__file__).resolve().parents[1] / "out"  # (gitignored)
 LEAN_LABEL = "lean reference kernel (drift, box walls, 1 collision pass)"
 
 
@@ -205,8 +207,11 @@ def main(argv: list[str] | None = None) -> int:
                     "packing 0.3, dt = 0.05): scaling with N and threads, and the cost of "
                     "each effect next to a minimal reference kernel.")
     p.add_argument("--plot", default=None, metavar="DIR",
-                   help="write perf_scaling.png and perf_effects.png into DIR")
+                   help=f"write perf_scaling.png and perf_effects.png into DIR (default {OUT}, "
+                        "none with --quick; docs/img for the figures of docs/performance.md)")
     args = p.parse_args(argv)
+    if args.plot is None and not args.quick:
+        args.plot = str(OUT)
     sections = bench.chosen_sections(args)
     if sections is None:
         return 2
@@ -228,6 +233,4 @@ def main(argv: list[str] | None = None) -> int:
 
 
 if __name__ == "__main__":
-    args = sys.argv[1:]
-    plot = [] if "--quick" in args or "--plot" in args else ["--plot", str(IMG)]
-    sys.exit(main([*plot, *args]))
+    sys.exit(main(sys.argv[1:]))

@@ -11,8 +11,8 @@ a difference in time is the code's; with ``random`` the reactor is heated and a 
 physics shows in the hash.
 """
 
+import argparse
 import hashlib
-import sys
 import time
 
 import numba
@@ -23,16 +23,19 @@ from discgym.vector import DiscReactorVectorEnv
 REACTORS, STEPS, REPEATS = 64, 100, 4
 
 
-def main(mode: str) -> None:
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(prog="bench_env_kernel.py", description=__doc__.split("\n\n")[0])
+    ap.add_argument("mode", nargs="?", choices=("zero", "random"), default="zero",
+                    help="zero: a cold reactor (bit-identical across versions that keep the "
+                    "physics); random: seeded random actions (default %(default)s)")
+    mode = ap.parse_args(argv).mode
     numba.set_num_threads(1)
     venv = DiscReactorVectorEnv(num_envs=REACTORS, autoreset_mode="Disabled", threads=1)
     rng = np.random.default_rng(5)
     if mode == "zero":
         actions = [np.zeros((REACTORS, 4), np.float32)] * STEPS
-    elif mode == "random":
-        actions = [rng.uniform(-1, 1, (REACTORS, 4)).astype(np.float32) for _ in range(STEPS)]
     else:
-        raise SystemExit(f"mode: 'zero' or 'random', got {mode!r}")
+        actions = [rng.uniform(-1, 1, (REACTORS, 4)).astype(np.float32) for _ in range(STEPS)]
     best = float("inf")
     for _ in range(REPEATS):
         obs, _ = venv.reset(seed=3)
@@ -43,7 +46,8 @@ def main(mode: str) -> None:
     digest = hashlib.sha1(obs.tobytes()).hexdigest()[:10]
     print(f"{mode}: {best / (REACTORS * STEPS) * 1e6:.1f} us per reactor-step, final "
           f"observation {digest}")
+    return 0
 
 
 if __name__ == "__main__":
-    main(sys.argv[1] if len(sys.argv) > 1 else "zero")
+    raise SystemExit(main())

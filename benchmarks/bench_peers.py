@@ -4,10 +4,13 @@ equilibrated state: LAMMPS (``pair_style gran/hooke``, soft discs with a Verlet 
 pymunk (Chipmunk2D) and Box2D (both impulse solvers). Each peer is optional (``pip install
 'discgym[peers]'``); a missing one is skipped with a note.
 
-    python benchmarks/bench_peers.py           # both tables of docs/performance.md (~5 min)
-    python benchmarks/bench_peers.py --quick   # small and short (< 1 min; no figure written)
+    python benchmarks/bench_peers.py                  # both tables (~5 min), figure in out/
+    python benchmarks/bench_peers.py --plot docs/img  # the figure of docs/performance.md
+    python benchmarks/bench_peers.py --quick          # small and short (< 1 min; no figure)
 
-It prints two tables and writes docs/img/perf_peers.png (unless ``--quick`` or ``--plot DIR``):
+It prints two tables and writes perf_peers.png into ``--plot DIR``, by default ``out/``
+(gitignored: the tracked figure changes only when asked to, with ``--plot docs/img``;
+``--quick`` writes none unless given ``--plot``):
 
 1. Raw throughput: disc-steps per second of each engine and of discgym, one thread each, at
    N = 10^3, 10^4, 10^5, timed in interleaved pairs (a chunk of discgym, a chunk of the peer);
@@ -49,7 +52,7 @@ from discgym.bench import (
     timed_simulation,
 )
 
-IMG = Path(__file__).resolve().parents[1] / "docs" / "img"
+OUT = Path(__file__).resolve().parents[1] / "out"  # (gitignored)
 OVERLAP_TOL = 0.01  #: pairs closer than (1 - OVERLAP_TOL) * contact distance count as overlaps
 BULK_MARGIN = 10.0  #: discs this far (in radii) from every wall count for the bulk density
 
@@ -774,7 +777,9 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--equilibrate", type=float, default=None,
                    help="simulated time run before measuring (default 10; quick 5)")
     p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--plot", default=None, metavar="DIR", help="write perf_peers.png into DIR")
+    p.add_argument("--plot", default=None, metavar="DIR",
+                   help=f"write perf_peers.png into DIR (default {OUT}, none with --quick; "
+                        "docs/img for the figure of docs/performance.md)")
     p.add_argument("--markdown", default=None, metavar="FILE",
                    help="also write the tables as Markdown to FILE")
     p.add_argument("--json", default=None, metavar="FILE", help="write all results as JSON")
@@ -786,6 +791,8 @@ def main(argv: list[str] | None = None) -> int:
     global LAMMPS_KN
     args = _parser().parse_args(argv)
     q = args.quick
+    if args.plot is None and not q:
+        args.plot = str(OUT)
     if args.lammps_kn:
         LAMMPS_KN = args.lammps_kn
     report = Report(argv, q, **peer_versions())
@@ -828,6 +835,4 @@ def main(argv: list[str] | None = None) -> int:
 
 
 if __name__ == "__main__":
-    args = sys.argv[1:]
-    plot = [] if "--quick" in args or "--plot" in args else ["--plot", str(IMG)]
-    sys.exit(main([*plot, *args]))
+    sys.exit(main(sys.argv[1:]))

@@ -3,6 +3,8 @@ rollout oracle above, on the same evaluation seeds, with 95% bootstrap confidenc
 
     python benchmarks/ladder.py --env DiscReactor-v0 --seeds 20 --plot
     python benchmarks/ladder.py --env all            # every task of TASK_BASELINES
+    python benchmarks/ladder.py --env all --plot --plot-path docs/img/ladder_all.png
+    python benchmarks/ladder.py --table docs/data/ladder_Disc*-v0.json   # the README's table
 
 For each env id of ``discgym.baselines.TASK_BASELINES``:
 - random: ``env.action_space.sample()``, the space seeded with the episode's seed;
@@ -16,8 +18,14 @@ fresh ``gymnasium.make(env_id)``. The table gives the mean and the IQM with BCa 
 95% intervals (scipy.stats.bootstrap, fixed random_state) and the wall time per episode; the
 ladder's steps are compared by paired differences over the seeds (separated: the interval
 excludes 0). Writes JSON (--out: per-seed returns, the table, the oracle's budget, date,
-machine, versions) and, with --plot, a bar chart (docs/img/ladder_<env>.png, or
-ladder_all.png with one panel per task).
+machine, versions) and, with --plot, a bar chart (out/ladder_<env>.png, or ladder_all.png
+with one panel per task; out/ is gitignored, the tracked charts in docs/img change only when
+--plot-path names them).
+
+``--table FILE...`` runs nothing: it prints one Markdown table of the ladders in JSON files
+this script wrote, a row per task (each policy's mean return with its 95% interval, whether
+the ladder is ordered and every step separated by its paired interval, the oracle's wall time
+per episode).
 """
 
 from __future__ import annotations
@@ -233,6 +241,32 @@ def table(res: dict) -> str:
     return "\n".join(lines)
 
 
+def summary_row(res: dict) -> str:
+    """One task's row of :func:`summary_table` (a result of :func:`run_task` or its JSON)."""
+    pol = res["policies"]
+    hand = next(k for k in pol if k not in ("random", "best constant")
+                and not k.startswith("oracle"))
+    oracle = next(k for k in pol if k.startswith("oracle"))
+    name = res.get("controller", {}).get("name", hand)
+    sep = all(s["separated"] for s in res["ladder"])
+    ok = "yes" if res["ordered"] and sep else ("ordered" if res["ordered"] else "**no**")
+
+    def cell(p: dict) -> str:
+        m = p["mean"]
+        return f"{m['value']:.3f} [{m['low']:.3f}, {m['high']:.3f}]"
+
+    return (f"| `{res['env_id']}` | {cell(pol['random'])} | {cell(pol['best constant'])} | "
+            f"{cell(pol[hand])} ({name}) | **{cell(pol[oracle])}** | {ok} | "
+            f"{res['oracle_budget']['seconds_per_episode']:.1f} s |")
+
+
+def summary_table(results: list) -> str:
+    """Every task's ladder in one Markdown table, a row per task (the README's summary)."""
+    return "\n".join(["| task | random | best constant | hand-written | oracle | "
+                      "ordered, separated | oracle per episode |",
+                      "|---|---|---|---|---|---|---|", *map(summary_row, results)])
+
+
 def plot(results: list, path: Path) -> Path:
     import matplotlib
 
@@ -290,7 +324,8 @@ def main(argv=None) -> int:
                    help="the JSON file ({env}: the env id)")
     p.add_argument("--plot", action="store_true", help="write the bar chart")
     p.add_argument("--plot-path", default=None,
-                   help="default docs/img/ladder_<env>.png (ladder_all.png for --env all)")
+                   help="default out/ladder_<env>.png (ladder_all.png for --env all); "
+                   "docs/img/... for the charts of the docs")
     p.add_argument("--variants", action="store_true",
                    help="also run other oracle budgets and the sampling planner (slow)")
     p.add_argument("--mpc", action="store_true",
@@ -299,7 +334,17 @@ def main(argv=None) -> int:
     p.add_argument("--check", action="store_true",
                    help="exit 1 if the means are not ordered random < constant < "
                    "hand-written < oracle")
+    p.add_argument("--table", nargs="+", type=Path, metavar="JSON",
+                   help="run nothing: print one Markdown table of the ladders in these JSON "
+                   "files (written by --out)")
     a = p.parse_args(argv)
+    if a.table:
+        try:
+            results = [json.loads(f.read_text()) for f in a.table]
+            print(summary_table(results))
+        except (OSError, ValueError, KeyError, TypeError, StopIteration) as e:
+            p.error(f"--table: not a ladder's JSON ({type(e).__name__}: {e})")
+        return 0
     envs = list(TASK_BASELINES) if a.env == "all" else [a.env]
     for e in envs:
         if e not in TASK_BASELINES:
@@ -354,7 +399,7 @@ def main(argv=None) -> int:
         results.append(res)
     if a.plot:
         name = f"ladder_{envs[0]}.png" if len(envs) == 1 else "ladder_all.png"
-        path = Path(a.plot_path) if a.plot_path else ROOT / "docs" / "img" / name
+        path = Path(a.plot_path) if a.plot_path else ROOT / "out" / name
         print(f"wrote {plot(results, path)}")
     return 1 if a.check and not ok else 0
 

