@@ -23,6 +23,7 @@ from __future__ import annotations
 import copy
 import itertools
 import math
+import numbers
 import time
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
@@ -65,7 +66,8 @@ class HeuristicPolicy:
 
     Works on one observation (D,) or a batch (R, D); reads the slots by name, so give it the
     ``observation_names`` of the env (default: those of the default env) and the env's
-    ``heat_rate`` if it is not the default.
+    ``heat_rate`` if it is not the default. At ``heat_rate`` = 1 (which the env accepts) no
+    heat action changes kT, and the heat action is 0.
     """
 
     def __init__(self, observation_names: Sequence[str] | None = None, *, t_hot=1.8,
@@ -83,7 +85,13 @@ class HeuristicPolicy:
         self.switch_yield, self.switch_time = float(switch_yield), float(switch_time)
         self.wall = float(wall)
         self.inject = np.broadcast_to(np.asarray(inject, dtype=FLOAT), (self.n_feed,))
-        self.log_rate = math.log(heat_rate if heat_rate else DEFAULTS["heat_rate"])
+        rate = DEFAULTS["heat_rate"] if heat_rate is None else heat_rate
+        if isinstance(rate, (bool, np.bool_)) or not isinstance(rate, numbers.Real):
+            raise TypeError(f"heat_rate: expected None or a number, got {heat_rate!r}")
+        if not 1.0 <= float(rate) < math.inf:
+            raise ValueError(f"heat_rate: expected None (the default env's) or the env's "
+                             f"heat_rate, a finite number >= 1, got {heat_rate!r}")
+        self.log_rate = math.log(rate)
 
     def __call__(self, obs: np.ndarray) -> np.ndarray:
         o = np.asarray(obs, dtype=FLOAT)
@@ -94,7 +102,11 @@ class HeuristicPolicy:
             (o[:, self.i_time] <= 1.0 - self.switch_time)
         target = np.where(late, self.t_cold, self.t_hot)
         a = np.empty((len(o), 2 + self.n_feed), dtype=np.float32)
-        a[:, 0] = np.clip(np.log(target / np.maximum(T, 1e-6)) / self.log_rate, -1.0, 1.0)
+        if self.log_rate == 0.0:  # (heat_rate 1: the heating law has no inverse)
+            a[:, 0] = 0.0
+        else:
+            a[:, 0] = np.clip(np.log(target / np.maximum(T, 1e-6)) / self.log_rate, -1.0,
+                              1.0)
         a[:, 1] = self.wall
         a[:, 2:] = self.inject
         return a[0] if one else a

@@ -14,13 +14,19 @@ import math
 
 import numpy as np
 
+from .env import FLOAT_NORMAL_MIN
+
 __all__ = ["Thermostat", "AdaptiveThermostat", "BandThermostat",
            "JacketThermostat", "FlowThermostat", "flow_thermostat", "controller_for",
            "SetpointActions"]
 
 
 class _Slots:
-    """Observation slots by name, and the env's heating law."""
+    """Observation slots by name, and the env's heating law.
+
+    The heat action that multiplies kT by a factor f is ``log(f) / log(heat_rate)``; at
+    ``heat_rate`` = 1 (accepted by the env) every heat action leaves kT as it is, so the law
+    has no inverse and the controllers' heat action is 0 (:meth:`heat_actions`)."""
 
     def __init__(self, env):
         u = getattr(env, "unwrapped", env)
@@ -33,7 +39,13 @@ class _Slots:
         self.i_yield = names.index("yield")
         self.i_time = names.index("time_left")
 
-    def index(self, name: str) -> int:
+    def index(self, name: str, argument: str) -> int:
+        """The slot ``name``, which the controller's ``argument`` asks for (``ValueError``
+        naming it if the env does not observe that slot)."""
+        if name not in self.names:
+            raise ValueError(f"{argument}: the env observes no slot {name!r} (a reaction "
+                             f"count needs observe_reactions=True and that reaction in the "
+                             f"scene; a fraction, that species)")
         return self.names.index(name)
 
     def temperature(self, o: np.ndarray) -> float:
@@ -44,15 +56,27 @@ class _Slots:
         return (o[:, self.frac] * o[:, self.kT]).sum(axis=1)
 
     def heat_toward(self, o: np.ndarray, target: float) -> float:
-        """The heat action that takes the reactor's kT to ``target`` (clipped to [-1, 1])."""
+        """The heat action that takes the reactor's kT to ``target`` (clipped to [-1, 1]; 0
+        at ``heat_rate`` = 1)."""
+        if self.log_rate == 0.0:
+            return 0.0
         T = max(self.temperature(o), 1e-6)
         return float(np.clip(math.log(target / T) / self.log_rate, -1.0, 1.0))
+
+    def heat_actions(self, target: np.ndarray, T: np.ndarray) -> np.ndarray:
+        """:meth:`heat_toward` for a batch: the heat actions (R,) taking kT ``T`` (R,) to
+        ``target`` (R,) (0 at ``heat_rate`` = 1)."""
+        if self.log_rate == 0.0:
+            return np.zeros(np.broadcast(target, T).shape)
+        heat = np.log(target / np.maximum(T, 1e-6)) / self.log_rate
+        return np.clip(heat, -1.0, 1.0)
 
 
 class Thermostat:
     """Hold kT at ``t_hot`` until the yield reaches ``switch_yield``, then at ``t_cold``
     (the rule of ``DiscReactor-v0``'s scheduled heuristic), the wall at ``wall``, every feed
-    component at ``inject``."""
+    component at ``inject``. At ``heat_rate`` = 1 (no heat action changes kT) the heat
+    action is 0."""
 
     def __init__(self, env, *, t_hot=1.8, t_cold=1.6, switch_yield=0.2, wall=-1.0,
                  inject=1.0):
@@ -85,7 +109,8 @@ class FlowThermostat(Thermostat):
     episode its setpoint rises linearly, to ``1 + ramp`` times the thermostat's at the end
     (``time_left`` is observed). Why: the product still in the reactor when the episode ends
     earns nothing, and a hotter gas effuses faster (the outflow grows as sqrt(kT)), so the
-    end of an episode pays for emptying the reactor rather than for keeping its discs."""
+    end of an episode pays for emptying the reactor rather than for keeping its discs. At
+    ``heat_rate`` = 1 the heat action is 0, as the thermostat's."""
 
     def __init__(self, env, *, ramp=0.0, ramp_from=0.7, **kwargs):
         if isinstance(ramp, bool) or not isinstance(ramp, (int, float)) \
@@ -119,7 +144,10 @@ class AdaptiveThermostat:
     step, from the observation). While fewer than ``min_rate`` formations (per unit of
     limiting reactant) fire per step, or x is below ``x_target / band``, raise the setpoint
     by the factor ``step`` per env step; while x is above ``x_target x band``, lower it. The
-    setpoint stays in [``t_low``, ``t_high``]. Wall at ``wall``, feed at ``inject``.
+    setpoint stays in [``t_low``, ``t_high``]. Wall at ``wall``, feed at ``inject``. At
+    ``heat_rate`` = 1 (no heat action changes kT) the heat action is 0. The reaction counts
+    must be observed (``observe_reactions=True``, as in ``DiscKinetics-v0``): otherwise
+    ``ValueError`` naming ``main``.
 
     The defaults are tuned (docs/tasks.md): ``x_target``, ``band``, ``step`` and
     ``t_start`` are the best of 81 settings on seeds 500-539, the best 10 of them re-scored on
@@ -132,10 +160,10 @@ class AdaptiveThermostat:
                  reactant="B", t_start=1.2, t_low=0.8, t_high=4.0, step=1.03, memory=0.8,
                  x_target=0.08, band=1.1, min_rate=0.005, wall=-1.0, inject=1.0):
         self.s = _Slots(env)
-        self.i_main = self.s.index(f"reactions[{main}]")
-        self.i_loss = self.s.index(f"reactions[{loss}]")
-        self.i_c = self.s.index(f"fraction_{product}")
-        self.i_b = self.s.index(f"fraction_{reactant}")
+        self.i_main = self.s.index(f"reactions[{main}]", "main")
+        self.i_loss = self.s.index(f"reactions[{loss}]", "loss")
+        self.i_c = self.s.index(f"fraction_{product}", "product")
+        self.i_b = self.s.index(f"fraction_{reactant}", "reactant")
         self.t_start, self.t_low, self.t_high = t_start, t_low, t_high
         self.step, self.memory, self.x_target, self.band = step, memory, x_target, band
         self.min_rate = min_rate
@@ -176,7 +204,8 @@ class BandThermostat:
     ``t_high - margin``; in between, leave the temperature alone (every unit of energy moved
     costs, and the reactions' own heat keeps a warm reactor warm). The wall at ``wall`` (free:
     a denser reactor reacts faster); every feed component at ``inject`` while more than
-    ``feed_until`` of the episode is left, 0 after.
+    ``feed_until`` of the episode is left, 0 after. At ``heat_rate`` = 1 (no heat action
+    changes kT) the heat action is 0.
     """
 
     def __init__(self, env, *, t_low=1.0, t_high=2.0, margin=0.0, wall=-1.0, inject=1.0,
@@ -213,6 +242,11 @@ class JacketThermostat:
     the reaction heat pushes the reactor over, and lower still while the reactor is warming
     fast (cooling before the exotherm runs away: the wall acts with a lag). The wall at
     ``wall``, feed at ``inject``. Keeps the last kT (:meth:`reset` forgets it).
+
+    The jacket action is the env's log-uniform map inverted, ``2 log(jacket / t_min) /
+    log(t_max / t_min) - 1`` (clipped to [-1, 1]); a ``temperature_range`` of one value (t_min
+    == t_max, accepted by the env) fixes the jacket whatever the action, and the action is
+    then 0.
     """
 
     def __init__(self, env, *, t_hot=1.6, t_cold=1.4, switch_yield=0.2, gain=4.0,
@@ -237,7 +271,9 @@ class JacketThermostat:
         jacket = target + self.gain * (target - T) - self.damping * rise
         jacket = min(max(jacket, self.t_min), self.t_max)
         a = np.empty(2 + s.n_feed, dtype=np.float32)
-        a[0] = 2.0 * math.log(jacket / self.t_min) / math.log(self.t_max / self.t_min) - 1.0
+        span = math.log(self.t_max / self.t_min)  # (finite: the env refuses ranges where not)
+        a[0] = 0.0 if span == 0.0 else \
+            min(max(2.0 * math.log(jacket / self.t_min) / span - 1.0, -1.0), 1.0)
         a[1] = self.wall
         a[2:] = self.inject
         return a
@@ -291,7 +327,9 @@ class SetpointActions:
     from a noisy temperature, and PPO's policies did so coarsely (kT swinging 1.1-2.4 from
     step to step on DiscReactor-v0, where the thermostat stays within 1.55-1.72;
     docs/agents.md). Fewer decisions also shorten the horizon over which credit must be
-    assigned (25 instead of 100 per episode at ``hold`` = 4).
+    assigned (25 instead of 100 per episode at ``hold`` = 4). At ``heat_rate`` = 1 (no heat
+    action changes kT) the heat action is 0. ``kT_low`` must be a normal float64 and
+    ``kT_high / kT_low`` finite (the map's ratio; ``ValueError`` naming them otherwise).
 
     With ``average`` (a weight in (0, 1)) the agent observes, besides the observation, its
     running mean over the episode, updated at every env step (``average x mean + (1 -
@@ -323,8 +361,11 @@ class SetpointActions:
                  correct: str = "all"):
         if isinstance(hold, bool) or not isinstance(hold, (int, np.integer)) or hold < 1:
             raise ValueError(f"hold: expected an int >= 1, got {hold!r}")
-        if not (0 < float(kT_low) < float(kT_high) < math.inf):
-            raise ValueError(f"kT_low, kT_high: expected 0 < kT_low < kT_high < inf, got "
+        if not (FLOAT_NORMAL_MIN <= float(kT_low) < float(kT_high) < math.inf) \
+                or not math.isfinite(float(kT_high) / float(kT_low)):
+            raise ValueError(f"kT_low, kT_high: expected {FLOAT_NORMAL_MIN!r} (the smallest "
+                             f"normal float64) <= kT_low < kT_high < inf with kT_high / kT_low "
+                             f"finite (the setpoint is kT_low (kT_high / kT_low) ** u), got "
                              f"{kT_low!r}, {kT_high!r}")
         if average is not None and (isinstance(average, bool)
                                     or not isinstance(average, (int, float))
@@ -438,9 +479,7 @@ class SetpointActions:
             setpoint = sp * self.span ** np.clip(full[:, 0].astype(np.float64), -1.0, 1.0)
             a = b
             a[:, 1:] = np.clip(b[:, 1:] + full[:, 1:], -1.0, 1.0)
-        T = np.maximum(self.s.temperatures(o), 1e-6)
-        heat = np.log(setpoint / T) / self.s.log_rate
-        a[:, 0] = np.clip(heat, -1.0, 1.0)
+        a[:, 0] = self.s.heat_actions(setpoint, self.s.temperatures(o))
         return a[0] if one else a
 
     def policy(self, decide):

@@ -34,6 +34,7 @@ import copy
 import math
 import numbers
 import os
+import sys
 from collections.abc import Mapping
 from dataclasses import dataclass, replace
 from functools import cached_property, partial
@@ -135,6 +136,14 @@ INT_MAX = 2**63 - 1
 INT_MAX_TEXT = "2**63 - 1"
 #: Whole numbers a float64 holds exactly (the kernel computes round(a * inject_max) in float64).
 FLOAT_EXACT = 2**53
+#: The smallest normal float64. A range's ends must be at least this: a subnormal has fewer
+#: significant bits and its reciprocal overflows (1 / 1e-310 is inf), so the maps that divide
+#: by an end or take a ratio of the ends (the heat control's clamps, the jacket's log-uniform
+#: map, a controller inverting them) would give inf or NaN.
+FLOAT_NORMAL_MIN = float(np.finfo(np.float64).tiny)
+#: The largest ``heat_rate``: ``heat_rate ** a`` for every action a in [-1, 1] is a normal
+#: float (at -1 its reciprocal, at least FLOAT_NORMAL_MIN).
+HEAT_RATE_MAX = 1.0 / FLOAT_NORMAL_MIN
 #: Largest ``render_size`` (the renderer's scratch is ~40 bytes a pixel: ~0.7 GB at 4096).
 MAX_RENDER_SIZE = 4096
 #: Initial contents covering more of the area than this are not reliably placed by random
@@ -313,8 +322,9 @@ class ReactorConfig:
                 f"episode_steps, step_time: an episode of {episode_steps} steps of {spa} x dt "
                 f"is more steps than the simulation's step counter holds ({INT_MAX_TEXT}); at "
                 f"this step_time, episode_steps <= {INT_MAX // spa}")
-        heat_rate = _real(o["heat_rate"], "heat_rate", 1.0,
-                          why="the kinetic-energy factor at action +1")
+        heat_rate = _real(o["heat_rate"], "heat_rate", 1.0, HEAT_RATE_MAX,
+                          why="the factor at action -1, 1 / heat_rate, must be a normal "
+                              "float64")
         t_min, t_max = _pair(o["temperature_range"], "temperature_range")
         size_min, size_max = _pair(o["size_range"], "size_range")
         if not size_min <= 1.0 <= size_max:
@@ -377,6 +387,16 @@ class ReactorConfig:
                     f"temperature_range: with heating='jacket' the high end {t_max} is a wall "
                     f"temperature, above the hottest a thermal wall of this scene may be "
                     f"({scene.max_wall_temperature():.4g})")
+            if not math.isfinite(t_max / t_min):
+                raise ValueError(
+                    f"temperature_range: with heating='jacket' the jacket is set to low x "
+                    f"(high / low) ** ((a + 1) / 2), and high / low = {t_max} / {t_min} "
+                    f"overflows float64 (need high / low <= {sys.float_info.max!r})")
+            if t_max > _FLOAT32_MAX:
+                raise ValueError(
+                    f"temperature_range: with heating='jacket' the high end {t_max} is the "
+                    f"bound of the jacket_kT observation, beyond float32 (the observation's "
+                    f"dtype)")
         reward = _choice(o["reward"], "reward", REWARDS)
         if reward == "outflow" and not scene.outlets:
             raise ValueError("reward: 'outflow' rewards the product leaving through the scene's "
@@ -558,6 +578,45 @@ class ReactorConfig:
 
     def bounds_of(self, size: float):
         return _bounds_of(self.scene, size)
+
+    def read_size(self, bounds, size: float, who: str) -> float:
+        """The wall's size for ``bounds``, which ``resize`` or ``set_state`` gave a reactor's
+        Simulation from outside (``Simulation.export_scalars`` tells the envs when), the env
+        having held ``size``: ``size`` if they are still its bounds (``bounds_of(size)``: a
+        copy, a state of the same size), else theirs, so that the ``size`` observation and the
+        next wall move start from the bounds the reactor has. The wall sets a box's width (the
+        scene's height and origin kept) or a circle's radius (its centre kept) to the size x
+        the scene's, within ``size_range``; other bounds (another kind, height, origin or
+        centre, or a size outside ``size_range``) are refused with ``RuntimeError`` naming
+        them, before anything is stepped, rather than reshaped or clipped by the next wall
+        move (the size observation would no longer describe the reactor): resize back, set
+        another state or reset."""
+        if bounds == self.bounds_of(size):
+            return size
+        ref = self.scene.bounds
+        box = isinstance(ref, Box)
+        length = "width" if box else "radius"
+        if type(bounds) is not type(ref):
+            why = f"a {bounds.kind}, not a {ref.kind}"
+        elif box and (bounds.height, bounds.origin) != (ref.height, ref.origin):
+            why = (f"height {bounds.height} and origin {bounds.origin}, not the scene's "
+                   f"{ref.height} and {ref.origin}")
+        elif not box and bounds.center != ref.center:
+            why = f"centre {bounds.center}, not the scene's {ref.center}"
+        else:
+            # (in lengths: the bounds of the range's ends, as the wall makes them, are in it)
+            x = getattr(bounds, length)
+            lo = getattr(self.bounds_of(self.size_min), length)
+            hi = getattr(self.bounds_of(self.size_max), length)
+            if lo <= x <= hi:
+                return min(max(self.size_of(bounds), self.size_min), self.size_max)
+            why = (f"size {self.size_of(bounds):.6g} (its {length} / the scene's), outside "
+                   f"size_range ({self.size_min:g}, {self.size_max:g})")
+        raise RuntimeError(
+            f"bounds: {who} was given {bounds} from outside (resize or set_state): {why}. The "
+            f"env's wall sets the {length} of the scene's {ref} to size x the scene's, the "
+            f"size within size_range ({self.size_min:g}, {self.size_max:g}), and cannot take "
+            "these bounds over; resize to such bounds, set a state with them, or reset")
 
 
 def _product_and_feed(scene: Scene, o: dict) -> tuple[int, tuple]:
@@ -822,7 +881,8 @@ def _real(v, name: str, lo: float = -math.inf, hi: float = math.inf, *,
 
 
 def _pair(v, name: str) -> tuple[float, float]:
-    """``(low, high)``, finite, 0 < low <= high, from a list, tuple or 1-d array of two."""
+    """``(low, high)``, finite, 0 < low <= high, low a normal float64 (>= FLOAT_NORMAL_MIN),
+    from a list, tuple or 1-d array of two."""
     if isinstance(v, np.ndarray) and v.ndim == 1 or isinstance(v, (list, tuple)):
         items = list(v)
     else:
@@ -833,6 +893,10 @@ def _pair(v, name: str) -> tuple[float, float]:
     hi = _real(items[1], f"{name}[1]")
     if not 0 < lo <= hi:
         raise ValueError(f"{name}: need 0 < low <= high, got {v!r}")
+    if lo < FLOAT_NORMAL_MIN:
+        raise ValueError(f"{name}: the low end {lo!r} is a subnormal float64; need low >= "
+                         f"{FLOAT_NORMAL_MIN!r}, the smallest normal one (a subnormal's "
+                         f"reciprocal overflows: a map dividing by it gives inf)")
     return lo, hi
 
 
@@ -1028,8 +1092,8 @@ def check_render_mode(render_mode, modes) -> None:
 class DiscReactorEnv(gym.Env):
     """A reactor of reacting hard discs to be run for the most product.
 
-    The full specification, with every slot and default, is the README section "The
-    environment: DiscReactor-v0"; this is its summary.
+    The full specification, with every slot and default, is ``docs/env.md``; this is its
+    summary.
 
     ## Description
     The built-in ``reactor`` scene: ~120 A and ~120 B discs, cold (kT ~0.6), in a 30 x 30
@@ -1096,8 +1160,16 @@ class DiscReactorEnv(gym.Env):
     - ``step_time``: finite, > 0, a whole number (>= 1) of the scene's ``dt`` within 1e-9
       relative (a float32 or float16 at its own precision: ``np.float32(0.1)`` is 2 x 0.05),
       at most 2**63 - 1 steps of ``dt``.
-    - ``heat_rate``: finite, >= 1.
-    - ``temperature_range``: (low, high), finite, 0 < low <= high.
+    - ``heat_rate``: finite, 1 <= ``heat_rate`` <= 1 / 2.2250738585072014e-308
+      (4.49e307: the factor at action -1, ``1 / heat_rate``, stays a normal float64). At 1
+      the heat action does nothing.
+    - ``temperature_range``: (low, high), finite, 0 < low <= high, low a normal float64
+      (>= 2.2250738585072014e-308, as every range's low end: the heat control clamps by
+      ``low / kT`` and ``high / kT``, the jacket maps by ``high / low``, and a subnormal's
+      reciprocal overflows). With ``heating="jacket"`` also ``high / low`` finite
+      (<= 1.797e308, the jacket's log-uniform map ``low (high / low) ** ((a + 1) / 2)``) and
+      high within float32 (the bound of the ``jacket_kT`` observation). low == high is
+      accepted: the jacket is then fixed (the heat action does nothing).
     - ``size_range``: (low, high), finite, 0 < low <= 1 <= high (every episode starts at the
       scene's size, 1), high within float32 (the observation's dtype), and the bounds at both
       ends valid bounds of finite area (e.g. a circle's centre within 1e6 diameters).
@@ -1122,7 +1194,8 @@ class DiscReactorEnv(gym.Env):
       not pass ``Scene.max_wall_temperature()``); ``reward``: "product" or "outflow" (the
       product leaving through the scene's outlets, which it must have); ``observe_outflow``:
       a bool; ``feed_temperature``: None or a (low, high) pair, 0 < low <= high <= the
-      scene's hottest wall temperature (see :meth:`ReactorConfig.draw_feed`).
+      scene's hottest wall temperature, low a normal float64 (see
+      :meth:`ReactorConfig.draw_feed`).
     - ``integrator``: "step" (the time-stepped integrator, ``step_time / dt`` steps of the
       scene's ``dt``) or "event" (one exact event-driven run of ``step_time``, as
       ``Simulation(..., integrator="event").step(step_time / dt)``; the env's simulation
@@ -1135,7 +1208,15 @@ class DiscReactorEnv(gym.Env):
 
     The state a reactor's capacity plan needs must fit in the machine's memory.
 
-    ``env.unwrapped.simulation`` is the underlying :class:`~discgym.Simulation`.
+    ``env.unwrapped.simulation`` is the underlying :class:`~discgym.Simulation`. Its controls
+    and ``set_state`` may be used between steps: bounds that ``resize`` or ``set_state``
+    replaced give the wall its size, which the ``size`` observation and the next wall move
+    start from (:meth:`ReactorConfig.read_size`); bounds the wall cannot make (another kind,
+    height, origin or centre, or a size outside ``size_range``) raise ``RuntimeError`` at the
+    next step, before anything is stepped.
+
+    ## Version History
+    - v0: first version.
     """
 
     metadata = {"render_modes": ["human", "rgb_array"], "render_fps": 10}
@@ -1196,6 +1277,7 @@ class DiscReactorEnv(gym.Env):
         self._n_species = S
         self._step_k, self._step_dt = cfg.steps_per_action, cfg.scene.dt  # (Simulation.step)
         self._n_seen = -1  # the simulation's disc count after the last step
+        self._bounds_seen = -1  # its bounds serial read back (Simulation.export_scalars)
         self._bound: tuple = (None,) * 5
         self._fig = None
 
@@ -1252,8 +1334,13 @@ class DiscReactorEnv(gym.Env):
                 arrays[2] is not bound[2] or arrays[3] is not bound[3] or \
                 arrays[4] is not bound[4] or len(sim) != self._n_seen:
             self._bind(sim)  # (the simulation was changed from outside: arrays, disc count)
-        # the simulation's scalar state, as the rows of a batch of one reactor
-        sim.export_scalars(self._rx, 0)
+        # the simulation's scalar state, as the rows of a batch of one reactor; bounds
+        # replaced from outside (resize, set_state) give the wall its size
+        serial = sim.export_scalars(self._rx, 0)
+        if serial != self._bounds_seen:
+            self._size[0] = self._size_now = cfg.read_size(sim.bounds, self._size_now,
+                                                           "its Simulation")
+            self._bounds_seen = serial
         size0 = self._size_now
         env_step(*self._args)
         fo = self._fout[0].tolist()
@@ -1350,8 +1437,9 @@ class DiscReactorEnv(gym.Env):
                       tuple(cfg.consts), sim.kernel_rngs, _ONE, self._act)
 
     def _observe(self) -> np.ndarray:
-        # the simulation's own arrays (padded; the kernel reads discs [0, n)): no copies
-        self.simulation.export_scalars(self._rx, 0)
+        # the simulation's own arrays (padded; the kernel reads discs [0, n)): no copies; at
+        # reset, so the new simulation's bounds are those of the size
+        self._bounds_seen = self.simulation.export_scalars(self._rx, 0)
         observe(self.config, self._rx, self._ep)
         self._temperature = float(self._temp[0])
         return self._obs[0].copy()

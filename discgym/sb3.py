@@ -13,7 +13,9 @@ observation is already the first of its next episode) and ``TimeLimit.truncated`
 ``seed(s)`` seeds reactor i with ``s + i`` at the next ``reset()``, like SB3's own VecEnvs;
 ``reset_infos`` holds each reactor's last reset info (autoresets too). ``get_attr``,
 ``set_attr`` and ``env_method`` work per reactor, on a :class:`Reactor` view of each, as
-``DummyVecEnv`` does per env. Wrap it in ``VecMonitor`` for episode statistics.
+``DummyVecEnv`` does per env (``env_method("get_wrapper_attr", name, indices=[i])`` and the
+other gymnasium ``*_wrapper_attr`` methods included). Wrap it in ``VecMonitor`` for episode
+statistics.
 
 stable-baselines3 (and torch) are needed only by this module, which the rest of discgym never
 imports: ``pip install torch==2.13.0 'discgym[agents]'``.
@@ -105,15 +107,18 @@ class DiscReactorSB3VecEnv(VecEnv):
         return list(self._get_indices(indices))
 
     def get_attr(self, attr_name: str, indices=None) -> list[Any]:
-        """``attr_name`` of each reactor in ``indices`` (see :class:`Reactor`)."""
-        return [getattr(self._reactors[i], attr_name) for i in self._targets(indices)]
+        """``attr_name`` of each reactor in ``indices`` (see :class:`Reactor`), looked up as
+        DummyVecEnv looks it up on each env (``get_wrapper_attr``)."""
+        return [self._reactors[i].get_wrapper_attr(attr_name) for i in self._targets(indices)]
 
     def set_attr(self, attr_name: str, value: Any, indices=None) -> None:
         """Set ``attr_name`` on each reactor in ``indices``. A setting of the whole batch
         (an attribute of the vector env, e.g. ``render_mode``, ``threads``) must be set for
         every reactor at once (``ValueError`` otherwise); any other name is kept per reactor,
         as DummyVecEnv keeps it on each env."""
-        targets = self._targets(indices)
+        self._set(self._targets(indices), attr_name, value)
+
+    def _set(self, targets: list, attr_name: str, value: Any) -> None:
         if _is_batch_setting(self.venv, attr_name):
             if sorted(set(targets)) != list(range(self.num_envs)):
                 raise ValueError(
@@ -127,9 +132,23 @@ class DiscReactorSB3VecEnv(VecEnv):
             setattr(self._reactors[i], attr_name, value)
 
     def env_method(self, method_name: str, *method_args, indices=None, **method_kwargs):
-        """Call ``method_name`` of each reactor in ``indices`` (see :class:`Reactor`)."""
-        return [getattr(self._reactors[i], method_name)(*method_args, **method_kwargs)
-                for i in self._targets(indices)]
+        """Call ``method_name`` of each reactor in ``indices`` (see :class:`Reactor`), looked
+        up as DummyVecEnv looks it up on each env (``get_wrapper_attr``).
+        ``"set_wrapper_attr"`` follows :meth:`set_attr`'s rule (a setting of the whole batch
+        for every reactor at once) and returns one ``True`` per reactor set, as gymnasium's
+        does."""
+        targets = self._targets(indices)
+        if method_name == "set_wrapper_attr":
+            return self._set_wrapper_attr(targets, *method_args, **method_kwargs)
+        return [self._reactors[i].get_wrapper_attr(method_name)(*method_args, **method_kwargs)
+                for i in targets]
+
+    def _set_wrapper_attr(self, targets: list, name: str, value: Any, *,
+                          force: bool = True) -> list[bool]:
+        # gymnasium's Env.set_wrapper_attr: without force, only where the name exists
+        done = [force or self._reactors[i].has_wrapper_attr(name) for i in targets]
+        self._set([i for i, d in zip(targets, done) if d], name, value)
+        return done
 
     def env_is_wrapped(self, wrapper_class, indices=None) -> list[bool]:
         return [False for _ in self._targets(indices)]
@@ -146,9 +165,14 @@ class Reactor:
     ``get_attr``, ``set_attr`` and ``env_method`` of the SB3 adapter reach:
     ``simulation`` (its :class:`~discgym.Simulation`), ``np_random`` (the generator its
     resets draw from), ``observation_space`` and ``action_space`` (one reactor's),
-    ``render()`` (its frame, in render mode "rgb_array"), ``unwrapped`` (itself); any
-    other name is the batch's (``config``, ``render_mode``, ``metadata``,
-    ``observation_names``, ...), the same for every reactor, unless set on this reactor."""
+    ``render()`` (its frame, in render mode "rgb_array"), ``unwrapped`` (itself), and
+    gymnasium's ``get_wrapper_attr``, ``has_wrapper_attr`` and ``set_wrapper_attr`` (what
+    ``DummyVecEnv`` calls on each env); any other name is the batch's (``config``,
+    ``render_mode``, ``metadata``, ``observation_names``, ...), the same for every reactor,
+    unless set on this reactor. A setting of the batch (a name the vector env has) is not
+    set on one reactor (``ValueError``: ``set_attr`` of the adapter sets it for all), nor
+    are the names above; ``step``, ``reset`` and ``close`` are the batch's only (the
+    reactors step, reset and close together)."""
 
     def __init__(self, venv: DiscReactorVectorEnv, index: int):
         self.__dict__["_venv"] = venv
@@ -182,16 +206,42 @@ class Reactor:
 
         return render_frame(self.simulation, size=venv.render_size)
 
+    # gymnasium's Env methods, which DummyVecEnv's get_attr and env_method go through
+    def get_wrapper_attr(self, name: str) -> Any:
+        """``getattr(self, name)``, as ``gymnasium.Env.get_wrapper_attr``."""
+        return getattr(self, name)
+
+    def has_wrapper_attr(self, name: str) -> bool:
+        """``hasattr(self, name)``, as ``gymnasium.Env.has_wrapper_attr``."""
+        return hasattr(self, name)
+
+    def set_wrapper_attr(self, name: str, value: Any, *, force: bool = True) -> bool:
+        """As ``gymnasium.Env.set_wrapper_attr``: set ``name`` on this reactor (if it exists,
+        or with ``force``) and return whether it was set."""
+        if force or hasattr(self, name):
+            setattr(self, name, value)
+            return True
+        return False
+
     def __getattr__(self, name: str):
         # (reached only for names that are neither set on this reactor nor defined above)
-        if name.startswith("_") or name in _PER_BATCH_ONLY:
+        if name.startswith("_"):
             raise AttributeError(f"reactor {self.index} of the batch has no attribute "
                                  f"{name!r}")
+        if name in _PER_BATCH_ONLY:
+            raise AttributeError(f"reactor {self.index} of the batch has no attribute "
+                                 f"{name!r}: the batch's reactors step, reset and close "
+                                 f"together, and num_envs, the single spaces and "
+                                 f"simulations are the batch's")
         return getattr(self._venv, name)
 
     def __setattr__(self, name: str, value) -> None:
         if name in _READ_ONLY:
             raise AttributeError(f"attr_name: {name!r} of a reactor cannot be set")
+        if _is_batch_setting(self._venv, name):
+            raise ValueError(f"attr_name: {name!r} is one setting of the whole batch of "
+                             f"reactors; set it for all of them (the adapter's set_attr, "
+                             f"indices=None), not on reactor {self.index}")
         self.__dict__[name] = value
 
     def __repr__(self) -> str:
@@ -202,11 +252,15 @@ class Reactor:
 _PER_BATCH_ONLY = frozenset({"num_envs", "single_observation_space", "single_action_space",
                              "simulations", "step", "reset", "close"})
 _READ_ONLY = frozenset({"simulation", "np_random", "observation_space", "action_space",
-                        "unwrapped", "index", "render"})
+                        "unwrapped", "index", "render", "get_wrapper_attr",
+                        "has_wrapper_attr", "set_wrapper_attr"})
 
 
 def _is_batch_setting(venv: DiscReactorVectorEnv, name: str) -> bool:
-    return not name.startswith("_") and name not in _READ_ONLY and hasattr(venv, name)
+    # (the batch-shaped names are no reactor's: set, they are kept per reactor, as any name
+    # a reactor lacks, never on the batch, whose num_envs or step they would replace)
+    return not name.startswith("_") and name not in _READ_ONLY \
+        and name not in _PER_BATCH_ONLY and hasattr(venv, name)
 
 
 def _row(info: dict, i: int) -> dict:

@@ -9,6 +9,7 @@ True
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import numbers
 from collections.abc import Callable, Mapping
@@ -40,6 +41,7 @@ from .scene import (
     Circle,
     Scene,
     SceneError,
+    _check_side,
     _finite,
     check_bounds_scale,
     plain,
@@ -146,6 +148,9 @@ class Simulation:
         self._bounds = scene.bounds
         self._bounds_factory = None
         self._bounds_kind, self._bounds_params = kernel_bounds(scene.bounds)
+        # bumped whenever resize or set_state replaces the bounds (not when an environment's
+        # wall moves them: book_env_step), so that the environments read them back only then
+        self._bounds_serial = 0
         self._set_rng(_rng(seed))
         cap = 16
         self._pos = np.zeros((cap, 2), dtype=FLOAT)
@@ -476,13 +481,17 @@ class Simulation:
         self._icnt, self._fsum, self._ch_count = icnt, fsum, ch_count
         self._outflow, self._walls = outflow, walls
 
-    def export_scalars(self, reactors, r: int) -> None:
+    def export_scalars(self, reactors, r: int) -> int:
         """Write the disc count, the kernel steps taken and the bounds into row ``r`` of
-        ``reactors`` (a :class:`~discgym.kernels.structs.Reactors`)."""
+        ``reactors`` (a :class:`~discgym.kernels.structs.Reactors`). Returns a number that
+        changes whenever :meth:`resize` or :meth:`set_state` replaced the bounds (a wall moved
+        by :meth:`book_env_step` leaves it): an environment that keeps the size of its wall
+        reads the bounds back when it changed (``ReactorConfig.read_size``)."""
         reactors.n[r] = self._n
         reactors.ksteps[r] = self._steps
         reactors.bounds_kind[r] = self._bounds_kind
         reactors.bounds_params[r] = self._bounds_params
+        return self._bounds_serial
 
     def book_env_step(self, n: int, steps: int, n_steps: int, dt: float, energies,
                       bounds: tuple | None = None) -> None:
@@ -627,8 +636,9 @@ class Simulation:
 
     def wall_heat_by_side(self) -> dict:
         """``{side: energy put in by that side}`` since the start, for every side of the
-        bounds (0 for a specular one)."""
-        sides = sides_of(self.scene.bounds)
+        bounds (0 for a specular one): of the current bounds, which keep the scene's kind
+        whenever it has thermal walls (:func:`check_sides`)."""
+        sides = sides_of(self.bounds)
         return {sd: float(self._fsum[_step.FS_WALL_HEAT + k]) for k, sd in enumerate(sides)}
 
     @property
@@ -826,6 +836,7 @@ class Simulation:
             raise TypeError(f"resize(bounds): expected Box or Circle, got {bounds!r}")
         try:
             check_bounds_scale(bounds, self.scene.species, "bounds", "species")
+            check_sides(self.scene, bounds)
         except SceneError as exc:
             raise ValueError(f"resize(bounds): {exc}") from None
         _event_fit(self._integrator, self.scene, bounds)
@@ -837,6 +848,7 @@ class Simulation:
                                         self._rngs, 0, PLACEMENT_ATTEMPTS)
         if done == _controls.RESIZED:
             self._bounds, self._bounds_kind, self._bounds_params = bounds, kind, params
+            self._bounds_serial += 1
             return
         self._rng.bit_generator.state = rng_state  # refused: as if never tried
         if done == _controls.TOO_BIG:
@@ -978,6 +990,7 @@ class Simulation:
             raise _state_error("bounds", f"must be a Box or Circle, got {_short(bounds)}")
         try:
             check_bounds_scale(bounds, self.scene.species, "bounds", "species")
+            check_sides(self.scene, bounds)
         except SceneError as e:
             raise _state_error("bounds", str(e)) from None
         s["bounds"] = bounds
@@ -1125,6 +1138,7 @@ class Simulation:
         n = s["n"]
         self._bounds = s["bounds"]
         self._bounds_kind, self._bounds_params = s["bounds_kind"], s["bounds_params"]
+        self._bounds_serial += 1
         self._n = 0
         self._reserve(n)
         self._pos[:n] = s["positions"]
@@ -1349,6 +1363,30 @@ def _check_discs(pos, vel, species, u, sp_radius, bounds_kind, bounds_params, bo
         k = outside[0]
         raise ValueError(f"{what}positions: disc {k} (radius {r[k]}) at {pos[k]} is not "
                          f"inside the bounds {bounds}")
+
+
+def check_sides(scene: Scene, bounds) -> None:
+    """Refuse ``bounds`` replacing the scene's (:meth:`Simulation.resize`,
+    :meth:`Simulation.set_state`) that lack a side a feature of the scene is on, by the rule
+    ``Scene`` applies to its own bounds (``scene._check_side``): a box's "left" outlet must not
+    become an arc of a circle, nor a circle's thermal wall a box's left side (the kernels index
+    walls and outlets by side). Every entry with a ``side`` in a field of the scene (thermal
+    walls, outlets) is checked; SceneError naming it, e.g. ``outlets[0].side``."""
+    sides = sides_of(bounds)
+    for f in dataclasses.fields(scene):
+        items = getattr(scene, f.name)
+        if not isinstance(items, tuple):
+            continue
+        for k, x in enumerate(items):
+            if not hasattr(x, "side"):
+                continue
+            try:
+                _check_side(f"{f.name}[{k}]", x.side, sides, bounds.kind)
+            except SceneError as e:
+                why = str(e).removeprefix(f"{e.field}: ")
+                raise SceneError(e.field, f"the scene's {x!r} cannot move to {bounds}: {why}; "
+                                 "thermal walls and outlets keep their sides, so the bounds "
+                                 f"keep their kind ({scene.bounds.kind})") from None
 
 
 def _event_fit(integrator: str, scene: Scene, bounds) -> str:

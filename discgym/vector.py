@@ -22,9 +22,13 @@ generator). Each reactor keeps a real ``Simulation``, which moves its state arra
 counters into row r of those arrays (``Simulation.move_into``) and, after each step, books
 its disc count, step count, clocks, energy input and bounds (``Simulation.book_env_step``).
 ``env.simulations[r]`` is reactor r's ``Simulation``: its controls and ``set_state`` may be
-used between steps (the next step reads the disc count, clocks and bounds back); more discs
-than the capacity plan holds, or state arrays replaced, raise ``RuntimeError`` at the next
-step. Do not keep it across a reset, which builds a new one.
+used between steps (the next step reads the disc count, clocks and bounds back: bounds that
+``resize`` or ``set_state`` replaced give the wall its size, which the ``size`` observation and
+the next wall move start from, ``ReactorConfig.read_size``, as in the single env); more discs
+than the capacity plan holds, state arrays replaced, or bounds the wall cannot make (another
+kind, height, origin or centre, or a size outside ``size_range``) raise ``RuntimeError`` at the
+next step, before any reactor is stepped. Do not keep it across a reset, which builds a new
+one.
 
 Autoreset: ``autoreset_mode`` ("NextStep", the Gymnasium default; "SameStep", with
 ``info["final_obs"]`` and ``info["final_info"]``; or "Disabled", then reset finished reactors
@@ -189,6 +193,7 @@ class DiscReactorVectorEnv(VectorEnv):
         # per-reactor episode state
         self._steps = np.zeros(R, dtype=np.int64)
         self._size = np.ones(R, dtype=FLOAT)
+        self._bounds_seen = [-1] * R  # each Simulation's bounds serial read back (_sync)
         self._feed_left = np.zeros((R, F), dtype=np.int64)
         self._n_init = np.ones(R, dtype=FLOAT)
         self._n_ref = np.ones(R, dtype=FLOAT)
@@ -308,7 +313,7 @@ class DiscReactorVectorEnv(VectorEnv):
             raise RuntimeError(f"reactor {r}: {n} discs exceed the capacity plan")
         sim.move_into(*self._views[r], self._icnt[r], self._fsum[r], self._ch_count[r],
                       self._outflow[r], self._walls[r])
-        sim.export_scalars(self._rx, r)
+        self._bounds_seen[r] = sim.export_scalars(self._rx, r)
         self._cost[r] = n * cfg.steps_per_action  # (no history yet: one substep a step)
         self.simulations[r] = sim
         self._steps[r] = 0
@@ -471,8 +476,9 @@ class DiscReactorVectorEnv(VectorEnv):
 
     def _sync(self, idx: list) -> None:
         """Read what a user may have changed through ``env.simulations[r]`` since the last
-        step (its disc count, clocks, bounds) into the batch; refuse what the batch cannot
-        follow (state arrays replaced, or more discs than the capacity plan holds) with
+        step (its disc count, clocks, bounds: the wall's size, ``ReactorConfig.read_size``)
+        into the batch; refuse what the batch cannot follow (state arrays replaced, more discs
+        than the capacity plan holds, bounds that are none of the wall's) with
         ``RuntimeError`` rather than lose it."""
         cfg = self.config
         for r in idx:
@@ -495,7 +501,11 @@ class DiscReactorVectorEnv(VectorEnv):
                         f"reactor {r}: {m} discs (mass {mass:g}) could split into more discs "
                         f"than the batch's capacity {cfg.capacity} holds; do not add discs to "
                         "env.simulations[r] beyond the initial contents and the feed budget")
-            sim.export_scalars(self._rx, r)
+            serial = sim.export_scalars(self._rx, r)
+            if serial != self._bounds_seen[r]:  # bounds replaced (resize, set_state)
+                self._size[r] = cfg.read_size(sim.bounds, float(self._size[r]),
+                                              f"reactor {r}'s Simulation")
+                self._bounds_seen[r] = serial
 
     # ------------------------------------------------------------------ misc
     def render(self):

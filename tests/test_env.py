@@ -455,8 +455,9 @@ def test_the_simulation_may_be_changed_between_steps():
     *_, info = env.step(np.zeros(4, np.float32))
     assert _discs(info) == n == len(sim)
     sim.resize(dg.Box(28.0, 30.0))
-    env.step(np.zeros(4, np.float32))
+    *_, info = env.step(np.array([0, np.nan, 0, 0], np.float32))  # (the wall stays)
     assert sim.bounds == dg.Box(28.0, 30.0) and sim.outside() == 0 and sim.overlaps() == 0
+    assert info["size"] == 28.0 / 30.0  # the wall's size is the reactor's
     st = sim.get_state()
     for key in ("positions", "velocities", "species", "internal_energy", "ids"):
         st[key] = st[key][:20]
