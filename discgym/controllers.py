@@ -232,15 +232,16 @@ class BandThermostat:
 
 
 class JacketThermostat:
-    """For ``DiscJacket-v0``: a proportional-derivative controller of the jacket, with a
-    schedule.
+    """For ``DiscJacket-v0``: a proportional controller of the jacket, with a schedule
+    (``damping`` > 0 adds a derivative term; it is 0 by default).
 
     Rule: the target kT is ``t_hot`` until the yield reaches ``switch_yield``, then
     ``t_cold`` (``DiscReactor-v0``'s schedule). The jacket is set to
     ``target + gain x (target - kT) - damping x (kT - kT_before)``: above the target while
     the reactor is colder (it heats faster than a jacket at the target would), below it as
-    the reaction heat pushes the reactor over, and lower still while the reactor is warming
-    fast (cooling before the exotherm runs away: the wall acts with a lag). The wall at
+    the reaction heat pushes the reactor over, and, with ``damping`` > 0, lower still while
+    the reactor is warming fast (cooling before the exotherm runs away: the wall acts with a
+    lag). The wall at
     ``wall``, feed at ``inject``. Keeps the last kT (:meth:`reset` forgets it).
 
     The jacket action is the env's log-uniform map inverted, ``2 log(jacket / t_min) /

@@ -75,7 +75,7 @@ class DiscKineticsEnv(DiscReactorEnv):
     Never terminated; truncated after 100 steps (50 units of time).
 
     ## Arguments
-    Those of ``DiscReactor-v0`` (the README's table), with the defaults
+    Those of ``DiscReactor-v0`` (the table of ``docs/env.md``), with the defaults
     ``activation_jitter=0.5``, ``reverse_jitter=0.5``, ``formation_jitter=0.3``,
     ``energy_bins=3``, ``observe_reactions=True``. ``activation_jitter`` in [0, 1) (a
     relative spread), ``reverse_jitter`` in [0, 3] (decades), ``formation_jitter`` >= 0 (an
@@ -96,7 +96,7 @@ class DiscEconomicEnv(DiscReactorEnv):
     ## Description
     The scene, controls and chemistry of ``DiscReactor-v0``; the reward charges every unit of
     energy the heat control puts in or takes out (``heat_cost`` = 0.08 per unit of energy)
-    and every injected disc (``feed_cost`` = 0.4), both per unit of limiting reactant at
+    and every injected disc (``feed_cost`` = 0.3), both per unit of limiting reactant at
     reset, against 1 per disc of product C. Heating the cold reactor to the reaction window
     costs about a fifth of what its product is worth, and a fed disc pays only if it is
     turned into product: the trade-off between a fast, hot reactor and an economical one is
@@ -106,11 +106,12 @@ class DiscEconomicEnv(DiscReactorEnv):
     As ``DiscReactor-v0``: ``Box(-1, 1, (4,), float32)``.
 
     ## Observation Space
-    As ``DiscReactor-v0`` (19 slots), plus the per-species kinetic-energy histogram with
-    edges at the activation energies ([0, 2), [2, 4), [4, 8), [8, inf): 16 slots).
+    ``Box(low, high, (35,), float32)``: the 19 slots of ``DiscReactor-v0``, plus the
+    per-species kinetic-energy histogram with edges at the activation energies ([0, 2), [2, 4),
+    [4, 8), [8, inf): 16 slots).
 
     ## Rewards
-    ``(C_now - C_before) / n_ref - 0.08 |heat energy| / n_ref - 0.4 x injected / n_ref``: the
+    ``(C_now - C_before) / n_ref - 0.08 |heat energy| / n_ref - 0.3 x injected / n_ref``: the
     return is the profit per unit of limiting reactant.
 
     ## Starting State
@@ -120,7 +121,7 @@ class DiscEconomicEnv(DiscReactorEnv):
     Never terminated; truncated after 100 steps (50 units of time).
 
     ## Arguments
-    Those of ``DiscReactor-v0`` with the defaults ``heat_cost=0.08``, ``feed_cost=0.4``,
+    Those of ``DiscReactor-v0`` with the defaults ``heat_cost=0.08``, ``feed_cost=0.3``,
     ``energy_bins=4``.
 
     ## Version History
@@ -149,9 +150,9 @@ class DiscJacketEnv(DiscReactorEnv):
     jacket as it is), wall, inject A, inject B (as in ``DiscReactor-v0``).
 
     ## Observation Space
-X
+    ``Box(low, high, (65,), float32)``: the 19 slots of ``DiscReactor-v0``, the jacket's
     temperature (``jacket_kT``, in [0, 6]), then a 3 x 3 spatial histogram: per species the
-    share of its discs in each cell, and kT per cell (40 slots; ``spatial_grid=3``), where the
+    share of its discs in each cell, and kT per cell (45 slots; ``spatial_grid=3``), where the
     gradient between the walls and the middle shows.
 
     ## Rewards
