@@ -1,5 +1,6 @@
 """The examples of docs/ecosystem.md, each with the real client (skipped only where that
-client is not installed; CI installs all of them: ``pip install -e ".[test,agents,ecosystem,docs]"``):
+client is not installed; CI installs all of them:
+``pip install -e ".[test,agents,ecosystem,docs]"``):
 Stable-Baselines3 (make_vec_env, SubprocVecEnv, EvalCallback with VecNormalize,
 VecVideoRecorder), Ray RLlib (every way to name the env; agents/train_rllib.py on a local Ray),
 TorchRL (GymEnv, its info reader, ParallelEnv, the native vector env), CleanRL-style loops
