@@ -21,10 +21,15 @@ machine, versions), ``evaluation.md`` (the table), ``learning_curve.png`` (each 
 validation return over training, with the baselines as horizontal lines) and ``episode.gif``
 (the first agent's episode on the first seed). The episodes run in ``--workers`` processes;
 the returns do not depend on how many.
+
+Every argument is checked before anything runs or is written, each run folder included: it
+must be a finished run of train_ppo.py (``train_summary.json``, written last, present) on a
+task with baselines, whose checkpoint loads. A bad one is refused in one line, exit status 2.
 """
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import platform
@@ -35,12 +40,22 @@ from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, field
 from multiprocessing import get_context
 from pathlib import Path
-from typing import Literal
+from typing import Annotated, Literal
 
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from train_ppo import algo_class, vec_env_wrappers  # noqa: E402
+from argcheck import (  # noqa: E402
+    MAX_SEED,
+    PARTIAL,
+    SUMMARY,
+    Range,
+    check_fields,
+    one_line,
+    usage,
+    write_text_atomic,
+)
+from train_ppo import ALGOS, algo_class, vec_env_wrappers  # noqa: E402
 
 LADDER = ("random", "best constant", "hand-written", "mpc", "oracle")
 
@@ -51,10 +66,11 @@ class Args:
 
     run: list[Path] = field(default_factory=list)
     """folders written by train_ppo.py, all on the same task"""
-    seeds: int = 20
-    """evaluation seeds, from --first-seed"""
-    first_seed: int = 1000
-    search_seeds: int = 10
+    seeds: Annotated[int, Range(2)] = 20
+    """evaluation seeds, from --first-seed (at least 2: a confidence interval)"""
+    first_seed: Annotated[int, Range(0, MAX_SEED)] = 1000
+    """the first evaluation seed; the seeds must not meet the search seeds"""
+    search_seeds: Annotated[int, Range(1)] = 10
     """the best constant action is searched on seeds 0 .. search_seeds - 1"""
     checkpoint: Literal["best", "final"] = "best"
     """the checkpoint that did best on the validation seeds during training, or the last"""
@@ -64,10 +80,10 @@ class Args:
     """run the oracle (about 5-7 s per episode)"""
     mpc: bool = False
     """also run the oracle without foresight of the random draws (twice the oracle's cost)"""
-    oracle_seeds: int = 20
+    oracle_seeds: Annotated[int, Range(2)] = 20
     """the oracles run on the first this many evaluation seeds only (each episode costs them
     seconds), and are compared with the hand-written controller on those"""
-    workers: int = os.cpu_count() or 1
+    workers: Annotated[int, Range(1)] = os.cpu_count() or 1
     """processes the episodes are spread over"""
     gif: bool = True
     """animate the first agent's episode on the first seed"""
@@ -79,14 +95,60 @@ class Args:
 
 
 def run_info(run: Path) -> dict:
-    """The training arguments and summary of a run folder."""
+    """The training arguments and summary (None if absent) of a run folder."""
     run = Path(run)
+    if not run.is_dir():
+        raise usage("run", f"no folder {run}" if not run.exists() else f"{run} is not a folder")
     if not (run / "args.json").exists():
-        raise FileNotFoundError(f"run: {run} has no args.json (not a train_ppo.py folder)")
-    info = json.loads((run / "args.json").read_text())
-    summary = run / "train_summary.json"
-    info["summary"] = json.loads(summary.read_text()) if summary.exists() else None
+        raise usage("run", f"{run} has no args.json (not a folder written by train_ppo.py)")
+    info = _read_json(run / "args.json")
+    if not isinstance(info, dict) or not {"env_id", "algo"} <= set(info):
+        raise usage("run", f"{run / 'args.json'} has no env_id and algo (not written by "
+                           f"train_ppo.py)")
+    summary = run / SUMMARY
+    info["summary"] = _read_json(summary) if summary.exists() else None
     return info
+
+
+def _read_json(path: Path):
+    try:
+        return json.loads(path.read_text())
+    except (json.JSONDecodeError, UnicodeDecodeError) as e:
+        raise usage("run", f"{path} is not valid JSON ({e})") from None
+
+
+def check_run(run: Path, checkpoint: str = "best") -> dict:
+    """:func:`run_info` of a run that can be evaluated: finished (``train_summary.json``, the
+    last file train_ppo.py writes, is there; a staging folder ``.<name>.partial-*`` never),
+    of a known algorithm, on a task with baselines, with the checkpoint's model file."""
+    from discgym.baselines import TASK_BASELINES
+
+    run = Path(run)
+    info = run_info(run)
+    if PARTIAL in run.name or info["summary"] is None:
+        raise usage("run", f"{run} is an unfinished run (no {SUMMARY}: its training was "
+                           f"interrupted or failed); train it again")
+    if not isinstance(info["summary"], dict) or not {"timesteps", "wall_seconds"} <= set(
+            info["summary"]):
+        raise usage("run", f"{run / SUMMARY} has no timesteps and wall_seconds (not written "
+                           f"by train_ppo.py)")
+    if info["algo"] not in ALGOS:
+        raise usage("run", f"{run} was trained with {info['algo']!r}, not one of "
+                           f"{', '.join(ALGOS)}")
+    if info["env_id"] not in TASK_BASELINES:
+        raise usage("run", f"{run} is on {info['env_id']!r}, which has no baselines (known: "
+                           f"{', '.join(TASK_BASELINES)})")
+    name = checkpoint_file(run, checkpoint)
+    if not (run / name).is_file():
+        raise usage("run", f"{run} has no {name}")
+    return info
+
+
+def checkpoint_file(run: Path, checkpoint: str = "best") -> str:
+    """The model file of ``checkpoint``: the best validation checkpoint if the run kept one
+    (``eval_freq`` > 0), else the final model."""
+    return "best_model.zip" if checkpoint == "best" and (Path(run) / "best_model.zip").exists() \
+        else "model.zip"
 
 
 def env_kwargs_of(run: Path) -> dict:
@@ -112,21 +174,24 @@ def agent_factory(run: Path, checkpoint: str = "best", deterministic: bool = Tru
     run = Path(run)
     info = run_info(run)
     hp_path = run / "hyperparams.json"
-    hp = json.loads(hp_path.read_text()) if hp_path.exists() else {}
-    wrappers = vec_env_wrappers(hp.get("vec_env_wrapper"))
+    with _loading(hp_path):
+        hp = json.loads(hp_path.read_text()) if hp_path.exists() else {}
+        wrappers = vec_env_wrappers(hp.get("vec_env_wrapper"))
     for cls, _ in wrappers:
         if not hasattr(cls, "episode_policy"):
-            raise ValueError(f"run: {run} was trained through {cls.__name__}, which has no "
-                             f"episode_policy to apply it to one env")
+            raise usage("run", f"{run} was trained through {cls.__name__}, which has no "
+                               f"episode_policy to apply it to one env")
 
-    prefix = "best_" if checkpoint == "best" and (run / "best_model.zip").exists() else ""
-    model = algo_class(info["algo"]).load(run / f"{prefix}model.zip", device="cpu")
+    prefix = checkpoint_file(run, checkpoint).removesuffix("model.zip")
+    with _loading(run / f"{prefix}model.zip"):
+        model = algo_class(info["algo"]).load(run / f"{prefix}model.zip", device="cpu")
     vn = None
     if (run / f"{prefix}vecnormalize.pkl").exists():
         dummy = DummyVecEnv([lambda: gym.make(info["env_id"], **env_kwargs_of(run))])
         for cls, kwargs in wrappers:  # what the agent observed (and VecNormalize normalised)
             dummy = cls(dummy, **kwargs)
-        vn = VecNormalize.load(str(run / f"{prefix}vecnormalize.pkl"), dummy)
+        with _loading(run / f"{prefix}vecnormalize.pkl"):
+            vn = VecNormalize.load(str(run / f"{prefix}vecnormalize.pkl"), dummy)
         vn.training, vn.norm_reward = False, False
 
     def factory(env):
@@ -151,6 +216,17 @@ def agent_factory(run: Path, checkpoint: str = "best", deterministic: bool = Tru
 
     factory.checkpoint = f"{prefix}model.zip"
     return factory
+
+
+@contextlib.contextmanager
+def _loading(path: Path):
+    """A file of the run that does not load (truncated, corrupted, not SB3's) is the run's
+    fault, not a bug here: one line naming it."""
+    try:
+        yield
+    except Exception as e:  # (zipfile, pickle, torch and SB3 each raise their own)
+        raise usage("run", f"{path} cannot be loaded ({type(e).__name__}: "
+                           f"{one_line(e)[:200]})") from None
 
 
 # --------------------------------------------------------------- episodes in worker processes
@@ -457,24 +533,53 @@ def animate(env_id: str, factory, path: Path, seed: int, env_kwargs=None, every:
     return path
 
 
+def check_args(a: Args) -> tuple[str, dict]:
+    """The validation pass, before any episode runs or anything is written: every flag
+    against its type and range, the seeds taken together, ``--out``, and each run
+    (:func:`check_run`, then its checkpoint loaded once). Returns the runs' task and env
+    arguments."""
+    check_fields(a)
+    if not a.run:
+        raise usage("run", "name at least one folder written by train_ppo.py")
+    infos = [check_run(r, a.checkpoint) for r in a.run]
+    labels = [f"{i['algo']} ({Path(r).name})" for i, r in zip(infos, a.run)]
+    for k, lab in enumerate(labels):
+        if lab in labels[:k]:
+            raise usage("run", f"two runs would share the row {lab!r} ({a.run[labels.index(lab)]}"
+                               f" and {a.run[k]}): name each run once, in folders of "
+                               f"different names")
+    envs = {i["env_id"] for i in infos}
+    kws = [env_kwargs_of(r) for r in a.run]
+    if len(envs) != 1 or any(k != kws[0] for k in kws):
+        raise usage("run", f"the runs must share a task and its arguments, got "
+                           f"{sorted(envs)} {kws}")
+    if a.first_seed < a.search_seeds:
+        raise usage("first_seed", f"the evaluation seeds {a.first_seed}.."
+                    f"{a.first_seed + a.seeds - 1} meet the search seeds 0.."
+                    f"{a.search_seeds - 1} (--search-seeds {a.search_seeds})")
+    if a.first_seed + a.seeds - 1 > MAX_SEED:
+        raise usage("seeds", f"the evaluation seeds pass {MAX_SEED}")
+    if a.out is not None:
+        p = Path(a.out)
+        while not p.exists() and p != p.parent:
+            p = p.parent
+        if not p.is_dir():
+            raise usage("out", f"{p} exists and is not a folder")
+    for r in a.run:  # (a corrupted checkpoint: refused now, not in a worker after minutes)
+        agent_factory(r, a.checkpoint, a.deterministic)
+    return envs.pop(), kws[0]
+
+
 def main(argv=None) -> int:
-    import tyro
+    import argcheck
 
     from discgym.bench import machine_info
 
-    a = tyro.cli(Args, args=argv, description=__doc__.split("\n\n")[0])
-    if not a.run:
-        raise SystemExit("--run: name at least one folder written by train_ppo.py")
-    if a.seeds < 2:
-        raise SystemExit("--seeds: need at least 2 (a confidence interval)")
-    envs = {run_info(r)["env_id"] for r in a.run}
-    kws = [env_kwargs_of(r) for r in a.run]
-    if len(envs) != 1 or any(k != kws[0] for k in kws):
-        raise SystemExit(f"--run: the runs must share a task and its arguments, got {envs}")
-    env_id = envs.pop()
+    a = argcheck.parse(Args, argv, description=__doc__.split("\n\n")[0])
+    env_id, kw = check_args(a)
     seeds = list(range(a.first_seed, a.first_seed + a.seeds))
     t0 = time.perf_counter()
-    res = evaluate_task(env_id, a.run, seeds, list(range(a.search_seeds)), kws[0],
+    res = evaluate_task(env_id, a.run, seeds, list(range(a.search_seeds)), kw,
                         a.checkpoint, a.oracle, a.workers, a.mpc, a.deterministic,
                         a.oracle_seeds, log=lambda s: print(s, file=sys.stderr, flush=True))
     import gymnasium
@@ -495,17 +600,19 @@ def main(argv=None) -> int:
     acts = "deterministic" if a.deterministic else "sampled"
     md = (f"{env_id}, seeds {seeds[0]}-{seeds[-1]} ({acts} actions, the {a.checkpoint} "
           f"checkpoint), {res['date']}, {res['machine']}\n\n{res['table']}")
-    (out / "evaluation.json").write_text(json.dumps(res, indent=2) + "\n")
-    (out / "evaluation.md").write_text(md + "\n")
+    write_text_atomic(out / "evaluation.json", json.dumps(res, indent=2) + "\n")
+    write_text_atomic(out / "evaluation.md", md + "\n")
     print(md)
     print(f"wrote {out / 'evaluation.md'}, {plot_curves(res, out / 'learning_curve.png')}")
     if a.gif:
         gif = animate(env_id, agent_factory(a.run[0], a.checkpoint, a.deterministic),
                       out / "episode.gif",
-                      seed=seeds[0], env_kwargs=kws[0])
+                      seed=seeds[0], env_kwargs=kw)
         print(f"wrote {gif}")
     return 0
 
 
 if __name__ == "__main__":
-    raise SystemExit(main())
+    import argcheck
+
+    argcheck.run(main)

@@ -1,7 +1,12 @@
 """Smoke tests of agents/: train each algorithm on a tiny budget, evaluate, check the files;
-the hyperparameter files; determinism; bad input."""
+the hyperparameter files; determinism; bad input: every flag of the three scripts refused in
+one line before anything is written (the scripts run as subprocesses for those cases only:
+they refuse before any kernel compiles), run folders complete or absent."""
 
 import json
+import os
+import signal
+import subprocess
 import sys
 from pathlib import Path
 
@@ -14,6 +19,7 @@ pytest.importorskip("matplotlib")
 pytest.importorskip("tyro")
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "agents"))
 
+import argcheck  # noqa: E402
 import evaluate  # noqa: E402
 import train_ppo  # noqa: E402
 
@@ -227,9 +233,9 @@ def test_parse_args_and_bad_input(tmp_path):
     assert a.folder() == Path("runs/DiscJacket-v0_sac")
     with pytest.raises(SystemExit):
         train_ppo.parse_args(["--algo", "dqn"])
-    with pytest.raises(ValueError, match="env_id"):
+    with pytest.raises(ValueError, match="--env-id"):
         train_ppo.load_hyperparams(train_ppo.Args(env_id="CartPole-v1"))
-    with pytest.raises(FileNotFoundError, match="args.json"):
+    with pytest.raises(argcheck.UsageError, match="--run: .* has no args.json"):
         evaluate.run_info(tmp_path)
 
 
@@ -251,7 +257,7 @@ def test_evaluate_main_writes_the_table_with_date_and_machine(ppo_run, tmp_path)
 @pytest.mark.parametrize("n", [0, -1, 501, True, 2.0])
 def test_bad_eval_episodes_is_refused_before_training(hp_dir, tmp_path, n):
     for eval_freq in (128, 0):  # (also when validation is off)
-        with pytest.raises(ValueError, match="eval_episodes"):
+        with pytest.raises(ValueError, match="--eval-episodes"):
             train_ppo.train(_args(hp_dir, tmp_path / "run", eval_episodes=n,
                                   eval_freq=eval_freq))
         assert not (tmp_path / "run").exists()  # (refused before anything is written)
@@ -263,3 +269,262 @@ def test_eval_episodes_sets_the_validation_batch(hp_dir, tmp_path):
                               {"norm_obs": True}, 0.99)
     assert cb.n_eval_episodes == 3 and cb.eval_env.num_envs == 3
     cb.eval_env.close()
+
+
+# ------------------------------------------------------------- refused before anything is written
+AGENTS = ROOT / "agents"
+
+
+def _tree(folder: Path) -> set:
+    return {(str(p.relative_to(folder)), p.stat().st_size) for p in folder.rglob("*")}
+
+
+def _refused(cwd: Path, argv: list, flag: str, code: list | None = None):
+    """Run a script of agents/ (or ``python -c code``) in ``cwd``: refused with exit status
+    2, one line of stderr naming ``flag``, nothing written under ``cwd``."""
+    before = _tree(cwd)
+    cmd = [sys.executable, *(code or [str(AGENTS / argv[0])]), *argv[1:]]
+    r = subprocess.run(cmd, cwd=cwd, capture_output=True, text=True, timeout=300)
+    lines = r.stderr.strip().splitlines()
+    assert r.returncode == 2, r.stderr
+    assert len(lines) == 1 and "error: " in lines[0] and flag in lines[0], r.stderr
+    assert "Traceback" not in r.stderr and r.stdout == ""
+    assert _tree(cwd) == before  # (not an empty run folder either)
+    return lines[0]
+
+
+@pytest.mark.parametrize("argv, flag", [
+    (["--total-timesteps", "-100"], "--total-timesteps"),
+    (["--env-id", "NoSuchEnv-v0"], "--env-id"),
+    (["--hyperparams", "no_such_folder"], "--hyperparams"),
+    (["--n-envs", "0"], "--n-envs"),
+    (["--n-envs", "abc"], "--n-envs"),  # (tyro's own parse error, cut to one line)
+    (["--algo", "dqn"], "--algo"),
+    (["--out", "a_file"], "--out"),
+])
+def test_train_ppo_refuses_bad_flags_in_one_line(tmp_path, argv, flag):
+    (tmp_path / "a_file").write_text("not a folder")
+    _refused(tmp_path, ["train_ppo.py", *argv], flag)
+
+
+def _fake_run(folder: Path, model: bytes = b"not a zip", **args) -> Path:
+    folder.mkdir(parents=True)
+    (folder / "args.json").write_text(json.dumps({"env_id": "DiscReactor-v0", "algo": "ppo",
+                                                  **args}))
+    (folder / "train_summary.json").write_text(json.dumps({"timesteps": 1,
+                                                           "wall_seconds": 0.0}))
+    (folder / "model.zip").write_bytes(model)
+    return folder
+
+
+@pytest.mark.parametrize("case, flag", [
+    ("search seeds 0", "--search-seeds"),
+    ("missing", "--run: no folder"),
+    ("corrupted model", "model.zip cannot be loaded"),
+    ("unknown env id", "'NoSuchEnv-v0', which has no baselines"),
+    ("no summary", "unfinished run"),  # (what train_ppo.py once left after --n-envs 0)
+    ("staging folder", "unfinished run"),
+    ("seeds overlap", "--first-seed"),
+])
+def test_evaluate_refuses_bad_flags_and_runs_in_one_line(tmp_path, case, flag):
+    run = _fake_run(tmp_path / "run", env_id="NoSuchEnv-v0" if case == "unknown env id"
+                    else "DiscReactor-v0")
+    argv = {"search seeds 0": ["--run", "run", "--search-seeds", "0"],
+            "missing": ["--run", "no_such_run"],
+            "seeds overlap": ["--run", "run", "--first-seed", "5"]}.get(case, ["--run", "run"])
+    if case == "no summary":
+        (run / "train_summary.json").unlink()
+    if case == "staging folder":
+        run = run.rename(tmp_path / ".run.partial-x1y2")
+        argv = ["--run", run.name]
+    _refused(tmp_path, ["evaluate.py", *argv, "--no-oracle", "--workers", "1"], flag)
+
+
+def test_an_interrupted_run_is_refused_by_evaluate(ppo_run, tmp_path):
+    """A run folder without its last file (training interrupted, or from a version that wrote
+    args.json first) is refused with one line, before any episode; the finished run is not."""
+    import shutil
+
+    half = tmp_path / "half"
+    shutil.copytree(ppo_run, half)
+    (half / "train_summary.json").unlink()
+    with pytest.raises(argcheck.UsageError, match="--run: .*half is an unfinished run"):
+        evaluate.main(["--run", str(half), "--seeds", "2", "--no-oracle", "--workers", "1"])
+    assert not (half / "evaluation.json").exists()
+    assert evaluate.check_run(ppo_run)["env_id"] == "DiscReactor-v0"
+
+
+def test_train_rllib_refuses_bad_flags_in_one_line(tmp_path):
+    _refused(tmp_path, ["train_rllib.py", "--iterations", "0"], "--iterations")
+    _refused(tmp_path, ["train_rllib.py", "--env-id", "NoSuchEnv-v0"], "--env-id")
+
+
+def test_train_rllib_without_ray_says_how_to_install_it(tmp_path):
+    """``import ray`` made to fail (None in sys.modules): one line with the pip command."""
+    code = ["-c", "import runpy, sys; sys.modules['ray'] = None; "
+            "sys.argv = ['train_rllib.py', '--iterations', '1']; "
+            f"runpy.run_path({str(AGENTS / 'train_rllib.py')!r}, run_name='__main__')"]
+    line = _refused(tmp_path, ["train_rllib.py"], "pip install -e '.[rllib]'", code=code)
+    assert "Ray RLlib is not installed" in line
+
+
+# every flag of the three scripts, in process (the same validation pass the scripts run)
+PPO_BAD = [
+    ("total_timesteps", 0, "--total-timesteps"), ("total_timesteps", 1.5, "--total-timesteps"),
+    ("seed", -1, "--seed"), ("seed", 2**32, "--seed"), ("n_envs", -2, "--n-envs"),
+    ("episode_steps", 0, "--episode-steps"), ("threads", 0, "--threads"),
+    ("torch_threads", 0, "--torch-threads"), ("eval_freq", -1, "--eval-freq"),
+    ("eval_episodes", 501, "--eval-episodes"), ("algo", "dqn", "--algo"),
+    ("train_integrator", "verlet", "--train-integrator"), ("progress_bar", 1, "--progress-bar"),
+    ("env_id", "CartPole-v1", "--env-id: 'CartPole-v1' is a Gymnasium env but not a discgym"),
+    ("env_id", "DiscFlow-v9", "--env-id: 'DiscFlow-v9'"),
+    ("scene", "no_such_scene", "--scene: cannot read"),
+    ("device", "gpu", "--device"), ("out", ".", "--out"),
+    ("hyperparams", "HP/missing", "--hyperparams: no folder"),
+]
+
+
+@pytest.mark.parametrize("field, value, match", PPO_BAD, ids=[f"{f}={v!r}" for f, v, _ in PPO_BAD])
+def test_train_ppo_checks_every_flag(hp_dir, tmp_path, field, value, match):
+    value = value.replace("HP", str(hp_dir)) if isinstance(value, str) else value
+    kw = {field: value}
+    args = _args(hp_dir, kw.pop("out", tmp_path / "run"), **kw)
+    with pytest.raises(argcheck.UsageError, match=match):
+        train_ppo.train(args)
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_train_ppo_checks_the_hyperparameters_file(tmp_path):
+    """The entry of --hyperparams: the file parses, has the task, counts >= 1, keys the
+    algorithm takes, expressions that evaluate, a policy that imports."""
+    hp = tmp_path / "hp"
+    hp.mkdir()
+    cases = [("ppo: [unclosed", "is not valid YAML"),
+             ("DiscFlow-v0: {n_envs: 2, n_timesteps: 64}", "--env-id: 'DiscReactor-v0' has "
+                                                           "no entry"),
+             ("DiscReactor-v0: {n_envs: 0, n_timesteps: 64}", "n_envs: expected a whole"),
+             ("DiscReactor-v0: {n_envs: 2}", "has no n_timesteps"),
+             ("DiscReactor-v0: {n_envs: 2, n_timesteps: 64, n_stepz: 8}",
+              "keys PPO does not take: n_stepz"),
+             ("DiscReactor-v0: {n_envs: 2, n_timesteps: 64, policy_kwargs: 'dict(net_arch='}",
+              "policy_kwargs .* does not evaluate"),
+             ("DiscReactor-v0: {n_envs: 2, n_timesteps: 64, policy: no_such.Policy}",
+              "policy or vec_env_wrapper")]
+    for text, match in cases:
+        (hp / "ppo.yml").write_text(text)
+        with pytest.raises(argcheck.UsageError, match=match):
+            train_ppo.check_args(_args(hp, tmp_path / "run"))
+    with pytest.raises(argcheck.UsageError, match="has no sac.yml"):
+        train_ppo.check_args(_args(hp, tmp_path / "run", algo="sac"))
+    (hp / "ppo.yml").write_text("DiscReactor-v0: {n_envs: 2, n_timesteps: 64}")
+    # (--n-envs and --total-timesteps replace the file's counts, checked with them)
+    assert train_ppo.check_args(_args(hp, tmp_path / "run", n_envs=3))["n_envs"] == 3
+    with pytest.raises(argcheck.UsageError, match="--episode-steps: need a whole number"):
+        train_ppo.check_args(_args(hp, tmp_path / "run", episode_steps=2**63))
+    assert list(tmp_path.iterdir()) == [hp]
+
+
+def test_evaluate_checks_every_flag(ppo_run, tmp_path):
+    ok = ["--no-oracle", "--workers", "1", "--run", str(ppo_run)]
+    for extra, match in [(["--seeds", "1"], "--seeds"), (["--first-seed", "-1"], "--first-seed"),
+                         (["--search-seeds", "0"], "--search-seeds"),
+                         (["--oracle-seeds", "1"], "--oracle-seeds"),
+                         (["--workers", "0"], "--workers"),
+                         (["--out", str(ppo_run / "args.json")], "--out"),
+                         ([str(ppo_run)], "two runs would share the row")]:
+        a = argcheck.parse(evaluate.Args, ok + extra)
+        with pytest.raises(argcheck.UsageError, match=match):
+            evaluate.check_args(a)
+    with pytest.raises(argcheck.UsageError, match="--run: name at least one"):
+        evaluate.check_args(evaluate.Args())
+    other = _fake_run(tmp_path / "other", episode_steps=7)
+    with pytest.raises(argcheck.UsageError, match="must share a task"):
+        evaluate.check_args(argcheck.parse(evaluate.Args, ok + [str(other)]))
+    with pytest.raises(SystemExit):
+        argcheck.parse(evaluate.Args, ["--checkpoint", "middle"])
+
+
+def test_train_rllib_checks_every_flag_and_takes_every_task(tmp_path):
+    pytest.importorskip("ray.rllib")
+    import train_rllib
+
+    def check(*argv):
+        return train_rllib.check_args(train_rllib.parse([*argv, "--out", str(tmp_path / "r")]))
+
+    for argv, match in [(["--env-runners", "-1"], "--env-runners"),
+                        (["--envs-per-runner", "0"], "--envs-per-runner"),
+                        (["--cpus-per-runner", "0"], "--cpus-per-runner"),
+                        (["--rollout", "0"], "--rollout"), (["--epochs", "0"], "--epochs"),
+                        (["--minibatch", "0"], "--minibatch: expected"),
+                        (["--minibatch", "5000"], "--minibatch: 5000 is more than"),
+                        (["--num-cpus", "0"], "--num-cpus"), (["--seed", "-1"], "--seed"),
+                        (["--env-config", "{"], "--env-config: not JSON"),
+                        (["--env-config", '{"threads": 2}'], "set by --cpus-per-runner"),
+                        (["--env-config", '{"n_discs": 0}'], "--env-config: n_discs"),
+                        (["--env-config", '{"frameskip": 1}'], "unexpected keyword"),
+                        (["--address", "nowhere"], "--address"),
+                        (["--address", "auto", "--num-cpus", "2"], "--num-cpus"),
+                        (["--env-runners", "3", "--num-cpus", "2"], "--env-runners: 3 runners"),
+                        (["--env-id", "Pendulum-v1"], "not a discgym task")]:
+        with pytest.raises(argcheck.UsageError, match=match):
+            check(*argv)
+    for env_id in TASKS:  # (each task: its config, id for the env runners, warm-up env)
+        args = train_rllib.parse(["--env-id", env_id, "--env-config", '{"n_discs": 40}'])
+        cfg = train_rllib.check_args(args)
+        assert train_rllib.build_config(args, cfg).env == f"discgym:{env_id}"
+    assert train_rllib.parse([]).env_id == "DiscReactor-v0"
+    assert list(tmp_path.iterdir()) == []
+
+
+# ------------------------------------------------------------------ complete or absent
+def test_an_interrupted_training_leaves_no_folder(hp_dir, tmp_path, monkeypatch):
+    """Ctrl-C (or a crash) after the first files: neither the run folder nor its staging
+    sibling nor the parent made for it remain; a previous run folder stays as it was."""
+    def interrupt(*a, **k):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(train_ppo, "_callbacks", interrupt)  # (after args.json, the venv)
+    with pytest.raises(KeyboardInterrupt):
+        train_ppo.train(_args(hp_dir, tmp_path / "new" / "run"))
+    assert list(tmp_path.iterdir()) == []
+    old = _fake_run(tmp_path / "old")
+    before = _tree(old)
+    with pytest.raises(KeyboardInterrupt):
+        train_ppo.train(_args(hp_dir, old))
+    assert _tree(old) == before and list(tmp_path.iterdir()) == [old]
+
+
+def test_staged_folder_replaces_a_previous_run_only_when_complete(tmp_path):
+    final = _fake_run(tmp_path / "run")
+    with argcheck.staged_folder(final) as out:
+        assert out.parent == tmp_path and out.name.startswith(".run.partial-")
+        (out / "new.txt").write_text("x")
+        assert (final / "model.zip").exists()  # (the old one, until the end)
+    assert [p.name for p in final.iterdir()] == ["new.txt"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["run"]
+    assert oct(final.stat().st_mode & 0o777) == oct(0o777 & ~argcheck._umask())
+
+
+def test_sigterm_cleans_up_like_ctrl_c(tmp_path, capsys):
+    """argcheck.run turns SIGTERM into KeyboardInterrupt (the staging folder is removed),
+    exit 130 with one line; the previous handler is restored."""
+    previous = signal.getsignal(signal.SIGTERM)
+
+    def main():
+        with argcheck.staged_folder(tmp_path / "run"):
+            os.kill(os.getpid(), signal.SIGTERM)
+
+    with pytest.raises(SystemExit) as e:
+        argcheck.run(main)
+    assert e.value.code == 130 and list(tmp_path.iterdir()) == []
+    assert capsys.readouterr().err.strip().endswith("interrupted")
+    assert signal.getsignal(signal.SIGTERM) is previous
+
+
+def test_expected_errors_are_one_line_and_bugs_keep_their_traceback(capsys):
+    with pytest.raises(SystemExit) as e:
+        argcheck.run(lambda: (_ for _ in ()).throw(argcheck.usage("n_envs", "bad\nvalue")))
+    assert e.value.code == 2
+    assert capsys.readouterr().err.strip().endswith("error: --n-envs: bad value")
+    with pytest.raises(ZeroDivisionError):  # (a bug: not turned into a usage line)
+        argcheck.run(lambda: 1 / 0)
