@@ -1,5 +1,5 @@
-"""The named hard cases of issue 6, one test (or one small group) per case, each stating the
-expected outcome in its docstring. docs/hard_cases.md summarises what the simulator does in
+"""The named hard cases of docs/hard_cases.md, one test (or one small group) per case, each
+stating the expected outcome in its docstring; the page summarises what the simulator does in
 each case and the tolerances used here.
 
 All tests run the time-stepped integrator (``Simulation(..., integrator="step")``, the

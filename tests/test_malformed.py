@@ -1,4 +1,4 @@
-"""Malformed input, as a generated family (issue 6): every malformed scene (dict or TOML file)
+"""Malformed input, as a generated family: every malformed scene (dict or TOML file)
 raises a clear :class:`discgym.SceneError` naming the offending field, and nothing reaches
 the numba kernels.
 
