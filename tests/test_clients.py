@@ -139,11 +139,15 @@ def local_ray():
     assert not ray.is_initialized()
 
 
+#: One tiny iteration of agents/train_rllib.py per env runner: 4 reactors x 32 steps
+#: (episodes of 8 steps), one epoch (tests/test_ray_cluster.py runs it on two nodes).
+RLLIB_ONE_ITERATION = ["--iterations", "1", "--envs-per-runner", "4", "--rollout", "32",
+                       "--minibatch", "64", "--epochs", "1",
+                       "--env-config", '{"n_discs": 40, "episode_steps": 8}']
+
+
 def test_rllib_train_script_runs_one_iteration_on_a_local_ray(local_ray, tmp_path):
-    rows = local_ray.main(["--iterations", "1", "--env-runners", "1", "--envs-per-runner",
-                           "4", "--rollout", "32", "--minibatch", "64", "--epochs", "1",
-                           "--env-config", '{"n_discs": 40, "episode_steps": 8}',
-                           "--out", str(tmp_path)])
+    rows = local_ray.main([*RLLIB_ONE_ITERATION, "--env-runners", "1", "--out", str(tmp_path)])
     assert len(rows) == 1 and rows[0]["env_steps"] >= 4 * 32
     assert rows[0]["episodes"] >= 4 * 32 // 8 - 4  # (episodes of 8 steps ended in 32)
     assert np.isfinite(rows[0]["episode_return_mean"])
