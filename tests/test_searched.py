@@ -1,0 +1,160 @@
+"""discgym/searched.py (the schedule family the search works on, its shipped parameters) and
+benchmarks/search_controller.py (the CMA-ES search)."""
+
+import json
+import sys
+from pathlib import Path
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+import discgym  # noqa: F401
+from discgym.baselines import run_episodes
+from discgym.controllers import flow_thermostat
+from discgym.searched import (
+    SEARCHED,
+    ScheduleController,
+    flow_thermostat_params,
+    run_batch,
+    searched,
+)
+from discgym.tasks import TASKS
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT / "benchmarks"))
+import search_controller  # noqa: E402
+
+
+def _random_vectors(env, n, rng):
+    b = ScheduleController.bounds(env)
+    lo = np.array([v[0] for v in b.values()])
+    hi = np.array([v[1] for v in b.values()])
+    X = rng.uniform(lo, hi, (n, len(b)))
+    X[0], X[1] = lo, hi  # the corners too
+    return X
+
+
+@pytest.mark.parametrize("env_id", sorted(TASKS))
+def test_every_vector_within_bounds_maps_to_actions_in_the_action_space(env_id):
+    env = gym.make(env_id)
+    rng = np.random.default_rng(0)
+    X = _random_vectors(env, 40, rng)
+    env.observation_space.seed(0)
+    obs = np.array([env.observation_space.sample() for _ in range(len(X))])
+    real, _ = env.reset(seed=0)
+    obs[2] = real
+    c = ScheduleController.batch(env, X)
+    a = c(obs)
+    assert a.shape == (len(X), env.action_space.shape[0]) and a.dtype == np.float32
+    assert np.all(np.isfinite(a)) and all(env.action_space.contains(row) for row in a)
+    for x, o, row in zip(X[:5], obs[:5], a[:5]):  # one controller per vector: the same action
+        one = ScheduleController.from_vector(env, x)(o)
+        assert one.dtype == np.float32 and env.action_space.contains(one)
+        np.testing.assert_allclose(one, row, rtol=0, atol=1e-6)
+
+
+def test_vector_round_trips():
+    env = gym.make("DiscJacket-v0")  # (with jacket_gain)
+    X = _random_vectors(env, 5, np.random.default_rng(1))
+    for x in X:
+        c = ScheduleController.from_vector(env, x)
+        assert np.array_equal(c.to_vector(), x)
+        assert list(c.params()) == ScheduleController.names(env)
+        np.testing.assert_allclose(ScheduleController.from_unit(env, ScheduleController.to_unit(
+            env, x)), x, rtol=1e-12, atol=1e-12)
+    assert "jacket_gain" in ScheduleController.names(env)
+    flow = ScheduleController.names(gym.make("DiscFlow-v0"))
+    assert "inlet_gain" in flow and "jacket_gain" not in flow
+
+
+def test_bad_parameters_are_refused_naming_them():
+    env = gym.make("DiscFlow-v0")
+    with pytest.raises(TypeError, match="unexpected keyword argument 'setpiont_0'"):
+        ScheduleController(env, setpiont_0=3.0)
+    with pytest.raises(ValueError, match="wall_1"):
+        ScheduleController(env, wall_1=1.5)
+    with pytest.raises(ValueError, match="setpoint_2"):
+        ScheduleController(env, setpoint_2=float("nan"))
+    with pytest.raises(ValueError, match=r"x: expected shape \(13,\)"):
+        ScheduleController.from_vector(env, np.zeros(12))
+    X = _random_vectors(env, 3, np.random.default_rng(2))
+    X[2, 9] = 2.0
+    with pytest.raises(ValueError, match="stop_A"):
+        ScheduleController.batch(env, X)
+    c = ScheduleController.batch(env, X[:2])
+    with pytest.raises(ValueError, match="obs: expected shape"):
+        c(np.zeros((3, 24)))
+
+
+def test_the_family_holds_the_flow_thermostat():
+    env = gym.make("DiscFlow-v0", episode_steps=20)
+    c, th = ScheduleController(env, **flow_thermostat_params(env)), flow_thermostat(env)
+    obs, _ = env.reset(seed=3)
+    for _ in range(20):
+        a = th(obs)
+        assert np.array_equal(c(obs), a)
+        assert c.setpoint == pytest.approx(th.setpoint, rel=1e-12)
+        obs, *_ = env.step(a)
+
+
+def test_batch_and_single_evaluations_agree():
+    env_id, kw = "DiscFlow-v0", {"episode_steps": 8}
+    env = gym.make(env_id, **kw)
+    X = _random_vectors(env, 3, np.random.default_rng(3))
+    seeds = [3004, 3001, 3002]
+    # 9 pairs in calls of at most 5 reactors: two calls of 5, the second padded
+    R = run_batch(env_id, X, seeds, kw, max_reactors=5)
+    for x, row in zip(X, R):
+        single = run_episodes(env_id, lambda e, x=x: ScheduleController.from_vector(e, x),
+                              seeds, kw).returns
+        assert np.array_equal(single, row)
+
+
+def test_the_shipped_parameters_load():
+    assert "DiscFlow-v0" in SEARCHED
+    env = gym.make("DiscFlow-v0")
+    c = searched(env)
+    assert isinstance(c, ScheduleController)
+    assert c.params() == pytest.approx(SEARCHED["DiscFlow-v0"]["params"], rel=0, abs=0)
+    assert SEARCHED["DiscFlow-v0"]["command"].startswith("python benchmarks/search_controller")
+    obs, _ = env.reset(seed=0)
+    assert env.action_space.contains(c(obs))
+    with pytest.raises(ValueError, match="no searched controller for 'DiscReactor-v0'"):
+        searched(gym.make("DiscReactor-v0"))
+    # the returns docs/tasks.md's table averages, on its first two evaluation seeds
+    returns = run_episodes("DiscFlow-v0", searched, [1000, 1001]).returns
+    assert returns.tolist() == [2.365777850337153, 3.2454035969323374]
+
+
+@pytest.mark.parametrize("args, message", [
+    (["--budget-steps", "0"], "--budget-steps: expected an int >= 1"),
+    (["--budget-steps", "10", "--tune-seeds", "990", "20"], "meet the evaluation seeds"),
+    (["--budget-steps", "10", "--refine", "2", "0"], "--refine"),
+    (["--budget-steps", "10", "--sigma0", "nan"], "--sigma0"),
+    (["--budget-steps", "10", "--cma-seed", "0"], "--cma-seed"),
+    (["--budget-steps", "10", "--eval-seeds", "3010", "10"], "--eval-seeds"),
+    (["--budget-steps", "x"], "invalid int value"),
+])
+def test_the_search_refuses_bad_arguments_in_one_line(args, message, tmp_path, capsys):
+    out = tmp_path / "s.json"
+    with pytest.raises(SystemExit) as e:
+        search_controller.main(["--env", "DiscFlow-v0", *args, "--out", str(out)])
+    assert e.value.code == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and message in err, err
+    assert not out.exists()
+
+
+def test_one_tiny_generation_writes_its_json(tmp_path):
+    out = tmp_path / "s.json"
+    # the start (2 seeds) and one generation of 2 candidates: 6 episodes of 4 steps
+    assert search_controller.main([
+        "--env", "DiscFlow-v0", "--budget-steps", "24", "--episode-steps", "4",
+        "--tune-seeds", "3000", "2", "--popsize", "2", "--refine", "1", "2",
+        "--out", str(out)]) == 0
+    data = json.loads(out.read_text())
+    assert data["budget"]["search_env_steps"] == 24 and len(data["history"]) == 1
+    assert set(data["params"]) == set(ScheduleController.names(gym.make("DiscFlow-v0")))
+    ScheduleController(gym.make("DiscFlow-v0"), **data["params"])  # within bounds
+    assert [p.name for p in tmp_path.iterdir()] == ["s.json"]  # no partial file left
