@@ -356,7 +356,7 @@ SEARCHED: dict[str, dict] = {
 
 
 def searched(env) -> ScheduleController:
-    """The searched controller of the task ``env`` is (by its registered id;
+    """The searched controller of the task ``env`` (found by its registered id in
     :data:`SEARCHED`)."""
     env_id = env.spec.id if getattr(env, "spec", None) is not None else None
     if env_id not in SEARCHED:
