@@ -118,7 +118,7 @@ def _in_parallel(rx, ep, tables, params, flags, consts, rngs, active, act, order
         for q in range(starts[t], starts[t + 1]):
             r = order[q]
             if active[r]:
-                reactor_step(r, rx, ep, tables, params, flags, consts, rngs, act, event)
+                _reactor_step(r, rx, ep, tables, params, flags, consts, rngs, act, event)
 
 
 @njit(cache=True, inline="always")
@@ -254,6 +254,11 @@ def reactor_step(r, rx, ep, tables, params, flags, consts, rngs, act, event=None
     rx.ksteps[r] += consts.steps_per_action
     ep.steps[r] += 1
     observe_one(r, rx, ep, tables.sp_mass, consts)
+
+
+# reactor_step compiled as a function of its own, for the prange body of _in_parallel:
+# inlined there, numba's parfor lowering changed the results (tests/test_env_event.py)
+_reactor_step = njit(cache=True)(reactor_step.py_func)
 
 
 @njit(cache=True)
