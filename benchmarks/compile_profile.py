@@ -30,6 +30,7 @@ def profile(env_id: str, integrator: str | None, num_envs: int) -> dict:
     from numba.core import event
 
     t0 = time.perf_counter()
+    c0 = time.process_time()
     with event.install_recorder("numba:compile") as rec:
         from discgym.tasks import TASKS
         from discgym.vector import DiscReactorVectorEnv
@@ -41,14 +42,17 @@ def profile(env_id: str, integrator: str | None, num_envs: int) -> dict:
         venv.reset(seed=0)
         venv.step(np.zeros((num_envs,) + venv.single_action_space.shape, np.float32))
     wall = time.perf_counter() - t0
-    return {"wall": wall, **compile_times(rec.buffer)}
+    cpu = time.process_time() - c0
+    return {"wall": wall, "cpu": cpu, **compile_times(rec.buffer)}
 
 
 def compile_times(buffer) -> dict:
     """From a ``numba:compile`` recorder's buffer: ``own`` and ``incl`` (seconds by function
     name: without and with the functions compiled inside its compile) and ``literal`` (how
-    many versions of each were compiled for literal arguments)."""
+    many versions of each were compiled for literal arguments; ``literal_args``: their
+    argument types)."""
     own, incl, literal = defaultdict(float), defaultdict(float), defaultdict(int)
+    literal_args = defaultdict(list)
     stack = []
     for ts, ev in buffer:
         f = getattr(ev.data.get("dispatcher"), "py_func", None)
@@ -57,13 +61,15 @@ def compile_times(buffer) -> dict:
             stack.append([name, ts, 0.0])
             if re.search(r"Literal\[", str(ev.data.get("args"))):
                 literal[name] += 1
+                literal_args[name].append(str(ev.data.get("args")))
             continue
         name, start, children = stack.pop()
         own[name] += ts - start - children
         incl[name] += ts - start
         if stack:
             stack[-1][2] += ts - start
-    return {"own": dict(own), "incl": dict(incl), "literal": dict(literal)}
+    return {"own": dict(own), "incl": dict(incl), "literal": dict(literal),
+            "literal_args": dict(literal_args)}
 
 
 def main(argv=None) -> int:
@@ -72,6 +78,8 @@ def main(argv=None) -> int:
     p.add_argument("--integrator", default="event", help="'step', 'event' or '' (the task's)")
     p.add_argument("--num-envs", type=int, default=16)
     p.add_argument("--top", type=int, default=15)
+    p.add_argument("--literal-args", action="store_true",
+                   help="print the argument types of the literal versions")
     p.add_argument("--child", action="store_true", help=argparse.SUPPRESS)
     a = p.parse_args(argv)
     if not a.child:  # run in a child whose numba cache is empty, whatever this one's holds
@@ -82,8 +90,8 @@ def main(argv=None) -> int:
     r = profile(a.env, a.integrator or None, a.num_envs)
     total = sum(r["own"].values())
     print(f"{a.env}, {a.num_envs} reactors, integrator {a.integrator or 'of the task'}: first "
-          f"step after {r['wall']:.1f} s, of which {total:.1f} s compiling "
-          f"({len(r['own'])} functions)\n")
+          f"step after {r['wall']:.1f} s ({r['cpu']:.1f} s of CPU), of which {total:.1f} s "
+          f"compiling ({len(r['own'])} functions)\n")
     print("| function | own s | inclusive s |\n|---|---|---|")
     for name, t in sorted(r["own"].items(), key=lambda kv: -kv[1])[:a.top]:
         print(f"| {name.replace('discgym.kernels.', '')} | {t:.1f} | {r['incl'][name]:.1f} |")
@@ -91,6 +99,10 @@ def main(argv=None) -> int:
     print("\ncompiled for literal arguments (a version of its own each): " +
           (", ".join(f"{k.replace('discgym.kernels.', '')} x{v}" for k, v in sorted(lit.items()))
            or "none"))
+    if a.literal_args:
+        for k in sorted(lit):
+            for args in r["literal_args"][k]:
+                print(f"  {k}{args}")
     return 0
 
 

@@ -8,6 +8,7 @@
     discgym run reactor --time 20 --plot r.png --gif r.gif --csv r.csv --save r.pkl
     discgym run --resume r.pkl --time 20    # continue, bit for bit
     discgym bench                           # the benchmark suite, quick mode
+    discgym compile --all                   # compile every env's kernels ahead of first use
 
 An adapter at the edge: it drives :class:`~discgym.Simulation` through its public API and
 imports matplotlib / Pillow only when a picture is asked for. Errors meant for people (a bad
@@ -309,6 +310,131 @@ def cmd_bench(args) -> int:
         raise CLIError(f"the benchmark suite needs {getattr(exc, 'name', None) or exc}, "
                        f"which is not installed: {BENCH_EXTRA}") from None
     return int(code or 0)
+
+
+# --------------------------------------------------------------------------------------------
+# discgym compile
+
+
+def _env_ids() -> list:
+    from .tasks import TASKS
+
+    return list(TASKS)
+
+
+#: the job warming a Simulation's kernels (the ``discgym run`` path), as an "env id"
+SIMULATION = "Simulation"
+
+
+def _warm(env_id: str, integrator: str) -> float:
+    """Build ``env_id``'s env and its vector env of 2 reactors on ``integrator``, reset and
+    step each once (numba compiles what they run, or loads it from its cache); or, for
+    :data:`SIMULATION`, a Simulation of the reactor scene. The seconds taken. Run in a worker
+    process of :func:`cmd_compile`."""
+    import numpy as np
+
+    t0 = time.perf_counter()
+    if env_id == SIMULATION:
+        from .simulation import Simulation
+
+        Simulation("reactor", seed=0, integrator=integrator).step(2)
+        return time.perf_counter() - t0
+    from .tasks import TASKS
+
+    env_cls, vec_cls = TASKS[env_id]
+    env = env_cls(integrator=integrator)
+    env.reset(seed=0)
+    env.step(np.zeros(env.action_space.shape, env.action_space.dtype))
+    env.close()
+    venv = vec_cls(num_envs=2, integrator=integrator)  # (the parallel step over reactors)
+    venv.reset(seed=0)
+    venv.step(np.zeros((2,) + venv.single_action_space.shape, venv.single_action_space.dtype))
+    venv.close()
+    return time.perf_counter() - t0
+
+
+def _warm_quietly(env_id: str, integrator: str) -> float:
+    from .kernels import notice
+
+    level = notice.LOGGER.level
+    notice.LOGGER.setLevel("ERROR")  # (the command reports its own progress)
+    try:
+        return _warm(env_id, integrator)
+    finally:
+        notice.LOGGER.setLevel(level)
+
+
+def cmd_compile(args) -> int:
+    known = _env_ids()
+    unknown = [e for e in args.env or () if e not in known]
+    if unknown:
+        raise CLIError(f"unknown env id{'s' if len(unknown) > 1 else ''} "
+                       f"{', '.join(map(repr, unknown))} (known: {', '.join(known)})")
+    if args.jobs is not None and args.jobs < 1:
+        raise CLIError(f"--jobs: need at least 1, got {args.jobs}")
+    ids = known + [SIMULATION] if args.all else list(dict.fromkeys(args.env or [known[0]]))
+    integrators = [args.integrator] if args.integrator else ["step", "event"]
+    todo = [(e, i) for e in ids for i in integrators]
+    # The envs share their kernels: the first env of each integrator (and the Simulation)
+    # compiles them, the others then mostly load them. So two waves: those first, at once,
+    # then the rest (two processes compiling the same kernels would only race).
+    heads = [(e, i) for e, i in todo if e in (ids[0], SIMULATION)]
+    waves = [w for w in (heads, [j for j in todo if j not in heads]) if w]
+    jobs = min(args.jobs or os.cpu_count() or 1, max(len(w) for w in waves))
+    _note(f"compiling discgym's kernels for {len(todo)} configuration(s) in {jobs} "
+          f"process(es); cached afterwards")
+    bar = _JobBar(len(todo), quiet=args.quiet)
+    t0 = time.perf_counter()
+    if jobs == 1:
+        for env_id, integrator in todo:
+            bar.done(f"{env_id} {integrator}", _warm_quietly(env_id, integrator))
+    else:
+        import concurrent.futures as cf
+        import multiprocessing
+
+        # (spawned, not forked: a fresh interpreter each, whatever numba's threads have done)
+        with cf.ProcessPoolExecutor(jobs, mp_context=multiprocessing.get_context("spawn")) \
+                as pool:
+            for wave in waves:
+                futures = {pool.submit(_warm_quietly, e, i): f"{e} {i}" for e, i in wave}
+                for f in cf.as_completed(futures):
+                    bar.done(futures[f], f.result())
+    bar.close()
+    _say(f"compiled or loaded the kernels of {len(todo)} configuration(s) in "
+         f"{time.perf_counter() - t0:.1f} s")
+    return EXIT_OK
+
+
+class _JobBar:
+    """Jobs done out of the total on stderr: a tqdm bar when tqdm is installed, else one
+    line per job."""
+
+    def __init__(self, total: int, quiet: bool = False):
+        self.total = total
+        self.n = 0
+        self.quiet = quiet
+        self._bar = None
+        if quiet:
+            return
+        try:
+            from tqdm import tqdm
+        except ImportError:
+            return
+        self._bar = tqdm(total=total, file=sys.stderr, unit="env", leave=True)
+
+    def done(self, label: str, seconds: float) -> None:
+        self.n += 1
+        if self.quiet:
+            return
+        if self._bar is not None:
+            self._bar.set_postfix_str(f"{label} {seconds:.0f} s", refresh=False)
+            self._bar.update(1)
+        else:
+            _note(f"[{self.n}/{self.total}] {label}: {seconds:.1f} s")
+
+    def close(self) -> None:
+        if self._bar is not None:
+            self._bar.close()
 
 
 # --------------------------------------------------------------------------------------------
@@ -1034,6 +1160,7 @@ def build_parser() -> argparse.ArgumentParser:
     _add_show(sub)
     _add_run(sub)
     _add_bench(sub)
+    _add_compile(sub)
     return parser
 
 
@@ -1117,6 +1244,26 @@ def _add_bench(sub) -> None:
     p.add_argument("--full", action="store_true", help="the full suite instead of --quick "
                    "(many minutes)")
     p.set_defaults(func=cmd_bench, bench_args=[])
+
+
+def _add_compile(sub) -> None:
+    p = sub.add_parser(
+        "compile", help="compile the envs' kernels ahead of their first use",
+        description="Compile (or load from numba's cache) the kernels an env runs, so that "
+                    "its first step does not wait minutes for them: for each env, its "
+                    "single env and its vector env are built, reset and stepped once, on "
+                    "each integrator. The environments share most kernels. Several "
+                    "processes at once where there are several cores.")
+    p.add_argument("--env", action="append", metavar="ID",
+                   help="an env id of the suite (repeatable; default: DiscReactor-v0)")
+    p.add_argument("--all", action="store_true",
+                   help="every env of the suite, and the Simulation (`discgym run`)")
+    p.add_argument("--integrator", choices=("step", "event"),
+                   help="only this integrator (default: both)")
+    p.add_argument("--jobs", "-j", type=_int, metavar="N",
+                   help="processes at once (default: the number of cores)")
+    p.add_argument("--quiet", "-q", action="store_true", help="no progress bar")
+    p.set_defaults(func=cmd_compile)
 
 
 def main(argv=None) -> int:

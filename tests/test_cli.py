@@ -64,7 +64,8 @@ def test_scenes_lists_every_builtin_with_its_description(tmp_path):
         assert any(line.startswith(name + " ") and desc in line for line in lines), name
 
 
-@pytest.mark.parametrize("command", [[], ["scenes"], ["show"], ["run"], ["bench"]])
+@pytest.mark.parametrize("command", [[], ["scenes"], ["show"], ["run"], ["bench"],
+                                     ["compile"]])
 def test_help_on_every_command(command, capsys):
     assert cli.main(command + ["--help"]) == 0
     out = capsys.readouterr().out
@@ -73,6 +74,26 @@ def test_help_on_every_command(command, capsys):
         for opt in ("--time", "--seed", "--n", "--temperature", "--integrator", "--every",
                     "--plot", "--gif", "--mp4", "--csv", "--save", "--resume", "energy_balance"):
             assert opt in out, opt
+
+
+def test_compile_refuses_unknown_env_ids_before_compiling(capsys, monkeypatch):
+    def boom(*a):
+        raise AssertionError("compiled before refusing")
+
+    monkeypatch.setattr(cli, "_warm", boom)
+    assert cli.main(["compile", "--env", "DiscReactor-v0", "--env", "NoSuch-v9"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "unknown env id 'NoSuch-v9'" in err
+    assert "DiscFlow-v0" in err  # the known ids are listed
+    assert cli.main(["compile", "--jobs", "0"]) == 2
+    assert capsys.readouterr().err.count("\n") == 1
+
+
+def test_compile_warms_the_kernels_of_an_env(capsys):
+    # in this process (one job): the kernels the other tests use, loaded or compiled once
+    assert cli.main(["compile", "--env", "DiscReactor-v0", "--integrator", "step",
+                     "--jobs", "1", "--quiet"]) == 0
+    assert "1 configuration(s)" in capsys.readouterr().out
 
 
 def test_no_command_prints_help(capsys):

@@ -19,3 +19,5 @@
 Kernels never touch global random state: a ``numpy.random.Generator`` is passed in.
 See docs/architecture.md for how the layers fit together.
 """
+
+from . import notice  # noqa: E402,F401  (logs once when a process compiles the kernels)

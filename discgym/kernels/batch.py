@@ -16,7 +16,9 @@ state, generator and actions. The physics of a step is the kernel :meth:`Simulat
 :func:`discgym.kernels.step.advance` or, with ``consts.integrator`` = ``EVENT``, one exact run
 of :func:`discgym.kernels.event_driven.run_steps` over the whole env step (as
 ``Simulation(..., integrator="event").step(steps_per_action)``); the controls are those of
-:mod:`~discgym.kernels.controls`, which the ``Simulation`` methods call.
+:mod:`~discgym.kernels.controls`, which the ``Simulation`` methods call. Which integrator is
+a compile-time choice, made in Python (:func:`env_step`): a stepped environment never
+compiles the event-driven one.
 
 One call per environment step: the environment's Python only checks the action's shape,
 books the ``Simulation``'s clocks and builds ``info``.
@@ -66,41 +68,60 @@ O_HEAT, O_ENERGY_HEAT = range(2)  # then the energy each feed species' injection
 O_STATUS, O_BLOCKED, O_INVALID = range(3)  # then injected (F), then refused (F)
 
 
-@njit(cache=True)
+_INTEGRATOR = ReactorConsts._fields.index("integrator")
+
+
 def env_step(rx, ep, tables, params, flags, consts, rngs, active, act):
     """One environment step of every active reactor, one after the other (see
     :func:`reactor_step` for the arguments; ``active`` (R,) bool). The structs ``rx``, ``ep``,
     ``tables`` and ``consts`` come as plain tuples of their fields: numba types those in C,
     a NamedTuple field by field in Python (about 0.5 us per field per call, some 30 us for
-    these four)."""
-    rx, ep, tables, consts = _structs(rx, ep, tables, consts)
-    for r in range(rx.pos.shape[0]):
-        if active[r]:
-            reactor_step(r, rx, ep, tables, params, flags, consts, rngs, act)
+    these four).
+
+    The integrator is chosen here, in Python, as :class:`~discgym.Simulation` chooses its
+    entry point: the compiled step of a stepped environment is :func:`_env_step` with
+    ``event=None``, for which numba prunes the event-driven integrator and never compiles it
+    (see :func:`reactor_step`)."""
+    _env_step(rx, ep, tables, params, flags, consts, rngs, active, act,
+              True if consts[_INTEGRATOR] == EVENT else None)
 
 
-@njit(cache=True)
 def env_step_parallel(rx, ep, tables, params, flags, consts, rngs, active, act, order, starts):
     """:func:`env_step` in parallel: a ``prange`` over T work lists, list t being the
     reactors ``order[starts[t]:starts[t + 1]]`` (see :func:`balance`; T = the number of
     threads gives each thread one list). Each reactor touches only its own rows, so there
     are no races, and the result is the same bits whatever the lists. The structs come as
-    plain tuples, as for :func:`env_step`."""
+    plain tuples, and the integrator is chosen, as for :func:`env_step`."""
+    _env_step_parallel(rx, ep, tables, params, flags, consts, rngs, active, act, order, starts,
+                       True if consts[_INTEGRATOR] == EVENT else None)
+
+
+@njit(cache=True)
+def _env_step(rx, ep, tables, params, flags, consts, rngs, active, act, event):
     rx, ep, tables, consts = _structs(rx, ep, tables, consts)
-    _in_parallel(rx, ep, tables, params, flags, consts, rngs, active, act, order, starts)
+    for r in range(rx.pos.shape[0]):
+        if active[r]:
+            reactor_step(r, rx, ep, tables, params, flags, consts, rngs, act, event)
+
+
+@njit(cache=True)
+def _env_step_parallel(rx, ep, tables, params, flags, consts, rngs, active, act, order, starts,
+                       event):
+    rx, ep, tables, consts = _structs(rx, ep, tables, consts)
+    _in_parallel(rx, ep, tables, params, flags, consts, rngs, active, act, order, starts, event)
 
 
 @njit(cache=True, parallel=True)
-def _in_parallel(rx, ep, tables, params, flags, consts, rngs, active, act, order, starts):
-    # (apart from env_step_parallel: numba's parfor lowering fails on the unpacked structs)
+def _in_parallel(rx, ep, tables, params, flags, consts, rngs, active, act, order, starts, event):
+    # (apart from _env_step_parallel: numba's parfor lowering fails on the unpacked structs)
     for t in prange(starts.shape[0] - 1):
         for q in range(starts[t], starts[t + 1]):
             r = order[q]
             if active[r]:
-                reactor_step(r, rx, ep, tables, params, flags, consts, rngs, act)
+                _reactor_step(r, rx, ep, tables, params, flags, consts, rngs, act, event)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _structs(rx, ep, tables, consts):
     return Reactors(*rx), Episodes(*ep), Tables(*tables), ReactorConsts(*consts)
 
@@ -139,12 +160,13 @@ def balance(cost, active, T, order, starts):
     starts[T] = m
 
 
-@njit(cache=True)
-def reactor_step(r, rx, ep, tables, params, flags, consts, rngs, act):
+@njit(cache=True, inline="always")
+def reactor_step(r, rx, ep, tables, params, flags, consts, rngs, act, event=None):
     """Apply the action ``act[r]`` to reactor r (heat, then the wall, then injection), advance
-    it ``consts.steps_per_action`` steps of ``consts.dt`` (with ``consts.integrator`` =
-    ``EVENT``: one exact event-driven run of that time), count the episode step and observe
-    it.
+    it ``consts.steps_per_action`` steps of ``consts.dt`` (``event`` not None: one exact
+    event-driven run of that time), count the episode step and observe it. ``event`` None
+    or omitted, numba prunes the event-driven integrator at compile time (:func:`env_step`
+    passes None for ``consts.integrator`` = ``STEPPED``, True for ``EVENT``).
 
     ``rx`` the batch's :class:`~discgym.kernels.structs.Reactors` (rows r), ``ep`` its
     :class:`~discgym.kernels.structs.Episodes` (``ep.temperature`` and ``ep.kinetic``, those
@@ -207,7 +229,7 @@ def reactor_step(r, rx, ep, tables, params, flags, consts, rngs, act):
     fsum = rx.fsum[r]
     wall_heat0 = _wall_heat(fsum)
     bounds = Bounds(rx.bounds_kind[r], rx.bounds_params[r], rx.bounds_walls[r])
-    if consts.integrator == EVENT:  # one exact run of the step (Simulation.step's call)
+    if event is not None:  # one exact run of the step (Simulation.step's call)
         after, m = run_steps(discs, rx.n[r], consts.steps_per_action, consts.dt, bounds,
                              tables, params, flags, rngs[r],
                              EventCounters(rx.icnt[r], fsum, ch_count,
@@ -217,7 +239,8 @@ def reactor_step(r, rx, ep, tables, params, flags, consts, rngs, act):
         after, m, _w = advance(discs, rx.n[r], consts.steps_per_action, consts.dt, bounds,
                                tables, params, flags, rngs[r],
                                Counters(rx.icnt[r], rx.fsum[r], ch_count, rx.outflow[r]),
-                               1, rx.ksteps[r], consts.reorder_every, empty_work())
+                               np.int64(1), rx.ksteps[r], consts.reorder_every,
+                               empty_work())
     if after.pos.shape[0] != cap:
         iout[r, O_STATUS] = GREW
         return
@@ -231,6 +254,11 @@ def reactor_step(r, rx, ep, tables, params, flags, consts, rngs, act):
     rx.ksteps[r] += consts.steps_per_action
     ep.steps[r] += 1
     observe_one(r, rx, ep, tables.sp_mass, consts)
+
+
+# reactor_step compiled as a function of its own, for the prange body of _in_parallel:
+# inlined there, numba's parfor lowering changed the results (tests/test_env_event.py)
+_reactor_step = njit(cache=True)(reactor_step.py_func)
 
 
 @njit(cache=True)
@@ -284,7 +312,8 @@ def _heat(r, a0, discs, n, ep, sp_mass, consts):
         return
     f = consts.heat_rate ** a0
     f = min(max(f, min(1.0, consts.t_min / T)), max(1.0, consts.t_max / T))
-    f, energy, _ = heat(discs.vel, discs.species, sp_mass, n, f, consts.speed_limit, True)
+    f, energy, _ = heat(discs.vel, discs.species, sp_mass, n, f, consts.speed_limit,
+                          np.bool_(True))
     if f != 1.0:
         ep.fout[r, O_HEAT] = (f - 1.0) * ep.kinetic[r]
         ep.fout[r, O_ENERGY_HEAT] = energy

@@ -158,7 +158,7 @@ def _fill(k, nst, E, off, sp_radius, pos, vel, species, sc, grid, qcnt):
         if wall_t[i] < math.inf and r0 <= cell_of[i] // ncx < r1:
             size = add_event(E, size, False, wall_t[i], i, -1, stamp[i], 0)
     size = queue_scan(sc.cell_start[r0 * ncx], sc.cell_start[r1 * ncx], sp_radius, pos, vel,
-                      species, sc, grid, E, size, qcnt[k], False)
+                      species, sc, grid, E, size, qcnt[k], np.bool_(False))
     return size - off
 
 

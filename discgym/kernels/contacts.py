@@ -35,12 +35,20 @@ def add_event(H, size, sift, t, i, j, si, sj):
     return size + 1
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def try_pair(i, j, sp_radius, pos, vel, species, tlast, stamp, H, size, icnt, sift=True):
     """Queue the contact of i and j if they overlap and touched in this step (room for one
     event must be reserved; ``sift`` False: appended, see ``step._queue_initial``); returns
     the new size. A pair left overlapping while separating (``pair_time`` +inf) is counted in
     ``icnt[IC_LEFT_OVERLAPPING]``."""
+    # (the indices, size and sift cast here, at each call site: one compiled _try_pair
+    # whatever the callers' integer types, and none for literal arguments)
+    return _try_pair(np.int64(i), np.int64(j), sp_radius, pos, vel, species, tlast, stamp, H,
+                     np.int64(size), icnt, np.bool_(sift))
+
+
+@njit(cache=True)
+def _try_pair(i, j, sp_radius, pos, vel, species, tlast, stamp, H, size, icnt, sift):
     t = pair_time(pos[i, 0], pos[i, 1], vel[i, 0], vel[i, 1], sp_radius[species[i]], tlast[i],
                   pos[j, 0], pos[j, 1], vel[j, 0], vel[j, 1], sp_radius[species[j]], tlast[j])
     if math.isnan(t):

@@ -786,7 +786,7 @@ def _may_split(s, tables):
 
 
 # ------------------------------------------------------------------------------ the run
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _grow_fill(a, cap, fill):
     out = np.full(cap, fill, dtype=a.dtype)
     out[: a.shape[0]] = a
@@ -1088,7 +1088,7 @@ def _simulate(state, n, n_steps, step_dt, bounds, tables, params, flags, rng, co
     return state, n, t
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")  # (its one caller each optimises it once, not twice)
 def run_steps(state, n, n_steps, dt, bounds, tables, params, flags, rng, counters,
               cells_per_disc):
     """Advance ``n_steps`` steps of ``dt`` in one exact run (every disc brought to the end).
@@ -1114,15 +1114,17 @@ def run_steps(state, n, n_steps, dt, bounds, tables, params, flags, rng, counter
         counters.icnt[IC_EVENTS_CAPPED] += 1
         cnt = StepCounters(counters.icnt, counters.fsum, counters.ch_count, counters.outflow)
         whole = min(int(rest / dt), n_steps)
-        # int64, not literals, for n_steps, step0 and reorder_every: the signature of the
-        # batch's call (kernels.batch.reactor_step), so that numba compiles advance once
+        # int64, not literals, for n_steps, threads, step0 and reorder_every: the signature
+        # of the batch's call (kernels.batch.reactor_step), so that numba compiles advance
+        # once
         zero = np.int64(0)
+        one = np.int64(1)
         if whole > 0:
             state, n, _w = advance(state, n, whole, dt, bounds, tables, params, flags, rng, cnt,
-                                   1, zero, zero, empty_work())
+                                   one, zero, zero, empty_work())
         if rest - whole * dt > 0.0:
-            state, n, _w = advance(state, n, np.int64(1), rest - whole * dt, bounds, tables,
-                                   params, flags, rng, cnt, 1, zero, zero, empty_work())
+            state, n, _w = advance(state, n, one, rest - whole * dt, bounds, tables,
+                                   params, flags, rng, cnt, one, zero, zero, empty_work())
     return state, n
 
 

@@ -73,12 +73,12 @@ def heap_set(heap, d, key):
     hpos[d] = p
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def new_heap(capacity):
     return np.empty((max(capacity, 16), 5), dtype=FLOAT)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def reserve(H, size, extra):
     """The heap itself if it has room for ``extra`` more events, else a larger copy."""
     need = size + extra
@@ -89,14 +89,20 @@ def reserve(H, size, extra):
     return G
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def push(H, size, t, i, j, si, sj):
     """Push an event (room must have been reserved); returns the new size."""
+    # (the row's fields as floats and the size as int64 here, at each call site: one
+    # compiled _push whatever the integer types of the callers, and none for literal
+    # arguments such as j = -1)
+    return _push(H, np.int64(size), t, float(i), float(j), float(si), float(sj))
+
+
+@njit(cache=True)
+def _push(H, size, t, fi, fj, si, sj):
     if size >= H.shape[0]:
         raise IndexError("event heap full: room was not reserved (a bug in the caller)")
     k = size
-    fi = float(i)
-    fj = float(j)
     while k > 0:  # sift up: move parents down until the slot fits
         p = (k - 1) >> 1
         tp = H[p, 0]
@@ -111,8 +117,8 @@ def push(H, size, t, i, j, si, sj):
     H[k, 0] = t
     H[k, 1] = fi
     H[k, 2] = fj
-    H[k, 3] = float(si)
-    H[k, 4] = float(sj)
+    H[k, 3] = si
+    H[k, 4] = sj
     return size + 1
 
 

@@ -177,7 +177,7 @@ def combine(i, j, c, t, xi, yi, xj, yj, tables, pos, vel, species, internal_ener
     if not ok:
         return NO_ENERGY
     # room where C appears: at the contact, not where it would be at the end of the substep
-    if not room(q.x + t * q.vx, q.y + t * q.vy, sp_radius[p], t, i, j, True, bounds_kind,
+    if not room(q.x + t * q.vx, q.y + t * q.vy, sp_radius[p], t, i, j, np.bool_(True), bounds_kind,
                 bounds_params, pos,
                 vel, species, sp_radius, grid, cell_start, cell_items, nbin, n, reach):
         return NO_ROOM
@@ -259,12 +259,12 @@ def exchange(i, j, c, t, xi, yi, xj, yj, nx, ny, tables, pos, vel, species, inte
     if not ok:
         return NO_ENERGY
     # room where the products appear, at the contact
-    if not room(qi.x + t * qi.vx, qi.y + t * qi.vy, sp_radius[pi], t, i, j, True, bounds_kind,
-                bounds_params,
+    if not room(qi.x + t * qi.vx, qi.y + t * qi.vy, sp_radius[pi], t, i, j, np.bool_(True),
+                bounds_kind, bounds_params,
                 pos, vel, species, sp_radius, grid, cell_start, cell_items, nbin, n, reach):
         return NO_ROOM
-    if not room(qj.x + t * qj.vx, qj.y + t * qj.vy, sp_radius[pj], t, i, j, True, bounds_kind,
-                bounds_params,
+    if not room(qj.x + t * qj.vx, qj.y + t * qj.vy, sp_radius[pj], t, i, j, np.bool_(True),
+                bounds_kind, bounds_params,
                 pos, vel, species, sp_radius, grid, cell_start, cell_items, nbin, n, reach):
         return NO_ROOM
     apply_exchange(i, j, pi, pj, qi, qj, pos, vel, species, internal_energy)

@@ -590,7 +590,7 @@ def _queue_initial(n, collide, sp_radius, pos, vel, species, sc, grid, H, icnt, 
         for a in range(cell_start[nbc], cell_start[nbc + 1]):
             need += _big_candidates(a, sx, sy, sr, rcell, grid, cell_start)
     H = reserve(H, 0, need)
-    size = 0
+    size = np.int64(0)  # (not a literal: see queue_scan's call)
     for p in range(nw):
         i = wl[p]
         if wall_t[i] < math.inf:
@@ -603,8 +603,10 @@ def _queue_initial(n, collide, sp_radius, pos, vel, species, sc, grid, H, icnt, 
             size = _try_pair(ovi[q], ovj[q], sp_radius, pos, vel, species, tlast, stamp, H, size,
                              icnt)
     else:
-        size = queue_scan(0, cell_start[nbc], sp_radius, pos, vel, species, sc, grid, H, size,
-                          icnt, True)
+        # (an int32 and a bool, not literals: the types of kernels.clusters' call, so that
+        # numba compiles queue_scan once)
+        size = queue_scan(np.int32(0), cell_start[nbc], sp_radius, pos, vel, species, sc, grid,
+                          H, size, icnt, np.bool_(True))
     for a in range(cell_start[nbc], cell_start[nbc + 1]):  # the big discs
         i = cell_items[a]
         cx0, cx1, cy0, cy1 = cell_range(sx[a], sy[a], sr[a] + rcell, grid)
@@ -1259,7 +1261,7 @@ def advance_rngs(discs, n, n_steps, dt, bounds, tables, params, flags, rngs, cnt
     ``discs`` a plain tuple too (boxing a NamedTuple unpickles its class at every return)."""
     d, n, work = advance(Discs(*discs), n, n_steps, dt, Bounds(*bounds), Tables(*tables),
                          params, flags, rngs[0], Counters(*cnt), threads, step0,
-                         reorder_every, work, True)
+                         reorder_every, work, np.bool_(True))  # (bool, not a literal)
     return fields(d), n, work
 
 
@@ -1290,7 +1292,8 @@ def advance(discs, n, n_steps, dt, bounds, tables, params, flags, rng, cnt, thre
     are as fast or faster; a caller on one numba thread passes ``threads`` = 1).
     Omitted, as the single-threaded callers (the vector env's reactors, the event-driven
     integrator's fallback) omit it, numba prunes that code at compile time (it compiles
-    only the owner array's one-line constructor).
+    only the owner array's one-line constructor), and the parallel drift and scan too:
+    everything runs on the calling thread.
 
     Returns ``(discs, n, work)``: new (larger) state arrays when a decomposition needed more
     capacity, else the ones passed in; the scratch buffers used.
@@ -1316,7 +1319,7 @@ def advance(discs, n, n_steps, dt, bounds, tables, params, flags, rng, cnt, thre
     ncy = int(grid[5])
     nstart = ncx * ncy + 2 if collide else 3
     rgrid = make_grid(bounds_kind, bounds_params, sp_radius.max(),
-                      REORDER_CELLS)  # (independent of n)
+                      np.int64(REORDER_CELLS))  # (independent of n)
     ws = pos.shape[0]  # per-disc workspace, reallocated when the state grows
     work = _fit_work(work, ws, nstart)
     sc = _carve(work, ws, nstart)
@@ -1353,8 +1356,12 @@ def advance(discs, n, n_steps, dt, bounds, tables, params, flags, rng, cnt, thre
         sub = 0
         while sub < k:
             icnt[IC_SUBSTEPS] += 1
-            pl = _drift_and_bin(threads, n, h, pos, vel, species, sp_radius, bounds_kind,
-                                bounds_params, grid, sc, collide, pl, listed, full, big)
+            if clusters is None:  # (a single-threaded caller: no parallel code compiled)
+                pl = _drift_and_bin(None, n, h, pos, vel, species, sp_radius, bounds_kind,
+                                    bounds_params, grid, sc, collide, pl, listed, full, big)
+            else:
+                pl = _drift_and_bin(threads, n, h, pos, vel, species, sp_radius, bounds_kind,
+                                    bounds_params, grid, sc, collide, pl, listed, full, big)
             full = False
             left0 = icnt[IC_LEFT_OVERLAPPING]
             # a substep is cut short (at a reaction, see _events) only while the step has
@@ -1474,16 +1481,19 @@ def _drift_and_bin(threads, n, h, pos, vel, species, sp_radius, bounds_kind, bou
     if ``listed`` (built anew if ``full``; ``big``: the scene has big discs), else by the
     scan (in parallel over ``threads`` chunks from PARALLEL_MIN discs, as the drift);
     resets the per-disc event counts.
-    Returns the pair list (a new one if it had to grow)."""
-    par = threads > 1 and n >= PARALLEL_MIN
+    Returns the pair list (a new one if it had to grow). ``threads`` None: a single-threaded
+    caller; numba prunes the parallel drift and scan and never compiles them."""
     sc.nlist[1] = 0  # (no scan: no overlapping discs listed)
-    if par:
-        sc.nlist[0] = _drift_parallel(threads, n, h, pos, vel, species, sp_radius, bounds_kind,
-                                      bounds_params, sc.tlast, sc.wall_t, sc.wflag, sc.wl, grid,
-                                      sc.cell_of, collide, sc.nev, sc.binx, sc.biny,
-                                      sc.partner)
-    else:
-        sc.nlist[0] = _drift_range(0, n, h, pos, vel, species, sp_radius, bounds_kind,
+    par = False
+    if threads is not None:
+        par = threads > 1 and n >= PARALLEL_MIN
+        if par:
+            sc.nlist[0] = _drift_parallel(threads, n, h, pos, vel, species, sp_radius,
+                                          bounds_kind, bounds_params, sc.tlast, sc.wall_t,
+                                          sc.wflag, sc.wl, grid, sc.cell_of, collide, sc.nev,
+                                          sc.binx, sc.biny, sc.partner)
+    if not par:
+        sc.nlist[0] = _drift_range(np.int64(0), n, h, pos, vel, species, sp_radius, bounds_kind,
                                    bounds_params, sc.tlast, sc.wall_t, sc.wflag, sc.wl, grid,
                                    sc.cell_of, collide, sc.nev, sc.binx, sc.biny, sc.partner)
     if collide:
@@ -1492,14 +1502,15 @@ def _drift_and_bin(threads, n, h, pos, vel, species, sp_radius, bounds_kind, bou
         _sort(n, sc.cell_of, cell_start, cell_items)
         if listed:
             return _pl_broad(n, pos, species, sp_radius, grid, sc, pl, full, big)
-        if par:
-            sc.nlist[1] = _broad_parallel(threads, n, ncy, grid, cell_start, cell_items, pos,
-                                          species, sp_radius, sc.sx, sc.sy, sc.sr, sc.ov_n,
-                                          sc.ov_b, sc.ol)
-        else:
-            _gather(0, n, cell_items, pos, species, sp_radius, sc.sx, sc.sy, sc.sr)
-            sc.nlist[1] = _scan_rows(0, ncy, grid, cell_start, sc.sx, sc.sy, sc.sr, sc.ov_n,
-                                     sc.ov_b, sc.ol)
+        if threads is not None:
+            if par:
+                sc.nlist[1] = _broad_parallel(threads, n, ncy, grid, cell_start, cell_items,
+                                              pos, species, sp_radius, sc.sx, sc.sy, sc.sr,
+                                              sc.ov_n, sc.ov_b, sc.ol)
+        if not par:
+            _gather(np.int64(0), n, cell_items, pos, species, sp_radius, sc.sx, sc.sy, sc.sr)
+            sc.nlist[1] = _scan_rows(np.int64(0), ncy, grid, cell_start, sc.sx, sc.sy, sc.sr,
+                                     sc.ov_n, sc.ov_b, sc.ol)
     return pl
 
 
