@@ -15,11 +15,11 @@
 """
 
 import pickle
-import struct
 
 import gymnasium as gym
 import numpy as np
 import pytest
+from test_set_state import same_state as _same  # bit for bit, every key
 
 import discgym as dg
 from discgym.env import DiscReactorEnv
@@ -38,22 +38,6 @@ def _scene(bounds, walls=(), outlets=()):
 
 
 # ------------------------------------------------------------------ comparisons
-def _bits(x):
-    if isinstance(x, np.ndarray):
-        return ("array", x.dtype.str, x.shape, x.tobytes())
-    if isinstance(x, float):
-        return ("float", struct.pack("<d", x))
-    if isinstance(x, dict):
-        return ("dict", sorted((k, _bits(v)) for k, v in x.items()))
-    return (type(x).__name__, x)
-
-
-def _same(a: dict, b: dict) -> None:
-    assert a.keys() == b.keys()
-    for k in a:
-        assert _bits(a[k]) == _bits(b[k]), k
-
-
 def _storage(sim) -> tuple:
     return tuple(getattr(sim, nm).tobytes() for nm in
                  ("_pos", "_vel", "_species", "_internal_energy", "_ids", "_walls", "_fsum",
