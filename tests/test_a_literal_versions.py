@@ -9,7 +9,8 @@ and then reads every kernel's compiled signatures. This module's name sorts firs
 a fresh clone (as in CI) the child compiles the envs' whole trees and sees every kernel in
 them, before any other test compiles the Simulation's cluster phase (``kernels.clusters``,
 which still passes literals to the kernels it shares, and is left out); with a warm cache it
-sees the entry points (the callees load inside their callers).
+sees the entry points (the callees load inside their callers). The child then runs a
+Simulation on both integrators and checks that no kernel was called from Python.
 """
 
 import json
@@ -44,7 +45,22 @@ for info in pkgutil.iter_modules(kernels.__path__):
                 seen += 1
                 if any(isinstance(t, types.Literal) for t in sig):
                     literal.append(f"{info.name}.{name}{sig}")
-print(json.dumps({"seen": seen, "literal": literal}))
+# and whether any kernel was called from Python (it would compile twice: its twin)
+import discgym as dg
+from discgym.kernels.jit import KernelDispatcher
+for integrator in ("step", "event"):
+    for scene in ("reactor", "flow"):
+        sim = dg.Simulation(scene, seed=0, integrator=integrator)
+        sim.step(3)
+        sim.total_energy(), sim.overlaps(), sim.outside()
+        sim.inject(0, 1)
+        sim.scale_temperature(1.1)
+        sim.resize(sim.bounds)
+twins = sorted(f"{info.name}.{name}"
+               for info in pkgutil.iter_modules(kernels.__path__)
+               for name, fn in vars(importlib.import_module(f"discgym.kernels.{info.name}")).items()
+               if isinstance(fn, KernelDispatcher) and fn.__dict__.get("_discgym_twin"))
+print(json.dumps({"seen": seen, "literal": literal, "twins": twins}))
 """
 
 
@@ -55,3 +71,6 @@ def test_no_kernel_is_compiled_for_literal_arguments():
     got = json.loads(out.stdout.strip().splitlines()[-1])
     assert got["literal"] == [], got["literal"]
     assert got["seen"] >= 4  # (at least the envs' entry points)
+    # the envs and the Simulation call only entry points (njit) from Python: no kernel
+    # (discgym.kernels.jit) is compiled a second time as its twin
+    assert got["twins"] == [], got["twins"]

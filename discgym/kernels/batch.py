@@ -41,6 +41,7 @@ from numba import njit, prange
 from .controls import RESIZED, heat, inject, resize
 from .event_driven import CELLS_PER_DISC, N_STATS, run_steps
 from .event_structs import Counters as EventCounters
+from .jit import kernel
 from .step import FS_WALL_HEAT, advance, empty_work
 from .structs import (
     BOX,
@@ -111,7 +112,7 @@ def _env_step_parallel(rx, ep, tables, params, flags, consts, rngs, active, act,
     _in_parallel(rx, ep, tables, params, flags, consts, rngs, active, act, order, starts, event)
 
 
-@njit(cache=True, parallel=True)
+@kernel(parallel=True)
 def _in_parallel(rx, ep, tables, params, flags, consts, rngs, active, act, order, starts, event):
     # (apart from _env_step_parallel: numba's parfor lowering fails on the unpacked structs)
     for t in prange(starts.shape[0] - 1):
@@ -258,10 +259,10 @@ def reactor_step(r, rx, ep, tables, params, flags, consts, rngs, act, event=None
 
 # reactor_step compiled as a function of its own, for the prange body of _in_parallel:
 # inlined there, numba's parfor lowering changed the results (tests/test_env_event.py)
-_reactor_step = njit(cache=True)(reactor_step.py_func)
+_reactor_step = kernel(reactor_step.py_func)
 
 
-@njit(cache=True)
+@kernel
 def _read_action(r, act, iout):
     """The action ``act[r]``: non-finite components do nothing (counted in
     ``iout[r, O_INVALID]``), the rest clipped to [-1, 1]. Returns ``(a, bad_heat,
@@ -284,7 +285,7 @@ def _read_action(r, act, iout):
     return a, bad_heat, bad_wall
 
 
-@njit(cache=True)
+@kernel
 def _jacket(a0, walls, consts):
     """Jacket control: every thermal wall (a side whose temperature is not NaN) to
     ``t_min (t_max / t_min) ** ((a0 + 1) / 2)``: log-uniform over [t_min, t_max]."""
@@ -294,7 +295,7 @@ def _jacket(a0, walls, consts):
             walls[k] = kT
 
 
-@njit(cache=True)
+@kernel
 def _wall_heat(fsum):
     """The energy the thermal walls have put in, all sides."""
     e = 0.0
@@ -303,7 +304,7 @@ def _wall_heat(fsum):
     return e
 
 
-@njit(cache=True)
+@kernel
 def _heat(r, a0, discs, n, ep, sp_mass, consts):
     """Heat control: kinetic energy x heat_rate ** a0, kT kept inside [t_min, t_max], and
     no further than the speed limit."""
@@ -319,7 +320,7 @@ def _heat(r, a0, discs, n, ep, sp_mass, consts):
         ep.fout[r, O_ENERGY_HEAT] = energy
 
 
-@njit(cache=True)
+@kernel
 def _wall(r, a1, discs, rx, ep, sp_radius, params, consts, rngs):
     """Wall control: the size toward its target by at most wall_speed, the box's width (origin
     kept) or the circle's radius ``size`` x the scene's (blocked: the size stays and
@@ -359,7 +360,7 @@ def _wall(r, a1, discs, rx, ep, sp_radius, params, consts, rngs):
         ep.iout[r, O_BLOCKED] = 1
 
 
-@njit(cache=True)
+@kernel
 def _inject_feed(r, a, discs, rx, ep, tables, consts, rngs):
     """Injection control: round(a * inject_max) discs of each feed species for a > 0, within
     the budget left, at the current kT. Returns False when they do not fit the arrays
@@ -395,7 +396,7 @@ def _inject_feed(r, a, discs, rx, ep, tables, consts, rngs):
     return True
 
 
-@njit(cache=True)
+@kernel
 def species_stats(vel, species, internal_energy, n, sp_mass, sp_form, out):
     """Per-species sums of one reactor, in disc order (a fixed summation order, so a lone
     reactor and a reactor in a batch get the same bits).
@@ -427,7 +428,7 @@ def observe_batch(rx, ep, sp_mass, consts):
         observe_one(r, rx, ep, sp_mass, consts)
 
 
-@njit(cache=True)
+@kernel
 def observe_one(r, rx, ep, sp_mass, consts):
     """Per-species sums (into ``ep.stats[r]`` (3S+1,), see :func:`species_stats`), the
     kinetic energy (into ``ep.kinetic[r]``) and temperature kT (kinetic energy per disc, 0 if
@@ -514,7 +515,7 @@ def observe_one(r, rx, ep, sp_mass, consts):
             o[k + c] = _clip(last[c] / ep.n_ref[r], low[k + c], high[k + c])
 
 
-@njit(cache=True)
+@kernel
 def _jacket_kT(walls):
     """The temperature of the thermal walls (the first that is not NaN; 0 if none)."""
     for k in range(walls.shape[0]):
@@ -523,7 +524,7 @@ def _jacket_kT(walls):
     return 0.0
 
 
-@njit(cache=True)
+@kernel
 def _energy_histogram(o, k, vel, species, n, sp_mass, st, edges, B, low, high):
     """Slots [k, k + S B) of ``o``: per species s, the share of its discs whose kinetic energy
     falls in each bin (bin b: edges[b - 1] <= E < edges[b], the first from 0, the last open)."""
@@ -544,7 +545,7 @@ def _energy_histogram(o, k, vel, species, n, sp_mass, st, edges, B, low, high):
             o[j] = _clip(o[j] / c, low[j], high[j])
 
 
-@njit(cache=True)
+@kernel
 def _spatial_histogram(o, k, pos, vel, species, n, sp_mass, st, bounds_kind, bounds_params, G,
                        low, high):
     """Slots [k, k + (S + 1) G^2) of ``o``: per species the share of its discs in each cell of
@@ -585,6 +586,6 @@ def _spatial_histogram(o, k, pos, vel, species, n, sp_mass, st, bounds_kind, bou
         o[j] = _clip(ke[c] / cnt[c] if cnt[c] > 0.0 else 0.0, low[j], high[j])
 
 
-@njit(cache=True)
+@kernel
 def _clip(v, lo, hi):
     return min(max(v, lo), hi)

@@ -23,6 +23,7 @@ import math
 import numpy as np
 from numba import njit
 
+from .jit import kernel
 from .structs import FLOAT
 
 MAX_CELLS = 1 << 26
@@ -31,7 +32,7 @@ BIG_SHARE = 1.0 / 32.0  # ... and holds at most this share of the discs (or BIG_
 BIG_MIN = 32
 
 
-@njit(cache=True)
+@kernel
 def cell_radius(species, n, sp_radius):
     """The cell radius for discs [0, n): the smallest species radius r such that the discs
     larger than BIG_RATIO * r are at most max(BIG_MIN, BIG_SHARE * n) (the largest radius,
@@ -59,7 +60,7 @@ def cell_radius(species, n, sp_radius):
     return best
 
 
-@njit(cache=True)
+@kernel
 def make_grid(bounds_kind, bounds_params, rcell, n):
     b = bounds_params
     if bounds_kind == 0:
@@ -82,13 +83,13 @@ def make_grid(bounds_kind, bounds_params, rcell, n):
     return grid
 
 
-@njit(cache=True)
+@kernel
 def big_cell(grid):
     """Index of the extra cell holding the big discs (see the module docstring)."""
     return int(grid[4]) * int(grid[5])
 
 
-@njit(cache=True)
+@kernel
 def cell_coord(x, icw, x0, nc):
     """Column (or row) of coordinate x in a grid of nc cells of inverse width icw from x0,
     clamped to [0, nc - 1] before the conversion to an integer (a disc far outside, or a
@@ -101,7 +102,7 @@ def cell_coord(x, icw, x0, nc):
     return int(f)
 
 
-@njit(cache=True)
+@kernel
 def build(n, pos, species, sp_radius, grid, cell_start, cell_items, cell_of):
     """Counting sort of the live discs (species >= 0) into cells (big discs into the big cell).
 
@@ -139,7 +140,7 @@ def build(n, pos, species, sp_radius, grid, cell_start, cell_items, cell_of):
     return cell_start[nc]
 
 
-@njit(cache=True)
+@kernel
 def cell_range(x, y, reach, grid):
     """Cells (cx0, cx1, cy0, cy1), inclusive, covering the square of half-side ``reach``."""
     x0, y0, icx, icy = grid[0], grid[1], grid[2], grid[3]
@@ -149,7 +150,7 @@ def cell_range(x, y, reach, grid):
             cell_coord(y - reach, icy, y0, ncy), cell_coord(y + reach, icy, y0, ncy))
 
 
-@njit(cache=True)
+@kernel
 def overlaps_any(x, y, r, t, ex1, ex2, pos, vel, species, sp_radius, grid, cell_start, cell_items,
                  nbin, n, reach):
     """Does a disc of radius r at (x, y) at time t (<= 0, relative to the end of the substep)

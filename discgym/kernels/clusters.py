@@ -45,6 +45,7 @@ from .celllist import cell_range
 from .collisions import bounce, normal_at
 from .contacts import add_event, push_contacts, queue_scan, schedule_start
 from .heap import new_heap, pop, push, reserve
+from .jit import kernel
 from .structs import (
     DISC_EVENTS,
     EVENTS_PER_DISC,
@@ -75,7 +76,7 @@ R_OK, R_ESCAPE, R_CONFLICT, R_FULL, R_SERIAL = range(5)
 C_PENDING, C_DONE, C_ESCAPED, C_MERGED = range(4)
 
 
-@njit(cache=True)
+@kernel
 def eligible(rc, bounds_kind):
     """Can a scene's substeps (``rc``: its :class:`~.structs.RunConsts`) take this path?
     (The big discs are checked per substep.)"""
@@ -90,7 +91,7 @@ def _blocks(grid):
     return (int(grid[4]) + m) >> OWN_SHIFT, (int(grid[5]) + m) >> OWN_SHIFT
 
 
-@njit(cache=True)
+@kernel
 def new_owner(grid):
     """The owner of each block of cells for a call's substeps (:func:`events`): -1, none
     yet; the last entry is the base of the next substep's entries (0)."""
@@ -116,7 +117,7 @@ def _rows(k, nst, ncy):
             min(((k + 1) * nby // nst) << OWN_SHIFT, ncy))
 
 
-@njit(cache=True)
+@kernel
 def _count(k, nst, sc, grid, qcnt):
     """How many events strip k may queue: the wall contacts of its discs and the overlaps
     of its sorted discs found by the scan (from the drift's and the scan's lists). Counts
@@ -145,7 +146,7 @@ def _count(k, nst, sc, grid, qcnt):
     return need
 
 
-@njit(cache=True)
+@kernel
 def _fill(k, nst, E, off, sp_radius, pos, vel, species, sc, grid, qcnt):
     """Append strip k's initial events (those :func:`_count` counted that occur) to E from
     row ``off``, as ``step._queue_initial`` queues them; returns how many."""
@@ -174,7 +175,7 @@ def _claim(own, cc, q, base, parent):
         _union(parent, q, o)
 
 
-@njit(cache=True)
+@kernel
 def _claims(k, nst, q0, q1, E, cell_of, grid, own, base, parent, bnd, b0):
     """Strip k's claims for the events E[q0:q1]: the owner blocks of the cells within CLAIM
     of its discs' cells (one rectangle for both), those in the strip's rows in ``own``
@@ -222,26 +223,26 @@ def _union(parent, a, b):
         parent[a] = b
 
 
-@njit(cache=True, parallel=True)
+@kernel(parallel=True)
 def _queue_parallel(nst, E, off, sp_radius, pos, vel, species, sc, grid, qcnt, got):
     for k in prange(nst):
         got[k] = _fill(k, nst, E, off[k], sp_radius, pos, vel, species, sc, grid, qcnt)
 
 
-@njit(cache=True, parallel=True)
+@kernel(parallel=True)
 def _count_parallel(nst, sc, grid, qcnt, need):
     for k in prange(nst):
         need[k] = _count(k, nst, sc, grid, qcnt)
 
 
-@njit(cache=True, parallel=True)
+@kernel(parallel=True)
 def _claims_parallel(nst, qs, E, cell_of, grid, own, base, parent, bnd, boff, nbs):
     for k in prange(nst):
         nbs[k] = _claims(k, nst, qs[k], qs[k + 1], E, cell_of, grid, own, base, parent, bnd,
                          boff[k])
 
 
-@njit(cache=True)
+@kernel
 def _queue(sp_radius, pos, vel, species, sc, grid, icnt, nst):
     """The substep's initial events (``step._queue_initial``'s, in another order), found
     by nst strips of cell rows on numba's threads (one: on the calling thread) from the
@@ -275,7 +276,7 @@ def _queue(sp_radius, pos, vel, species, sc, grid, icnt, nst):
     return E, qs
 
 
-@njit(cache=True)
+@kernel
 def _cluster(E, qs, nst, cell_of, grid, own, base):
     """Group the events E (strip k's: E[qs[k]:qs[k + 1]]) by the cells they claim, the
     strips in parallel, then across the strips' borders. Returns ``(ncl, ev_start, evs,
@@ -341,7 +342,7 @@ def _cluster(E, qs, nst, cell_of, grid, own, base):
     return ncl, ev_start, evs, cid
 
 
-@njit(cache=True)
+@kernel
 def _undo(lg, lo, hi, h, pos, vel, sc):
     """Put the discs logged in ``lg[lo:hi]`` back as they were at the start of the phase."""
     for r in range(lo, hi):
@@ -531,7 +532,7 @@ def _run_py(cid, dynamic, H, size, discs, tables, sc, bounds_kind, bounds_params
     return R_OK, -1, H, nrec, nlog, events, delta, vfast, dropped
 
 
-_run = njit(cache=True)(_run_py)
+_run = kernel(_run_py)
 _run_inline = njit(cache=True, inline="always")(_run_py)
 
 
@@ -551,7 +552,7 @@ def _load(H, E, evs, lo, hi):
 X_EVENTS, X_DROPPED, X_REC_LO, X_REC_HI, X_LOG_LO, X_LOG_HI, X_REPAIRED = range(7)
 
 
-@njit(cache=True)
+@kernel
 def _chunk(c0, c1, E, ev_start, evs, ecl, discs, tables, sc, bounds_kind, bounds_params, grid,
            rc, sub_id, h, own, base, rec, rec0, lg, lg0, budget, status, res, resf, cicnt):
     """Clusters [c0, c1) in turn, on one thread; their records in ``rec`` and their logs in
@@ -591,7 +592,7 @@ def _chunk(c0, c1, E, ev_start, evs, ecl, discs, tables, sc, bounds_kind, bounds
         nlog = nlog1
 
 
-@njit(cache=True, parallel=True)
+@kernel(parallel=True)
 def _chunks_parallel(nch, bounds_c, E, ev_start, evs, ecl, discs, tables, sc, bounds_kind,
                      bounds_params, grid, rc, sub_id, h, own, base, rec, rcap, lg, lcap, budget,
                      status, res, resf, cicnt):
@@ -602,7 +603,7 @@ def _chunks_parallel(nch, bounds_c, E, ev_start, evs, ecl, discs, tables, sc, bo
                lg[k * lcap:(k + 1) * lcap], k * lcap, budget, status, res, resf, cicnt)
 
 
-@njit(cache=True)
+@kernel
 def _undo_done(c, res, lg, lg2, h, pos, vel, sc):
     """Undo what cluster (or merged group) c did, from its log."""
     if res[c, X_REPAIRED]:
@@ -611,14 +612,14 @@ def _undo_done(c, res, lg, lg2, h, pos, vel, sc):
         _undo(lg, res[c, X_LOG_LO], res[c, X_LOG_HI], h, pos, vel, sc)
 
 
-@njit(cache=True)
+@kernel
 def _grown(a, used):
     b = np.empty((2 * a.shape[0], a.shape[1]), dtype=a.dtype)
     b[:used] = a[:used]
     return b
 
 
-@njit(cache=True)
+@kernel
 def _repair(ncl, E, ev_start, evs, ecl, discs, tables, sc, bounds_kind, bounds_params, grid,
             rc, sub_id, h, own, base, lg, budget, status, res, resf, cicnt):
     """Run the escaped clusters one at a time, growing them into free cells and merging
@@ -699,7 +700,7 @@ def _repair(ncl, E, ev_start, evs, ecl, discs, tables, sc, bounds_kind, bounds_p
     return True, rec2, lg2
 
 
-@njit(cache=True)
+@kernel
 def events(n, H, tables, discs, sc, bounds, grid, cnt, rc, sub_id, h, vfast, own, threads):
     """The initial queue and the event phase of a substep (as ``step._queue_initial`` and
     ``step._events`` for the scenes of :func:`eligible`, after the scan: not the pair
@@ -798,7 +799,7 @@ def events(n, H, tables, discs, sc, bounds, grid, cnt, rc, sub_id, h, vfast, own
     return True, H, size, delta, dropped, vfast
 
 
-@njit(cache=True)
+@kernel
 def _add_in_order(R, fsum):
     """Add the recorded terms R (rows t, i, j, which sum, value) to ``fsum`` in the serial
     phase's order: by (t, i, j), terms of one event in the order recorded (a disc at a

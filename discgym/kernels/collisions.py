@@ -14,13 +14,13 @@ the rule that lets a hot product cool and survive.
 
 import math
 
-from numba import njit
+from .jit import kernel
 
 SEPARATING_OVERLAP = 1e-10  # a separating pair overlapping deeper than this fraction of its
 # contact distance was left overlapping by a graze the step missed (see contact_time)
 
 
-@njit(cache=True)
+@kernel
 def contact_time(rx, ry, vx, vy, R, lo):
     """Contact time in [lo, 0] of a pair overlapping now (|r| < R), or nan if there is none.
 
@@ -54,7 +54,7 @@ def contact_time(rx, ry, vx, vy, R, lo):
     return max(t, lo)
 
 
-@njit(cache=True)
+@kernel
 def pair_time(xi, yi, vxi, vyi, ri, ti, xj, yj, vxj, vyj, rj, tj):
     """Contact time of discs i and j if they overlap now and touched in this step, else nan
     (+inf: left overlapping, see :func:`contact_time`).
@@ -68,7 +68,7 @@ def pair_time(xi, yi, vxi, vyi, ri, ti, xj, yj, vxj, vyj, rj, tj):
     return contact_time(rx, ry, vxj - vxi, vyj - vyi, R, max(ti, tj))
 
 
-@njit(cache=True)
+@kernel
 def normal_at(xi, yi, vxi, vyi, xj, yj, vxj, vyj, t):
     """Positions of i and j at time t and the unit normal n from i to j there."""
     xi = xi + t * vxi
@@ -94,7 +94,7 @@ def normal_at(xi, yi, vxi, vyi, xj, yj, vxj, vyj, t):
     return xi, yi, xj, yj, nx, ny
 
 
-@njit(cache=True)
+@kernel
 def bounce(vxi, vyi, vxj, vyj, mi, mj, nx, ny, e, kappa, ui, uj):
     """Impulse exchange along n (from i to j), for a pair with v_r = (v_i - v_j).n > 0.
 

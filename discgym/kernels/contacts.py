@@ -16,6 +16,7 @@ from numba import njit
 
 from .collisions import pair_time
 from .heap import push
+from .jit import kernel
 from .structs import IC_LEFT_OVERLAPPING, OV_SLOTS
 from .walls import contact, push_inside
 
@@ -47,7 +48,7 @@ def try_pair(i, j, sp_radius, pos, vel, species, tlast, stamp, H, size, icnt, si
                      np.int64(size), icnt, np.bool_(sift))
 
 
-@njit(cache=True)
+@kernel
 def _try_pair(i, j, sp_radius, pos, vel, species, tlast, stamp, H, size, icnt, sift):
     t = pair_time(pos[i, 0], pos[i, 1], vel[i, 0], vel[i, 1], sp_radius[species[i]], tlast[i],
                   pos[j, 0], pos[j, 1], vel[j, 0], vel[j, 1], sp_radius[species[j]], tlast[j])
@@ -61,7 +62,7 @@ def _try_pair(i, j, sp_radius, pos, vel, species, tlast, stamp, H, size, icnt, s
     return add_event(H, size, sift, t, j, i, stamp[j], stamp[i])
 
 
-@njit(cache=True)
+@kernel
 def close_lists(lst, starts, counts):
     """Move the lists of the chunks, ``lst[starts[c]:starts[c] + counts[c]]`` (chunks in
     increasing order of ``starts``, each list within its chunk's range), together to the
@@ -75,7 +76,7 @@ def close_lists(lst, starts, counts):
     return m
 
 
-@njit(cache=True)
+@kernel
 def half_stencil(c, ncx, ncy, cell_start):
     """The two runs of sorted discs a disc in cell c is compared with (half stencil):
     the rest of its own cell and the next cell in its row, then the three cells below
@@ -92,7 +93,7 @@ def half_stencil(c, ncx, ncy, cell_start):
     return e1, lo2, hi2
 
 
-@njit(cache=True)
+@kernel
 def queue_scan(a0, a1, sp_radius, pos, vel, species, sc, grid, H, size, icnt, sift):
     """Queue the contacts of the overlapping pairs the scan found for the sorted discs
     [a0, a1) (listed in ``sc.ol``; ``sc.ov_n``, ``sc.ov_b``: a disc with more partners than

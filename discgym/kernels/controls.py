@@ -13,6 +13,7 @@ import math
 import numpy as np
 from numba import njit
 
+from .jit import kernel
 from .placement import place, relocate
 from .structs import INDEX
 from .walls import inside
@@ -47,7 +48,7 @@ def energies(vel, species, internal_energy, sp_mass, sp_form, n):
     return k + kc, u + uc, f + fc
 
 
-@njit(cache=True)
+@kernel
 def kinetic_and_fastest(vel, species, sp_mass, n):
     """``(kinetic energy, largest squared speed)`` of discs [0, n); ``vel`` (C, 2)."""
     ke = 0.0
@@ -60,7 +61,7 @@ def kinetic_and_fastest(vel, species, sp_mass, n):
     return ke, v2max
 
 
-@njit(cache=True)
+@kernel
 def scale(vel, n, s):
     """``vel[:n] *= s`` in place."""
     for i in range(n):

@@ -107,6 +107,7 @@ from .event_structs import (
     Run,
 )
 from .heap import IndexedHeap, heap_set
+from .jit import kernel
 from .reactions import (
     _SEP,
     COMBINATION,
@@ -401,7 +402,7 @@ def _predict(d, T, fl, cells, queue, run, entered):
     heap_set(queue.heap, d, t)
 
 
-@njit(cache=True)
+@kernel
 def _room(x, y, r, ex1, ex2, T, fl, cells, run):
     """Does a disc of radius r fit at (x, y) at time T: inside the bounds and overlapping no
     live disc but ex1 and ex2 (touching is not overlapping)?"""
@@ -687,7 +688,7 @@ def _wall_hit(d, fl, queue, run, counters, rng):
     fl.stamp[d] += 1
 
 
-@njit(cache=True)
+@kernel
 def _fission(d, c, n, t, fl, cells, state, run, tables, rng):
     """A -> B + C of disc d by channel c if the fragments fit (two tries, the second with
     the separation direction reversed): d becomes B, disc n (there is room for it) C.
@@ -732,7 +733,7 @@ def _fission(d, c, n, t, fl, cells, state, run, tables, rng):
     return False
 
 
-@njit(cache=True)
+@kernel
 def _first_order_event(d, n, t, fl, cells, state, run, tables, rng, counters):
     """Disc d (at time t) undergoes one of its first-order channels, if its products fit
     (else it waits an exponential time, but at least ``run.hsub``: a certain reaction, rate
@@ -776,7 +777,7 @@ def _first_order_event(d, n, t, fl, cells, state, run, tables, rng, counters):
     return newd
 
 
-@njit(cache=True)
+@kernel
 def _may_split(s, tables):
     """Has species s a first-order channel that makes two discs?"""
     for q in range(tables.uni_start[s], tables.uni_start[s + 1]):
@@ -793,14 +794,14 @@ def _grow_fill(a, cap, fill):
     return out
 
 
-@njit(cache=True)
+@kernel
 def _grow_range(a, cap):
     out = np.arange(cap).astype(a.dtype)
     out[: a.shape[0]] = a
     return out
 
 
-@njit(cache=True)
+@kernel
 def _grow(cap, state, fl, cells, queue):
     """Every per-disc array at capacity ``cap`` (the contents kept; new slots hold no disc,
     and heap key inf, so the order of the heap, and of the events, does not change)."""
@@ -821,7 +822,7 @@ def _grow(cap, state, fl, cells, queue):
     return state, fl, cells, queue
 
 
-@njit(cache=True)
+@kernel
 def _run_constants(n, n_steps, step_dt, vel, species, tables, params, flags, bounds):
     """What a run of ``n_steps`` of ``step_dt`` fixes from the scene and the state at its
     start: the substep the time-stepped integrator would take (no disc moves more than
@@ -858,7 +859,7 @@ def _run_constants(n, n_steps, step_dt, vel, species, tables, params, flags, bou
                bounds_params[3], flags[F_THERMAL] != 0, bounds.walls, flags[F_OUTLETS] != 0)
 
 
-@njit(cache=True)
+@kernel
 def _make_cells(n, cap, run, cells_per_disc):
     """The grid over the bounds (one cell when discs do not collide), no disc in it yet."""
     b0, b1, b2, b3 = run.b0, run.b1, run.b2, run.b3
@@ -881,7 +882,7 @@ def _make_cells(n, cap, run, cells_per_disc):
                  np.full(cap, -1, dtype=INDEX), np.full(cap, -1, dtype=INDEX))
 
 
-@njit(cache=True)
+@kernel
 def _load(n, cap, state, cells, tables):
     """The discs in the integrator's numbering: live ones in cell order (dead ones last),
     so that neighbours are near in memory; each at time 0 and in its cell."""
@@ -894,7 +895,7 @@ def _load(n, cap, state, cells, tables):
     return fl
 
 
-@njit(cache=True, _nrt=False)
+@kernel(_nrt=False)
 def _fill(n, state, cells, tables, fl, cstart):
     """:func:`_load`'s loops (``cstart`` zeros, one more than the cells and the dead), without
     reference counting (see :func:`_event_loop`)."""
@@ -928,7 +929,7 @@ def _fill(n, state, cells, tables, fl, cstart):
         _cell_insert(d, _cell_of(pos[e, 0], pos[e, 1], cells), cells)
 
 
-@njit(cache=True)
+@kernel
 def _first_predictions(n, fl, cells, queue, run, tables, rng, stats):
     """Every disc's reaction time (drawn in the caller's order, independent of the grid) and
     first event."""
@@ -944,7 +945,7 @@ def _first_predictions(n, fl, cells, queue, run, tables, rng, stats):
     stats[ST_PREDICTIONS] += n
 
 
-@njit(cache=True, _nrt=False)
+@kernel(_nrt=False)
 def _predict_all(n, fl, cells, queue, run):
     """Every disc's first event (without reference counting: see :func:`_event_loop`)."""
     for d in range(n):
@@ -952,7 +953,7 @@ def _predict_all(n, fl, cells, queue, run):
             _predict(d, 0.0, fl, cells, queue, run, 0)
 
 
-@njit(cache=True, _nrt=False)
+@kernel(_nrt=False)
 def _event_loop(n, events, state, fl, cells, queue, run, tables, rng, counters):
     """Process events in time order until the end of the run, its event bound, or a
     first-order reaction that may split a disc while the arrays are full (checked before
@@ -1016,7 +1017,7 @@ def _event_loop(n, events, state, fl, cells, queue, run, tables, rng, counters):
     return t, n, events, False
 
 
-@njit(cache=True)
+@kernel
 def _events(n, state, fl, cells, queue, run, tables, rng, counters):
     """Process events in time order until the end of the run or its event bound
     (:func:`_event_loop`), growing the arrays when a fission finds them full. Returns
@@ -1032,7 +1033,7 @@ def _events(n, state, fl, cells, queue, run, tables, rng, counters):
         state, fl, cells, queue = _grow(2 * fl.path.shape[0] + 16, state, fl, cells, queue)
 
 
-@njit(cache=True)
+@kernel
 def _write_back(n, t, fl, state):
     """Every disc brought to time t, into the caller's arrays (in the caller's numbering)."""
     W = fl.path
@@ -1052,7 +1053,7 @@ def _write_back(n, t, fl, state):
             vel[e, 1] = 0.0
 
 
-@njit(cache=True)
+@kernel
 def _simulate(state, n, n_steps, step_dt, bounds, tables, params, flags, rng, counters,
               cells_per_disc):
     """Advance discs [0, n) by ``n_steps`` steps of ``step_dt`` in one run, from time 0 to

@@ -19,6 +19,7 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
+from .jit import kernel
 from .structs import FLOAT
 
 
@@ -98,7 +99,7 @@ def push(H, size, t, i, j, si, sj):
     return _push(H, np.int64(size), t, float(i), float(j), float(si), float(sj))
 
 
-@njit(cache=True)
+@kernel
 def _push(H, size, t, fi, fj, si, sj):
     if size >= H.shape[0]:
         raise IndexError("event heap full: room was not reserved (a bug in the caller)")
@@ -122,7 +123,7 @@ def _push(H, size, t, fi, fj, si, sj):
     return size + 1
 
 
-@njit(cache=True)
+@kernel
 def pop(H, size):
     """Remove the earliest event; returns (t, i, j, si, sj, new_size). Needs size > 0."""
     t = H[0, 0]

@@ -10,17 +10,18 @@ import numpy as np
 from numba import njit
 
 from .celllist import cell_coord, make_grid
+from .jit import kernel
 from .structs import INDEX
 from .walls import inside
 
 
-@njit(cache=True)
+@kernel
 def _cell(x, y, grid):
     return cell_coord(x, grid[2], grid[0], int(grid[4])) + int(grid[4]) * cell_coord(
         y, grid[3], grid[1], int(grid[5]))
 
 
-@njit(cache=True)
+@kernel
 def _free(x, y, r, pos, species, sp_radius, grid, head, nxt, rmax):
     reach = r + rmax
     cx0 = cell_coord(x - reach, grid[2], grid[0], int(grid[4]))
@@ -41,7 +42,7 @@ def _free(x, y, r, pos, species, sp_radius, grid, head, nxt, rmax):
     return True
 
 
-@njit(cache=True)
+@kernel
 def _sample(r, bounds_kind, bounds_params, rng):
     if bounds_kind == 0:
         x = bounds_params[0] + r + (bounds_params[2] - bounds_params[0] - 2.0 * r) * rng.random()
@@ -53,7 +54,7 @@ def _sample(r, bounds_kind, bounds_params, rng):
     return bounds_params[0] + rho * math.cos(a), bounds_params[1] + rho * math.sin(a)
 
 
-@njit(cache=True)
+@kernel
 def _clamp_inside(x, y, r, bounds_kind, bounds_params):
     if bounds_kind == 0:
         b = bounds_params
@@ -69,7 +70,7 @@ def _clamp_inside(x, y, r, bounds_kind, bounds_params):
     return x, y
 
 
-@njit(cache=True)
+@kernel
 def _place_one(tx, ty, r, pos, species, sp_radius, bounds_kind, bounds_params, grid, head, nxt,
                rmax, rng, attempts):
     """A free spot for a disc of radius r: at the target (tx, ty) clamped inside if free,
@@ -93,7 +94,7 @@ def _place_one(tx, ty, r, pos, species, sp_radius, bounds_kind, bounds_params, g
     return False, x, y
 
 
-@njit(cache=True)
+@kernel
 def place(pos, species, n, todo, targets, sp_radius, bounds_kind, bounds_params, rng, attempts):
     """Place discs of species ``todo`` (M,) after the n placed ones; returns how many fit.
 
@@ -129,7 +130,7 @@ def place(pos, species, n, todo, targets, sp_radius, bounds_kind, bounds_params,
     return m
 
 
-@njit(cache=True)
+@kernel
 def relocate(pos, species, n, sp_radius, bounds_kind, bounds_params, rng, attempts):
     """Move each disc of [0, n) that lies outside the bounds (after they shrank) to the
     nearest free spot found inside (:func:`_place_one`, its position as the target), in disc
@@ -212,7 +213,7 @@ def place_rngs(pos, species, n, todo, targets, sp_radius, bounds_kind, bounds_pa
                  attempts)
 
 
-@njit(cache=True)
+@kernel
 def relocate_rngs(pos, species, n, sp_radius, bounds_kind, bounds_params, rngs, attempts):
     """:func:`relocate` with its generator passed as ``rngs[0]`` (a ``numba.typed.List``)."""
     return relocate(pos, species, n, sp_radius, bounds_kind, bounds_params, rngs[0], attempts)

@@ -26,9 +26,9 @@ import math
 from typing import NamedTuple
 
 import numpy as np
-from numba import njit
 
 from .celllist import overlaps_any
+from .jit import kernel
 from .walls import inside
 
 TRANSFORMATION, DECOMPOSITION, COMBINATION, EXCHANGE, REVERSE = 0, 1, 2, 3, 4
@@ -71,7 +71,7 @@ class Product(NamedTuple):
 
 
 
-@njit(cache=True)
+@kernel
 def kind(s, tables):
     """Species s's :class:`Kind` from the compiled tables."""
     return Kind(tables.sp_mass[s], tables.sp_radius[s], tables.sp_form[s])
@@ -80,7 +80,7 @@ def kind(s, tables):
 # ---------------------------------------------------------------------- the state writes
 # What a reaction does to the state, for both integrators (the event-driven one passes views
 # of its per-disc rows as pos and vel).
-@njit(cache=True)
+@kernel
 def write_product(i, s, q, pos, vel, species, internal_energy):
     """Disc i becomes the product q of species s."""
     species[i] = s
@@ -91,7 +91,7 @@ def write_product(i, s, q, pos, vel, species, internal_energy):
     internal_energy[i] = q.u
 
 
-@njit(cache=True)
+@kernel
 def apply_combination(i, j, s, q, pos, vel, species, internal_energy):
     """A + B -> C: i becomes the product q of species s; j is removed (species -1, at rest,
     no internal energy)."""
@@ -102,28 +102,28 @@ def apply_combination(i, j, s, q, pos, vel, species, internal_energy):
     internal_energy[j] = 0.0
 
 
-@njit(cache=True)
+@kernel
 def apply_exchange(i, j, si, sj, qi, qj, pos, vel, species, internal_energy):
     """A + B -> C + D: i becomes qi (species si), j becomes qj (species sj)."""
     write_product(i, si, qi, pos, vel, species, internal_energy)
     write_product(j, sj, qj, pos, vel, species, internal_energy)
 
 
-@njit(cache=True)
+@kernel
 def apply_fission(i, k, sb, sc, qb, qc, pos, vel, species, internal_energy):
     """A -> B + C: i becomes the fragment qb (species sb), disc k the fragment qc (sc)."""
     write_product(i, sb, qb, pos, vel, species, internal_energy)
     write_product(k, sc, qc, pos, vel, species, internal_energy)
 
 
-@njit(cache=True)
+@kernel
 def apply_transformation(i, s, sp_form, species, internal_energy):
     """A -> B: disc i becomes species s (velocity unchanged, see :func:`transform_energy`)."""
     internal_energy[i] = transform_energy(internal_energy[i], sp_form[species[i]], sp_form[s])
     species[i] = s
 
 
-@njit(cache=True)
+@kernel
 def room(x, y, r, t, ex1, ex2, collide, bounds_kind, bounds_params, pos, vel, species, sp_radius,
          grid, cell_start, cell_items, nbin, n, reach):
     """Is there room for a disc of radius r at (x, y) at time t (<= 0: the contact time of a
@@ -137,7 +137,7 @@ def room(x, y, r, t, ex1, ex2, collide, bounds_kind, bounds_params, pos, vel, sp
                             cell_items, nbin, n, reach)
 
 
-@njit(cache=True)
+@kernel
 def combine_outcome(k, A, B, P, ui, uj, t):
     """The product of A + B -> P (pure).
 
@@ -164,7 +164,7 @@ def combine_outcome(k, A, B, P, ui, uj, t):
     return True, Product(X, Y, Vx, Vy, U)
 
 
-@njit(cache=True)
+@kernel
 def combine(i, j, c, t, xi, yi, xj, yj, tables, pos, vel, species, internal_energy, bounds_kind,
             bounds_params, grid, cell_start, cell_items, nbin, n, reach):
     """A + B -> C at contact time t; i becomes C, j dies (species = -1). Returns FIRED, or
@@ -185,7 +185,7 @@ def combine(i, j, c, t, xi, yi, xj, yj, tables, pos, vel, species, internal_ener
     return FIRED
 
 
-@njit(cache=True)
+@kernel
 def exchange_species(c, a, ch_reac, ch_prod):
     """The products (for i, for j) of exchange channel c when disc i is of species a."""
     if a == ch_reac[c, 0]:
@@ -193,7 +193,7 @@ def exchange_species(c, a, ch_reac, ch_prod):
     return ch_prod[c, 1], ch_prod[c, 0]
 
 
-@njit(cache=True)
+@kernel
 def exchange_outcome(k, A, B, C, D, ui, uj, t):
     """The products of A + B -> C + D (pure).
 
@@ -245,7 +245,7 @@ def exchange_outcome(k, A, B, C, D, ui, uj, t):
     return True, Product(XC, YC, vCx, vCy, 0.0), Product(XD, YD, vDx, vDy, 0.0)
 
 
-@njit(cache=True)
+@kernel
 def exchange(i, j, c, t, xi, yi, xj, yj, nx, ny, tables, pos, vel, species, internal_energy,
              bounds_kind, bounds_params, grid, cell_start, cell_items, nbin, n, reach):
     """A + B -> C + D at contact time t (n from i to j); i and j become the products.
@@ -271,7 +271,7 @@ def exchange(i, j, c, t, xi, yi, xj, yj, nx, ny, tables, pos, vel, species, inte
     return FIRED
 
 
-@njit(cache=True)
+@kernel
 def channel_energy(kind, u, f_parent, f_prod1, f_prod2, barrier):
     """Energy a first-order channel of ``kind`` would release from a disc with internal
     energy u (formation energies: the parent's and its products'; ``f_prod2`` is ignored by a
@@ -284,7 +284,7 @@ def channel_energy(kind, u, f_parent, f_prod1, f_prod2, barrier):
     return u + f_parent - f_prod1 - f_prod2
 
 
-@njit(cache=True)
+@kernel
 def released_energy(i, c, tables, species, internal_energy):
     """Energy a first-order channel c would release from disc i, or -1 if it cannot fire."""
     sp_form = tables.sp_form
@@ -293,7 +293,7 @@ def released_energy(i, c, tables, species, internal_energy):
                           sp_form[ch_prod[c, 0]], sp_form[ch_prod[c, 1]], tables.ch_energy[c])
 
 
-@njit(cache=True)
+@kernel
 def first_order_draws(n, h, sp_form, ch_kind, ch_prod, ch_rate, ch_energy, uni_start,
                       uni_chan, species, internal_energy, rng, out_disc, out_chan):
     """Draw which discs [0, n) undergo a first-order reaction in a step of length h.
@@ -340,7 +340,7 @@ def first_order_draws(n, h, sp_form, ch_kind, ch_prod, ch_rate, ch_energy, uni_s
     return m
 
 
-@njit(cache=True)
+@kernel
 def first_order_rate(i, tables, species, internal_energy):
     """Total rate K of the first-order channels of disc i whose energy condition holds now
     (per event, for the event-driven integrator; :func:`first_order_draws` is the per-step
@@ -356,7 +356,7 @@ def first_order_rate(i, tables, species, internal_energy):
     return K
 
 
-@njit(cache=True)
+@kernel
 def first_order_pick(i, K, tables, species, internal_energy, rng):
     """Which eligible first-order channel of disc i fires (channel c with chance k_c / K; K
     from :func:`first_order_rate`, > 0). Draws one random number."""
@@ -375,7 +375,7 @@ def first_order_pick(i, K, tables, species, internal_energy, rng):
     return last
 
 
-@njit(cache=True)
+@kernel
 def transform_energy(u, fa, fp):
     """Internal energy after A -> B of a disc with internal energy u (formation energies fa,
     fp): the formation-energy difference goes into it (never below 0: round-off only, since
@@ -386,7 +386,7 @@ def transform_energy(u, fa, fp):
     return u
 
 
-@njit(cache=True)
+@kernel
 def transform(i, c, collide, tables, pos, vel, species, internal_energy, bounds_kind,
               bounds_params, grid, cell_start, cell_items, nbin, n, reach):
     """A -> B on disc i by channel c if B fits where A is (B no larger than A always does).
@@ -401,7 +401,7 @@ def transform(i, c, collide, tables, pos, vel, species, internal_energy, bounds_
     return True
 
 
-@njit(cache=True)
+@kernel
 def fission_direction(Vx, Vy, rng):
     """Unit direction along which the fragments of a parent with velocity V separate:
     perpendicular to V with a random sign (a random direction if V = 0). Draws 1 or 2
@@ -420,7 +420,7 @@ def fission_direction(Vx, Vy, rng):
     return nx, ny
 
 
-@njit(cache=True)
+@kernel
 def fission_outcome(X, Y, Vx, Vy, E, m1, m2, d, nx, ny):
     """The fragments of A -> B + C (pure): parent at (X, Y) with velocity V, energy released
     E, fragment masses m1 (B), m2 (C), centre distance d, separation direction n (from B to
@@ -437,7 +437,7 @@ def fission_outcome(X, Y, Vx, Vy, E, m1, m2, d, nx, ny):
         Product(x2, y2, Vx + P / m2 * nx, Vy + P / m2 * ny, 0.0)
 
 
-@njit(cache=True)
+@kernel
 def fission(i, c, n, collide, tables, pos, vel, species, internal_energy, bounds_kind,
             bounds_params, grid, cell_start, cell_items, nbin, reach, rng):
     """A -> B + C (decomposition or reverse combination): i becomes B, disc n becomes C.
@@ -469,14 +469,14 @@ def fission(i, c, n, collide, tables, pos, vel, species, internal_energy, bounds
     return False
 
 
-@njit(cache=True)
+@kernel
 def grow1(a, n_new):
     out = np.zeros(n_new, dtype=a.dtype)
     out[: a.shape[0]] = a
     return out
 
 
-@njit(cache=True)
+@kernel
 def grow2(a, n_new):
     out = np.zeros((n_new, a.shape[1]), dtype=a.dtype)
     out[: a.shape[0]] = a

@@ -29,9 +29,8 @@ or the pass bound is reached: ``RESOLVE_WORK / n`` passes, at least 64 and at mo
 
 import math
 
-from numba import njit
-
 from .celllist import build, cell_range
+from .jit import kernel
 from .walls import inside, push_inside
 
 RESOLVE_PASSES = 4096  # at most this many passes, and at most RESOLVE_WORK / n (but >= 64)
@@ -42,7 +41,7 @@ _OVER = 1.5  # ... by this multiple of their overlap (over-relaxation: 3x fewer 
 # ring of discs pressed against the circle wall took ~800 passes to untangle)
 
 
-@njit(cache=True)
+@kernel
 def _move_inside(i, pos, r, bounds_kind, bounds_params):
     """Move disc i (radius r) to the nearest point inside the bounds, so that ``inside``
     holds afterwards (in the circle a margin of 1e-12 of R_m - r, as the rescaled position
@@ -60,7 +59,7 @@ def _move_inside(i, pos, r, bounds_kind, bounds_params):
     return True
 
 
-@njit(cache=True)
+@kernel
 def _wall_fix(i, pos, vel, r, m, bounds_kind, bounds_params):
     """Move disc i inside and reflect its outward velocity; returns the wall momentum."""
     x0 = pos[i, 0]
@@ -89,7 +88,7 @@ def _wall_fix(i, pos, vel, r, m, bounds_kind, bounds_params):
     return dp
 
 
-@njit(cache=True)
+@kernel
 def _repair_pair(i, j, pos, vel, species, sp_radius, sp_mass, e, bounds_kind, bounds_params):
     """Push discs i and j apart if they overlap (see the module docstring); returns
     ``(repaired, kinetic energy lost)``.
@@ -153,7 +152,7 @@ def _repair_pair(i, j, pos, vel, species, sp_radius, sp_mass, e, bounds_kind, bo
     return True, lost
 
 
-@njit(cache=True)
+@kernel
 def resolve(n, pos, vel, species, sp_radius, sp_mass, e, collide, bounds_kind, bounds_params,
             grid, cell_start, cell_items, cell_of):
     """Repair discs [0, n) (see the module docstring). Leaves the cell list built at the final

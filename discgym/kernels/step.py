@@ -40,6 +40,7 @@ from .collisions import bounce, normal_at
 from .contacts import close_lists, push_contacts, queue_scan, schedule_start
 from .contacts import try_pair as _try_pair
 from .heap import new_heap, pop, push, reserve
+from .jit import kernel
 from .reactions import (
     COMBINATION,
     FIRED,
@@ -142,7 +143,7 @@ PAIR_MAX_DISCS = 1 << 17  # calls on more discs use the scan: the list's scatter
 
 
 # ----------------------------------------------------------------------------- phase 1: drift
-@njit(cache=True)
+@kernel
 def _drift_range(lo, hi, h, pos, vel, species, sp_radius, bounds_kind, bounds_params, tlast,
                  wall_t, wflag, wl, grid, cell_of, collide, nev, binx, biny, partner):
     """Move discs [lo, hi) by h; note their wall contacts (and list the discs that have
@@ -195,7 +196,7 @@ def _drift_range(lo, hi, h, pos, vel, species, sp_radius, bounds_kind, bounds_pa
     return m - lo
 
 
-@njit(cache=True, parallel=True)
+@kernel(parallel=True)
 def _drift_parallel(nch, n, h, pos, vel, species, sp_radius, bounds_kind, bounds_params, tlast,
                     wall_t, wflag, wl, grid, cell_of, collide, nev, binx, biny, partner):
     """_drift_range in nch chunks of discs; returns how many discs are listed in ``wl``."""
@@ -211,7 +212,7 @@ def _drift_parallel(nch, n, h, pos, vel, species, sp_radius, bounds_kind, bounds
 
 
 # ----------------------------------------------------------------------- phase 2: broad phase
-@njit(cache=True)
+@kernel
 def _sort(n, cell_of, cell_start, cell_items):
     """Counting sort of discs [0, n) by ``cell_of`` (all live)."""
     nc = cell_start.shape[0] - 1
@@ -229,7 +230,7 @@ def _sort(n, cell_of, cell_start, cell_items):
     cell_start[0] = 0
 
 
-@njit(cache=True)
+@kernel
 def _scan_rows(r0, r1, grid, cell_start, sx, sy, sr, ov_n, ov_b, ol):
     """Overlapping pairs among discs binned in rows [r0, r1), in sorted order.
 
@@ -289,7 +290,7 @@ def _overlaps_in(a, lo, hi, k, xi, yi, ri, sx, sy, sr, ov_b):
     return k
 
 
-@njit(cache=True)
+@kernel
 def _gather(lo, hi, cell_items, pos, species, sp_radius, sx, sy, sr):
     for a in range(lo, hi):
         i = cell_items[a]
@@ -298,7 +299,7 @@ def _gather(lo, hi, cell_items, pos, species, sp_radius, sx, sy, sr):
         sr[a] = sp_radius[species[i]]
 
 
-@njit(cache=True, parallel=True)
+@kernel(parallel=True)
 def _broad_parallel(nch, n, ncy, grid, cell_start, cell_items, pos, species, sp_radius, sx, sy,
                     sr, ov_n, ov_b, ol):
     """_gather and _scan_rows in nch chunks; returns how many discs are listed in ``ol``."""
@@ -324,7 +325,7 @@ def _broad_parallel(nch, n, ncy, grid, cell_start, cell_items, pos, species, sp_
 # other pairs are tested for an overlap in one pass over the list. The overlapping pairs
 # found are exactly the scan's (the invariant of PairList), so the same contacts are queued
 # and, as the heap pops them by (t, i, j), the trajectory is the same bit for bit.
-@njit(cache=True)
+@kernel
 def new_pairlist(ws, cap):
     """An empty pair list for ``ws`` discs and ``cap`` pairs (no disc listed)."""
     return PairList(np.empty((ws, 2), dtype=FLOAT), np.zeros(ws, dtype=INDEX),
@@ -334,7 +335,7 @@ def new_pairlist(ws, cap):
                     np.zeros(2, dtype=np.int64))
 
 
-@njit(cache=True)
+@kernel
 def _pl_resize(pl, ws, cap):
     """``pl`` with room for ``ws`` discs and ``cap`` pairs, its entries kept, the refresh's
     marks and to-do list too (discs past the old size not listed)."""
@@ -354,7 +355,7 @@ def _pl_resize(pl, ws, cap):
     return q
 
 
-@njit(cache=True)
+@kernel
 def _pl_stale(n, pos, species, sp_radius, rcell, half, big, pl):
     """Mark the discs to refresh in this substep (``pl.mark``), small ones in ``pl.todo``:
     every listed disc farther than ``half`` (skin / 2) from its reference position, every
@@ -388,7 +389,7 @@ def _pl_stale(n, pos, species, sp_radius, rcell, half, big, pl):
     return m
 
 
-@njit(cache=True)
+@kernel
 def _pl_test(pos, species, sp_radius, rmono, pl):
     """Drop the pairs of the marked discs from the list and test the others for an overlap,
     in one pass: the overlapping pairs go to ``pl.ovi``, ``pl.ovj`` (their number to
@@ -416,7 +417,7 @@ def _pl_test(pos, species, sp_radius, rmono, pl):
     pl.count[1] = v
 
 
-@njit(cache=True)
+@kernel
 def _pl_refresh(m, pos, species, sp_radius, pl, grid, cell_start, cell_items, cut, reach):
     """Re-list the ``m`` discs of ``pl.todo`` (their pairs dropped already): each one's
     reference position is set to where it is, and its pairs (reference positions closer than
@@ -472,7 +473,7 @@ def _pl_refresh(m, pos, species, sp_radius, pl, grid, cell_start, cell_items, cu
     return True
 
 
-@njit(cache=True)
+@kernel
 def _mono_radius(sp_radius, rcell):
     """rcell if every species no larger than rcell has radius rcell (so every small disc
     has), else 0."""
@@ -482,7 +483,7 @@ def _mono_radius(sp_radius, rcell):
     return rcell
 
 
-@njit(cache=True)
+@kernel
 def _pl_broad(n, pos, species, sp_radius, grid, sc, pl, full, big):
     """The broad phase through the pair list (after :func:`_sort`): refresh the discs that
     need it (every small disc if ``full``: the list is built anew), test the listed pairs.
@@ -509,7 +510,7 @@ def _pl_broad(n, pos, species, sp_radius, grid, sc, pl, full, big):
     return pl
 
 
-@njit(cache=True)
+@kernel
 def _pl_compact(n, species, pl, newidx):
     """Follow :func:`_compact` (to be called before it, on the same discs): drop the pairs
     of the removed discs (species < 0) and renumber the others. ``newidx``: (n,) scratch."""
@@ -536,7 +537,7 @@ def _pl_compact(n, species, pl, newidx):
     pl.count[0] = w
 
 
-@njit(cache=True)
+@kernel
 def _pl_permute(n, perm, pl, inv, fs):
     """Follow :func:`_reorder` (called after it): disc ``perm[a]`` is now disc a. ``inv``
     (n,) INDEX and ``fs`` (2 n,) FLOAT: scratch."""
@@ -558,7 +559,7 @@ def _pl_permute(n, perm, pl, inv, fs):
 
 
 # ------------------------------------------------------------------ phase 3: event queue
-@njit(cache=True)
+@kernel
 def _queue_initial(n, collide, sp_radius, pos, vel, species, sc, grid, H, icnt, pl, listed):
     """Queue every wall contact and every overlapping pair of the substep: the pairs the
     broad phase found (``sc.ov_n``, ``sc.ov_b``: small discs; by sorted position from the
@@ -620,7 +621,7 @@ def _queue_initial(n, collide, sp_radius, pos, vel, species, sc, grid, H, icnt, 
     return H, size
 
 
-@njit(cache=True)
+@kernel
 def _big_candidates(a, sx, sy, sr, rcell, grid, cell_start):
     """How many discs big disc a (sorted index) is compared with in :func:`_queue_initial`."""
     ncx = int(grid[4])
@@ -632,7 +633,7 @@ def _big_candidates(a, sx, sy, sr, rcell, grid, cell_start):
     return k
 
 
-@njit(cache=True)
+@kernel
 def _schedule(d, sp_radius, pos, vel, species, tlast, stamp, n, collide, bounds_kind,
               bounds_params, grid, cell_start, cell_items, nbin, reach, H, size, icnt):
     """Queue the next contacts of disc d (a wall, and every overlapping disc).
@@ -669,7 +670,7 @@ def _schedule(d, sp_radius, pos, vel, species, tlast, stamp, n, collide, bounds_
     return H, size
 
 
-@njit(cache=True)
+@kernel
 def _glide(i, tw, T, xc, yc, tau, psi, vn, r, mi, pos, vel, species, sp_radius, tlast, collide,
            bounds_params, grid, cell_start, cell_items, nbin, n, reach, icnt, fsum):
     """Disc i, just reflected at (xc, yc) at time tw, grazes the circle wall so closely that
@@ -801,7 +802,7 @@ def _wall_event(i, discs, tables, bounds, sc, cnt, rc, grid, H, size, nbin, n, r
     return what, t_glide
 
 
-@njit(cache=True)
+@kernel
 def _events(n, H, size, tables, discs, sc, bounds, grid, cnt, rc, sub_id, h, vfast, cut_after,
             rng):
     """Process the queue earliest first (``discs``: :class:`~.structs.Discs`, ``sc``:
@@ -995,7 +996,7 @@ def _events(n, H, size, tables, discs, sc, bounds, grid, cnt, rc, sub_id, h, vfa
     return H, n_dead, delta, dropped, vfast, vrel, t_cut
 
 
-@njit(cache=True)
+@kernel
 def _rewind(n, t, pos, vel, species, binx, biny, collide):
     """End the substep at time t < 0 (see :func:`_events`): every disc, on its straight
     trajectory since its latest event (none after t), goes back to where it is at t. Returns
@@ -1012,7 +1013,7 @@ def _rewind(n, t, pos, vel, species, binx, biny, collide):
 
 
 # ------------------------------------------------------------- phase 4: first-order reactions
-@njit(cache=True)
+@kernel
 def _first_order(n, h, tables, discs, fission_possible, bounds, grid, sc, delta, rc, rng, cnt):
     """Each disc present at the start of the pass draws its first-order reactions (structs:
     see :func:`_events`).
@@ -1083,7 +1084,7 @@ def _first_order(n, h, tables, discs, fission_possible, bounds, grid, sc, delta,
 
 
 # -------------------------------------------------------------------------- phase 5: removal
-@njit(cache=True)
+@kernel
 def _compact(n, pos, vel, species, internal_energy, ids):
     """Remove discs with species < 0, keeping the order of the others; returns the new n."""
     m = 0
@@ -1103,7 +1104,7 @@ def _compact(n, pos, vel, species, internal_energy, ids):
     return m
 
 
-@njit(cache=True)
+@kernel
 def _reorder(n, pos, vel, species, internal_energy, ids, grid, work):
     """Permute discs [0, n) into cell order (stable), so that neighbours are neighbours in
     memory. Disc identity is kept in ``ids``. Without it, from about 1e5 discs the gather
@@ -1147,7 +1148,7 @@ def _reorder(n, pos, vel, species, internal_energy, ids, grid, work):
         ids[a] = d2[i]
 
 
-@njit(cache=True)
+@kernel
 def _resplit(n, vel, species, rem, h, cut, dt, maxdisp, vfast, capped, k, sub, icnt):
     """Split the time ``rem`` left in a step anew after energy was released in its last
     substep (of length ``h``; ``cut``: ended early, see :func:`_events`), into substeps of
@@ -1198,7 +1199,7 @@ def empty_work():
     return (np.empty(0, dtype=FLOAT), np.empty(0, dtype=INDEX), np.empty(0, dtype=COUNT))
 
 
-@njit(cache=True)
+@kernel
 def _fit_work(work, ws, nstart):
     """``work`` if its buffers hold ``ws`` discs and a cell index of ``nstart``, else new
     buffers of exactly that size."""
@@ -1210,7 +1211,7 @@ def _fit_work(work, ws, nstart):
             np.empty(N_CWORK * ws, dtype=COUNT))
 
 
-@njit(cache=True)
+@kernel
 def _carve(work, ws, nstart):
     """The per-disc scratch arrays of a run for ``ws`` discs, and ``cell_start``
     (``nstart``), as a :class:`~.structs.Scratch` of views of the buffers ``work`` (see
@@ -1265,7 +1266,7 @@ def advance_rngs(discs, n, n_steps, dt, bounds, tables, params, flags, rngs, cnt
     return fields(d), n, work
 
 
-@njit(cache=True)
+@kernel
 def advance(discs, n, n_steps, dt, bounds, tables, params, flags, rng, cnt, threads, step0,
             reorder_every, work, clusters=None):
     """Advance ``n_steps`` steps of length ``dt``.
@@ -1440,7 +1441,7 @@ def advance(discs, n, n_steps, dt, bounds, tables, params, flags, rng, cnt, thre
     return Discs(pos, vel, species, internal_energy, ids, idctr), n, work
 
 
-@njit(cache=True)
+@kernel
 def _any_first_order(species, n, uni_start):
     """Does some disc of [0, n) have a species with first-order channels?"""
     for i in range(n):
@@ -1450,7 +1451,7 @@ def _any_first_order(species, n, uni_start):
     return False
 
 
-@njit(cache=True)
+@kernel
 def _first_split(vel, n, dt, maxdisp, icnt):
     """The substeps of a step of ``dt``: k of them, so that the fastest disc moves at most
     ``maxdisp`` in each, but at most MAX_SUBSTEPS (then ``capped``, counted in
@@ -1473,7 +1474,7 @@ def _first_split(vel, n, dt, maxdisp, icnt):
     return k, capped, math.sqrt(v2max)
 
 
-@njit(cache=True)
+@kernel
 def _drift_and_bin(threads, n, h, pos, vel, species, sp_radius, bounds_kind, bounds_params, grid,
                    sc, collide, pl, listed, full, big):
     """Phases 1 and 2 of a substep: the drift (and wall contacts), then, if ``collide``, the
@@ -1514,7 +1515,7 @@ def _drift_and_bin(threads, n, h, pos, vel, species, sp_radius, bounds_kind, bou
     return pl
 
 
-@njit(cache=True)
+@kernel
 def _repair(dropped, n, pos, vel, species, tables, e, collide, bounds_kind, bounds_params, grid,
             sc, cnt):
     """The fallback after a substep that ran out of events (``dropped``) or left a pair

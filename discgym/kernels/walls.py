@@ -10,12 +10,12 @@ Times are relative to the end of the current (sub)step: a contact at t happened 
 
 import math
 
-from numba import njit
+from .jit import kernel
 
 INF = math.inf
 
 
-@njit(cache=True)
+@kernel
 def box_contact(x, y, vx, vy, r, b0, b1, b2, b3):
     """Earliest past wall contact of a disc in the box (xmin, ymin, xmax, ymax) = b0..b3.
 
@@ -61,7 +61,7 @@ def box_contact(x, y, vx, vy, r, b0, b1, b2, b3):
     return t, axis, inward
 
 
-@njit(cache=True)
+@kernel
 def circle_contact(x, y, vx, vy, r, b0, b1, b2):
     """Past contact of a disc with the circle of centre (b0, b1), radius b2: (t, 0, inward).
 
@@ -84,7 +84,7 @@ def circle_contact(x, y, vx, vy, r, b0, b1, b2):
     return c / q, 0, False
 
 
-@njit(cache=True)
+@kernel
 def contact(x, y, vx, vy, r, bounds_kind, bounds_params):
     """Wall contact of a disc in either bounds kind (``bounds_kind``, ``bounds_params`` as in
     :class:`~discgym.kernels.structs.Bounds`)."""
@@ -94,7 +94,7 @@ def contact(x, y, vx, vy, r, bounds_kind, bounds_params):
     return circle_contact(x, y, vx, vy, r, bounds_params[0], bounds_params[1], bounds_params[2])
 
 
-@njit(cache=True)
+@kernel
 def reflected(xc, yc, vx, vy, axis, bounds_kind, b0, b1):
     """Specular reflection (pure) of a disc touching the wall at (xc, yc) with velocity v.
 
@@ -120,7 +120,7 @@ def reflected(xc, yc, vx, vy, axis, bounds_kind, b0, b1):
     return vx - 2.0 * vn * nx, vy - 2.0 * vn * ny, abs(vn)
 
 
-@njit(cache=True)
+@kernel
 def box_next(x, y, vx, vy, r, b0, b1, b2, b3):
     """Time until the next wall contact of a disc moving freely in the box (b0, b1, b2, b3)
     = (xmin, ymin, xmax, ymax), and the axis hit: ``(t, axis)``, t = inf if it never hits.
@@ -147,7 +147,7 @@ def box_next(x, y, vx, vy, r, b0, b1, b2, b3):
     return t, axis
 
 
-@njit(cache=True)
+@kernel
 def circle_next(x, y, vx, vy, r, b0, b1, b2):
     """Time until a disc moving freely inside the circle of centre (b0, b1), radius b2 next
     touches it: the root t >= 0 of |d + t v| = L (d = r - M, L = b2 - r) at which it would
@@ -173,7 +173,7 @@ def circle_next(x, y, vx, vy, r, b0, b1, b2):
 GLIDE_CHORDS = 8  # a disc that would reflect more often than this in the rest of a step glides
 
 
-@njit(cache=True)
+@kernel
 def circle_chord(xc, yc, vx, vy, r, b0, b1, b2):
     """The chord a disc just reflected at (xc, yc) off the circle wall (centre (b0, b1),
     radius b2) crosses with velocity (vx, vy): ``(tau, psi, vn)``, the time it takes
@@ -195,7 +195,7 @@ def circle_chord(xc, yc, vx, vy, r, b0, b1, b2):
     return tau, psi, vn
 
 
-@njit(cache=True)
+@kernel
 def circle_glide(xc, yc, vx, vy, r, b0, b1, b2, tau, psi, vn, s):
     """A disc grazing the circle wall, advanced in closed form through its reflections.
 
@@ -245,7 +245,7 @@ def circle_glide(xc, yc, vx, vy, r, b0, b1, b2, tau, psi, vn, s):
 GRAZE = 4.5e-5  # least inward angle (radians) of a reflection off the circle, event-driven
 
 
-@njit(cache=True)
+@kernel
 def graze_floor(x, y, vx, vy, b0, b1):
     """The velocity of a disc just reflected at (x, y) off the circle of centre (b0, b1),
     turned (speed kept) so that it leaves the wall at an angle of at least ``GRAZE``.
@@ -278,7 +278,7 @@ def graze_floor(x, y, vx, vy, b0, b1):
     return -a * nx + b * tx, -a * ny + b * ty
 
 
-@njit(cache=True)
+@kernel
 def reflect(i, t, axis, pos, vel, m, bounds_kind, bounds_params):
     """Reflect disc i at its contact time t; returns the momentum delivered to the wall."""
     xc = pos[i, 0] + t * vel[i, 0]
@@ -293,7 +293,7 @@ def reflect(i, t, axis, pos, vel, m, bounds_kind, bounds_params):
     return dp
 
 
-@njit(cache=True)
+@kernel
 def push_inside(i, pos, r, bounds_kind, bounds_params):
     """Move disc i to the nearest point where it lies within the bounds (no velocity change).
 
@@ -316,7 +316,7 @@ def push_inside(i, pos, r, bounds_kind, bounds_params):
 FIT_TOL = 1e-9  # a free gap below this fraction of the radius counts as an exact fit
 
 
-@njit(cache=True)
+@kernel
 def settle_after_reflection(i, axis, pos, r, bounds_kind, bounds_params):
     """After a reflection, hold a disc that fits its bounds exactly where it must be; returns
     True if it was moved.
@@ -349,7 +349,7 @@ def settle_after_reflection(i, axis, pos, r, bounds_kind, bounds_params):
     return True
 
 
-@njit(cache=True)
+@kernel
 def inside(x, y, r, bounds_kind, bounds_params):
     """Does a disc of radius r at (x, y) lie within the bounds?"""
     if bounds_kind == 0:
@@ -362,7 +362,7 @@ def inside(x, y, r, bounds_kind, bounds_params):
 
 
 # ------------------------------------------------------------ thermal walls and outlets
-@njit(cache=True)
+@kernel
 def side_of(xc, yc, axis, vx, vy, bounds_kind, bounds_params):
     """The side a disc touching the wall at (xc, yc) (its centre at the contact) meets, moving
     with (vx, vy) along ``axis`` (of :func:`contact`), and where on it: ``(side, frac)``.
@@ -383,7 +383,7 @@ def side_of(xc, yc, axis, vx, vy, bounds_kind, bounds_params):
     return 0, f
 
 
-@njit(cache=True)
+@kernel
 def on_outlet(side, frac, outlets):
     """Does the point ``frac`` of ``side`` lie on one of the outlet segments ``outlets``
     ((M, 3) rows side, start, end; ends included)?"""
@@ -393,7 +393,7 @@ def on_outlet(side, frac, outlets):
     return False
 
 
-@njit(cache=True)
+@kernel
 def thermal_velocity(xc, yc, vx, vy, side, kT, m, bounds_kind, bounds_params, rng):
     """The velocity a disc of mass m leaves a thermal wall at temperature kT with, having
     met it at (xc, yc) with (vx, vy): diffuse reflection, the flux-weighted Maxwell-Boltzmann
