@@ -5,7 +5,8 @@ episode held by the thermostats' heating law, a wall profile, a feed level and a
 per feed, the setpoint's response to the inlet temperature. CMA-ES (the ``cma`` library,
 fixed seed: reproducible) works on the parameters mapped to [0, 1] (log kT for the
 setpoints), starting from the task's hand-written controller where the family holds it
-(``DiscFlow-v0``'s flow thermostat) or from the family's defaults; each candidate is scored
+(``DiscFlow-v0``'s flow thermostat, ``DiscEconomic-v0``'s band thermostat) or from the
+family's defaults; each candidate is scored
 by its mean return on the tuning seeds ``--tune-seeds FIRST N`` (3000-3047 by default:
 disjoint from the thermostats' tuning seeds 500-739 and the evaluation seeds 1000-1299 and
 2000-2299), a whole generation in one native vector env (one reactor per candidate and seed,
@@ -14,12 +15,13 @@ bit for bit the single env). The search stops before a generation would pass
 then scored on ``N`` more seeds (after the tuning seeds); the pick is the best mean over all
 the tuning seeds it met.
 
-``--compare`` then recreates the reviewer's kind of schedule, four parameters (a constant
-setpoint, one feed stop for every feed, the wall's start and end, linear in between) picked by
-a 40-point grid on the same tuning seeds with the same refine stage, and scores the pick, the
-schedule and the flow thermostat on the evaluation seeds ``--eval-seeds`` (and
-``--also-seeds``): means and paired differences with 95% BCa intervals
-(:func:`discgym.baselines.mean_ci`, :func:`~discgym.baselines.paired_difference`).
+``--compare`` then scores the pick and the task's hand-written controller (its ladder's,
+``discgym.baselines.TASK_BASELINES``) on the evaluation seeds ``--eval-seeds`` (and
+``--also-seeds``); on ``DiscFlow-v0`` also the reviewer's kind of schedule, four parameters (a
+constant setpoint, one feed stop for every feed, the wall's start and end, linear in between)
+picked by a 40-point grid on the same tuning seeds with the same refine stage: means and
+paired differences with 95% BCa intervals (:func:`discgym.baselines.mean_ci`,
+:func:`~discgym.baselines.paired_difference`).
 
 Writes the pick, the history of every generation, the budget spent (env steps, episodes, wall
 and CPU seconds) and the comparison as JSON to ``--out`` (default ``out/search_<env>.json``,
@@ -43,8 +45,13 @@ from pathlib import Path
 import numpy as np
 
 import discgym  # noqa: F401  (registers the tasks)
-from discgym.baselines import mean_ci, paired_difference
-from discgym.searched import ScheduleController, flow_thermostat_params, run_batch
+from discgym.baselines import TASK_BASELINES, mean_ci, paired_difference, run_episodes
+from discgym.searched import (
+    ScheduleController,
+    band_thermostat_params,
+    flow_thermostat_params,
+    run_batch,
+)
 from discgym.tasks import TASKS
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -124,9 +131,6 @@ def check_args(a) -> None:
         if m2 and set(_seeds(f, m2)) & set(search):
             _refuse(f"{flag}: the evaluation seeds meet the search's seeds "
                     f"{search[0]}-{search[-1]}")
-    if a.compare and a.env != "DiscFlow-v0":
-        _refuse(f"--compare: the reviewer's schedule and the flow thermostat are "
-                f"DiscFlow-v0's, got --env {a.env}")
     out = Path(a.out) if a.out else None
     if out is not None and (out.is_dir() or not out.parent.is_dir()):
         _refuse(f"--out: {out} is a folder or its folder does not exist")
@@ -158,8 +162,9 @@ def main(argv=None) -> int:
     p.add_argument("--max-reactors", type=int, default=1024,
                    help="reactors per vector env (memory)")
     p.add_argument("--compare", action="store_true",
-                   help="DiscFlow-v0: also the reviewer's 4-parameter schedule and the flow "
-                        "thermostat on the evaluation seeds")
+                   help="score the pick and the task's hand-written controller on the "
+                        "evaluation seeds (DiscFlow-v0: the reviewer's 4-parameter schedule "
+                        "too)")
     p.add_argument("--eval-seeds", type=int, nargs=2, default=(1000, 300), metavar=("FIRST", "N"))
     p.add_argument("--also-seeds", type=int, nargs=2, default=(2000, 300),
                    metavar=("FIRST", "N"))
@@ -176,7 +181,9 @@ def main(argv=None) -> int:
     env = gym.make(a.env, **env_kwargs)
     steps = env.unwrapped.config.episode_steps
     names = ScheduleController.names(env)
+    # (from the task's hand-written controller where the family holds it exactly)
     start = (flow_thermostat_params(env) if a.env == "DiscFlow-v0"
+             else band_thermostat_params(env) if a.env == "DiscEconomic-v0"
              else ScheduleController.defaults(env))
     x0 = np.array([start[k] for k in names])
     tune = _seeds(*a.tune_seeds)
@@ -264,8 +271,40 @@ def main(argv=None) -> int:
 
 
 def compare(a, env, pick, tune, more, env_kwargs) -> dict:
-    """The reviewer's kind of schedule (grid on the tuning seeds, the same refine stage), the
-    flow thermostat and the pick on the evaluation seeds."""
+    """The pick and the task's hand-written controller (``TASK_BASELINES``) on the evaluation
+    seeds; on ``DiscFlow-v0`` also the reviewer's kind of schedule (grid on the tuning seeds,
+    the same refine stage)."""
+    rule = TASK_BASELINES[a.env].controller_name
+    res: dict = {"hand_written": rule}
+    batch = {"searched": pick}
+    pairs = [("searched", rule)]
+    if a.env == "DiscFlow-v0":
+        batch["schedule4"] = _reviewer_schedule(a, env, tune, more, env_kwargs, res)
+        pairs += [("schedule4", rule), ("searched", "schedule4")]
+    for label, (first, n) in (("eval", a.eval_seeds), ("also", a.also_seeds)):
+        if not n:
+            continue
+        seeds = _seeds(first, n)
+        R = run_batch(a.env, np.array(list(batch.values())), seeds, env_kwargs, a.max_reactors)
+        ret = dict(zip(batch, R))
+        # the hand-written controller as the ladder runs it: one env per seed
+        ret[rule] = run_episodes(a.env, TASK_BASELINES[a.env].controller, seeds,
+                                 env_kwargs).returns
+        diffs = {f"{x} - {y}": paired_difference(ret[x], ret[y]).as_dict() for x, y in pairs}
+        res[label] = {"seeds": [seeds[0], seeds[-1]],
+                      "mean": {c: _summary(r) for c, r in ret.items()},
+                      "difference": diffs, "returns": {c: r.tolist() for c, r in ret.items()}}
+        print(f"seeds {seeds[0]}-{seeds[-1]}:")
+        for c, r in ret.items():
+            print(f"  {c:22s} {mean_ci(r).text()}")
+        for d, s in diffs.items():
+            print(f"  {d:40s} {s['value']:+.3f} [{s['low']:+.3f}, {s['high']:+.3f}]",
+                  flush=True)
+    return res
+
+
+def _reviewer_schedule(a, env, tune, more, env_kwargs, res) -> np.ndarray:
+    """DiscFlow-v0: the 4-parameter schedule picked by a 40-point grid on the tuning seeds."""
     names = ScheduleController.names(env)
     t0, c0 = time.perf_counter(), time.process_time()
 
@@ -289,30 +328,10 @@ def compare(a, env, pick, tune, more, env_kwargs) -> dict:
     print(f"the reviewer's kind of schedule: {len(grid)}-point grid on seeds {tune[0]}-"
           f"{tune[-1]} (+ refine): {reviewer} ({r_tune[best]:.4f} on the tuning seeds; "
           f"{grid_seconds:.0f} s wall, {grid_cpu:.0f} s CPU)", flush=True)
-    ctl = {"searched": pick, "schedule4": G[best], "flow_thermostat": vec(
-        flow_thermostat_params(env))}
-    res = {"reviewer_grid": {"setpoint": list(GRID_SETPOINT), "stop": list(GRID_STOP),
-                             "wall": [list(w) for w in GRID_WALL]},
-           "reviewer_pick": reviewer, "grid_seconds": grid_seconds, "grid_cpu": grid_cpu}
-    for label, (first, n) in (("eval", a.eval_seeds), ("also", a.also_seeds)):
-        if not n:
-            continue
-        seeds = _seeds(first, n)
-        R = run_batch(a.env, np.array(list(ctl.values())), seeds, env_kwargs, a.max_reactors)
-        ret = dict(zip(ctl, R))
-        diffs = {f"{x} - {y}": paired_difference(ret[x], ret[y]).as_dict()
-                 for x, y in (("searched", "flow_thermostat"), ("schedule4", "flow_thermostat"),
-                              ("searched", "schedule4"))}
-        res[label] = {"seeds": [seeds[0], seeds[-1]],
-                      "mean": {c: _summary(r) for c, r in ret.items()},
-                      "difference": diffs, "returns": {c: r.tolist() for c, r in ret.items()}}
-        print(f"seeds {seeds[0]}-{seeds[-1]}:")
-        for c, r in ret.items():
-            print(f"  {c:16s} {mean_ci(r).text()}")
-        for d, s in diffs.items():
-            print(f"  {d:34s} {s['value']:+.3f} [{s['low']:+.3f}, {s['high']:+.3f}]",
-                  flush=True)
-    return res
+    res.update({"reviewer_grid": {"setpoint": list(GRID_SETPOINT), "stop": list(GRID_STOP),
+                                  "wall": [list(w) for w in GRID_WALL]},
+                "reviewer_pick": reviewer, "grid_seconds": grid_seconds, "grid_cpu": grid_cpu})
+    return G[best]
 
 
 if __name__ == "__main__":

@@ -11,21 +11,26 @@ engineer writes, with every control a function of the episode clock ``u = 1 - ti
   temperature, which changes within an episode. It is held by the thermostats' heating law
   (the env's own law inverted, :meth:`discgym.controllers._Slots.heat_actions`); with
   ``heating="jacket"`` by :class:`~discgym.controllers.JacketThermostat`'s proportional law,
-  the jacket at ``target + jacket_gain (target - kT)``.
+  the jacket at ``target + jacket_gain (target - kT)``. Where the reward charges the heat
+  moved (``heat_cost`` > 0), a dead band ``band`` >= 1: the law heats or cools toward the
+  nearest point of ``[target / band, target x band]`` and leaves kT alone inside it
+  (``band`` = 1: the plain setpoint), as :class:`~discgym.controllers.BandThermostat` does.
 - wall: the action, piecewise linear in ``u`` through ``wall_0``, ``wall_1``, ``wall_2`` at
   ``u`` = :data:`WALL_KNOTS`.
 - each feed species X: the action ``feed_X`` while ``u < stop_X``, 0 after (``stop_X`` = 1:
   fed to the end).
 
 The parameter vector (:meth:`ScheduleController.names`, in that order) depends on the env:
-``inlet_gain`` only where ``feed_kT`` is observed, ``jacket_gain`` only with a jacket, one
-``feed_X, stop_X`` pair per feed species. :meth:`~ScheduleController.bounds` gives each
-parameter's range and scale ("log" for the setpoints: the search works on ``log kT``);
+``inlet_gain`` only where ``feed_kT`` is observed, ``jacket_gain`` only with a jacket, ``band``
+only where heat costs, one ``feed_X, stop_X`` pair per feed species.
+:meth:`~ScheduleController.bounds` gives each parameter's range and scale ("log" for the
+setpoints: the search works on ``log kT``);
 :meth:`~ScheduleController.from_vector` and :meth:`~ScheduleController.to_vector` convert,
 :meth:`~ScheduleController.batch` makes one controller for a batch of reactors with one
 parameter vector per row (the search scores a whole population in one vector env:
 :func:`run_batch`). The family holds ``DiscFlow-v0``'s flow thermostat exactly
-(:func:`flow_thermostat_params`).
+(:func:`flow_thermostat_params`) and ``DiscEconomic-v0``'s band thermostat
+(:func:`band_thermostat_params`).
 
 :data:`SEARCHED` has the parameters found by ``benchmarks/search_controller.py``, per task, and
 the command that found them; :func:`searched` makes that controller (docs/tasks.md,
@@ -42,7 +47,7 @@ import numpy as np
 from .controllers import _Slots
 
 __all__ = ["ScheduleController", "SETPOINT_KNOTS", "WALL_KNOTS", "SEARCHED", "searched",
-           "flow_thermostat_params", "run_batch"]
+           "flow_thermostat_params", "band_thermostat_params", "run_batch"]
 
 #: The clock values ``u`` of the setpoint's knots (0.6 and 0.8: the flow thermostat's ramp
 #: starts at 0.6, so the family holds it exactly; denser late, where the schedules differ).
@@ -115,6 +120,8 @@ class ScheduleController:
             names.append("inlet_gain")
         if u.config.heating == "jacket":
             names.append("jacket_gain")
+        elif u.config.heat_cost > 0:
+            names.append("band")
         return names
 
     @classmethod
@@ -122,7 +129,7 @@ class ScheduleController:
         """``{name: (low, high, scale)}``: a setpoint within the env's temperature range (log
         scale), a wall action in [-1, 1], a feed action in [0, 1] (a negative one feeds
         nothing, as 0), a feed's stop in [0, 1] (a fraction of the episode), ``inlet_gain`` in
-        [-1, 1], ``jacket_gain`` in [0, 10] (linear scales)."""
+        [-1, 1], ``jacket_gain`` in [0, 10], ``band`` in [1, 4] (linear scales)."""
         cfg = getattr(env, "unwrapped", env).config
         out = {}
         for k in cls.names(env):
@@ -132,6 +139,8 @@ class ScheduleController:
                 out[k] = (-1.0, 1.0, "linear")
             elif k.startswith(("feed_", "stop_")):
                 out[k] = (0.0, 1.0, "linear")
+            elif k == "band":
+                out[k] = (1.0, 4.0, "linear")
             else:  # jacket_gain
                 out[k] = (0.0, 10.0, "linear")
         return out
@@ -139,14 +148,15 @@ class ScheduleController:
     @classmethod
     def defaults(cls, env) -> dict[str, float]:
         """Hold kT 1.6 (clipped into the env's range), the wall at -1, every feed full to the
-        end, no inlet feedback, jacket gain 4 (:class:`~discgym.controllers.Thermostat`'s
-        and :class:`~discgym.controllers.JacketThermostat`'s settings)."""
+        end, no inlet feedback, jacket gain 4, no dead band
+        (:class:`~discgym.controllers.Thermostat`'s and
+        :class:`~discgym.controllers.JacketThermostat`'s settings)."""
         b = cls.bounds(env)
         out = {}
         for k, (lo, hi, _) in b.items():
             out[k] = (min(max(1.6, lo), hi) if k.startswith("setpoint_") else
                       -1.0 if k.startswith("wall_") else 1.0 if k.startswith(("feed_", "stop_"))
-                      else 0.0 if k == "inlet_gain" else 4.0)
+                      else 0.0 if k == "inlet_gain" else 1.0 if k == "band" else 4.0)
         return out
 
     @classmethod
@@ -253,6 +263,10 @@ class ScheduleController:
             jacket = np.clip(jacket, self.t_min, self.t_max)
             a[:, 0] = 0.0 if span == 0.0 else \
                 np.clip(2.0 * np.log(jacket / self.t_min) / span - 1.0, -1.0, 1.0)
+        elif "band" in self._col:
+            # (toward the band's nearest point: inside it the goal is T itself, action 0)
+            b = X[:, self._col["band"]]
+            a[:, 0] = s.heat_actions(np.clip(T, target / b, target * b), T)
         else:
             a[:, 0] = s.heat_actions(target, T)
         a[:, 1] = np.clip(_interp(u, WALL_KNOTS, X[:, self._cols("wall_")]), -1.0, 1.0)
@@ -282,6 +296,33 @@ def flow_thermostat_params(env, *, setpoint=3.8, wall=1.0, inject=1.0, ramp=0.7,
             p[nm] = 1.0
         elif nm == "inlet_gain":
             p[nm] = 0.0
+        elif nm == "band":
+            p[nm] = 1.0
+    return p
+
+
+def band_thermostat_params(env, *, t_low=1.0, t_high=2.0, wall=-1.0, inject=1.0,
+                           feed_until=0.6) -> dict[str, float]:
+    """The parameters that make :class:`ScheduleController` the band thermostat
+    (:class:`discgym.controllers.BandThermostat` with these settings and ``margin=0``, the
+    band kept by a constant setpoint ``sqrt(t_low t_high)`` and ``band = sqrt(t_high /
+    t_low)``); the env must charge heat (``heat_cost`` > 0: the family has ``band``)."""
+    names = ScheduleController.names(env)
+    if "band" not in names:
+        raise ValueError("env: the band thermostat's dead band needs heat_cost > 0")
+    if not 0 < t_low <= t_high:
+        raise ValueError(f"t_low, t_high: expected 0 < t_low <= t_high, got {t_low!r}, "
+                         f"{t_high!r}")
+    p = {f"setpoint_{k}": math.sqrt(t_low * t_high) for k in range(len(SETPOINT_KNOTS))}
+    p.update({f"wall_{k}": wall for k in range(len(WALL_KNOTS))})
+    for nm in names:
+        if nm.startswith("feed_"):
+            p[nm] = inject
+        elif nm.startswith("stop_"):
+            p[nm] = 1.0 - feed_until
+        elif nm == "inlet_gain":
+            p[nm] = 0.0
+    p["band"] = math.sqrt(t_high / t_low)
     return p
 
 
@@ -348,9 +389,100 @@ SEARCHED: dict[str, dict] = {
             "feed_B": 0.9990449593872636,
             "stop_B": 0.9020333492575564,
             "inlet_gain": -0.10781558901620825,
+            "band": 1.0,  # (the search ran before the family had a dead band)
         },
         "command": ("python benchmarks/search_controller.py --env DiscFlow-v0 "
                     "--budget-steps 2900000 --sigma0 0.05 --tune-seeds 3000 64 --compare"),
+    },
+    # 1,484,800 env steps of CMA-ES from the family's defaults on seeds 3000-3063,
+    # the best 5 and CMA's mean re-scored on seeds 3064-3163: 1,583,200 env steps,
+    # 9 min wall, 8 min CPU (2026-12-04, the 2-core AMD EPYC VM, one thread).
+    "DiscReactor-v0": {
+        "params": {
+            "setpoint_0": 1.2960786310199233,
+            "setpoint_1": 1.5148291857786393,
+            "setpoint_2": 1.7300091347866524,
+            "setpoint_3": 1.3380506448625915,
+            "setpoint_4": 1.9453303761446745,
+            "wall_0": -0.957003857715691,
+            "wall_1": -0.8538880268122928,
+            "wall_2": -0.8266450206475631,
+            "feed_A": 0.9589247851405938,
+            "stop_A": 0.9742629608118973,
+            "feed_B": 0.7837558844819702,
+            "stop_B": 0.8641790882861077,
+        },
+        "command": ("python benchmarks/search_controller.py --env DiscReactor-v0 "
+                    "--budget-steps 1500000 "
+                    "--tune-seeds 3000 64 --compare"),
+    },
+    # 1,484,800 env steps of CMA-ES from the family's defaults on seeds 3000-3063,
+    # the best 5 and CMA's mean re-scored on seeds 3064-3163: 1,583,200 env steps,
+    # 9 min wall, 8 min CPU (2026-12-04, the 2-core AMD EPYC VM, one thread).
+    "DiscKinetics-v0": {
+        "params": {
+            "setpoint_0": 1.2812482519451125,
+            "setpoint_1": 1.2370707811000736,
+            "setpoint_2": 1.9406096067118481,
+            "setpoint_3": 1.9532856716806535,
+            "setpoint_4": 2.35766414248731,
+            "wall_0": -0.8706879832191803,
+            "wall_1": -0.6541903948867474,
+            "wall_2": -0.7806019185107913,
+            "feed_A": 0.9552228599054727,
+            "stop_A": 0.8682755406143703,
+            "feed_B": 0.9450413027832495,
+            "stop_B": 0.9929395850222468,
+        },
+        "command": ("python benchmarks/search_controller.py --env DiscKinetics-v0 "
+                    "--budget-steps 1500000 "
+                    "--tune-seeds 3000 64 --compare"),
+    },
+    # 1,484,800 env steps of CMA-ES from the band thermostat on seeds 3000-3063,
+    # the best 5 and CMA's mean re-scored on seeds 3064-3163: 1,583,200 env steps,
+    # 9 min wall, 9 min CPU (2026-12-04, the 2-core AMD EPYC VM, one thread).
+    "DiscEconomic-v0": {
+        "params": {
+            "setpoint_0": 2.339887800837987,
+            "setpoint_1": 1.8953084964468634,
+            "setpoint_2": 1.7182976159273062,
+            "setpoint_3": 1.1954146906242287,
+            "setpoint_4": 3.4722585484748656,
+            "wall_0": -0.9824250916078937,
+            "wall_1": -0.8649258058852812,
+            "wall_2": -0.7160083419323668,
+            "feed_A": 0.9994886824657672,
+            "stop_A": 0.48593731070989366,
+            "feed_B": 0.726771128532769,
+            "stop_B": 0.5865961812790057,
+            "band": 2.3137216932844,
+        },
+        "command": ("python benchmarks/search_controller.py --env DiscEconomic-v0 "
+                    "--budget-steps 1500000 "
+                    "--tune-seeds 3000 64 --compare"),
+    },
+    # 1,484,800 env steps of CMA-ES from the family's defaults on seeds 3000-3063,
+    # the best 5 and CMA's mean re-scored on seeds 3064-3163: 1,583,200 env steps,
+    # 11 min wall, 9 min CPU (2026-12-04, the 2-core AMD EPYC VM, one thread).
+    "DiscJacket-v0": {
+        "params": {
+            "setpoint_0": 1.4561503589237237,
+            "setpoint_1": 1.0863660426768673,
+            "setpoint_2": 1.472356522174832,
+            "setpoint_3": 1.7894490648091703,
+            "setpoint_4": 1.864600851196697,
+            "wall_0": -0.9884534743002755,
+            "wall_1": -0.9019767480387595,
+            "wall_2": -0.9787273911596293,
+            "feed_A": 0.8628770082313321,
+            "stop_A": 0.7542655037370193,
+            "feed_B": 0.7900759295174381,
+            "stop_B": 0.9984303728783593,
+            "jacket_gain": 3.5248711372497796,
+        },
+        "command": ("python benchmarks/search_controller.py --env DiscJacket-v0 "
+                    "--budget-steps 1500000 "
+                    "--tune-seeds 3000 64 --compare"),
     },
 }
 

@@ -11,10 +11,12 @@ import pytest
 
 import discgym  # noqa: F401
 from discgym.baselines import run_episodes
-from discgym.controllers import flow_thermostat
+from discgym.controllers import BandThermostat, flow_thermostat
+from discgym.env import DiscReactorEnv
 from discgym.searched import (
     SEARCHED,
     ScheduleController,
+    band_thermostat_params,
     flow_thermostat_params,
     run_batch,
     searched,
@@ -76,7 +78,7 @@ def test_bad_parameters_are_refused_naming_them():
         ScheduleController(env, wall_1=1.5)
     with pytest.raises(ValueError, match="setpoint_2"):
         ScheduleController(env, setpoint_2=float("nan"))
-    with pytest.raises(ValueError, match=r"x: expected shape \(13,\)"):
+    with pytest.raises(ValueError, match=r"x: expected shape \(14,\)"):
         ScheduleController.from_vector(env, np.zeros(12))
     X = _random_vectors(env, 3, np.random.default_rng(2))
     X[2, 9] = 2.0
@@ -96,6 +98,24 @@ def test_the_family_holds_the_flow_thermostat():
         assert np.array_equal(c(obs), a)
         assert c.setpoint == pytest.approx(th.setpoint, rel=1e-12)
         obs, *_ = env.step(a)
+
+
+def test_the_family_holds_the_band_thermostat():
+    # (the dead band: heat only outside [t_low, t_high], feed until 0.6 of the episode is left)
+    env = gym.make("DiscEconomic-v0", episode_steps=40)
+    c, th = ScheduleController(env, **band_thermostat_params(env)), BandThermostat(env)
+    assert c.params()["band"] == pytest.approx(2 ** 0.5)
+    obs, _ = env.reset(seed=3)
+    idle = 0
+    for _ in range(40):
+        a = th(obs)
+        np.testing.assert_allclose(c(obs), a, rtol=0, atol=1e-6)
+        idle += a[0] == 0.0
+        obs, *_ = env.step(a)
+    assert 0 < idle < 40  # (both sides of the band's edge were met)
+    with pytest.raises(ValueError, match="heat_cost > 0"):
+        band_thermostat_params(gym.make("DiscReactor-v0"))
+    assert "band" not in ScheduleController.names(gym.make("DiscReactor-v0"))
 
 
 def test_batch_and_single_evaluations_agree():
@@ -120,11 +140,25 @@ def test_the_shipped_parameters_load():
     assert SEARCHED["DiscFlow-v0"]["command"].startswith("python benchmarks/search_controller")
     obs, _ = env.reset(seed=0)
     assert env.action_space.contains(c(obs))
-    with pytest.raises(ValueError, match="no searched controller for 'DiscReactor-v0'"):
-        searched(gym.make("DiscReactor-v0"))
+    with pytest.raises(ValueError, match="no searched controller for None"):
+        searched(DiscReactorEnv())  # (made directly: no registered id)
     # the returns docs/tasks.md's table averages, on its first two evaluation seeds
     returns = run_episodes("DiscFlow-v0", searched, [1000, 1001]).returns
     assert returns.tolist() == [2.365777850337153, 3.2454035969323374]
+
+
+@pytest.mark.parametrize("env_id, first_two", [
+    ("DiscReactor-v0", [0.9586776859504127, 0.8981481481481483]),
+    ("DiscKinetics-v0", [0.9338842975206605, 0.6388888888888888]),
+    ("DiscEconomic-v0", [0.6165905358003555, 0.5814285528534057]),
+    ("DiscJacket-v0", [0.9338842975206606, 0.8981481481481483]),
+])
+def test_every_task_has_its_searched_controller(env_id, first_two):
+    # every task of the suite; its returns on the first two evaluation seeds of docs/tasks.md
+    assert set(SEARCHED) == set(TASKS)
+    env = gym.make(env_id)
+    assert list(searched(env).params()) == ScheduleController.names(env)
+    assert run_episodes(env_id, searched, [1000, 1001]).returns.tolist() == first_two
 
 
 @pytest.mark.parametrize("args, message", [
