@@ -46,12 +46,7 @@ import numpy as np
 
 import discgym  # noqa: F401  (registers the tasks)
 from discgym.baselines import TASK_BASELINES, mean_ci, paired_difference, run_episodes
-from discgym.searched import (
-    ScheduleController,
-    band_thermostat_params,
-    flow_thermostat_params,
-    run_batch,
-)
+from discgym.searched import HELD, ScheduleController, flow_thermostat_params, run_batch
 from discgym.tasks import TASKS
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -182,9 +177,7 @@ def main(argv=None) -> int:
     steps = env.unwrapped.config.episode_steps
     names = ScheduleController.names(env)
     # (from the task's hand-written controller where the family holds it exactly)
-    start = (flow_thermostat_params(env) if a.env == "DiscFlow-v0"
-             else band_thermostat_params(env) if a.env == "DiscEconomic-v0"
-             else ScheduleController.defaults(env))
+    start = HELD[a.env](env) if a.env in HELD else ScheduleController.defaults(env)
     x0 = np.array([start[k] for k in names])
     tune = _seeds(*a.tune_seeds)
     more = _seeds(tune[-1] + 1, a.refine[1])

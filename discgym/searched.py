@@ -47,7 +47,7 @@ import numpy as np
 from .controllers import _Slots
 
 __all__ = ["ScheduleController", "SETPOINT_KNOTS", "WALL_KNOTS", "SEARCHED", "searched",
-           "flow_thermostat_params", "band_thermostat_params", "run_batch"]
+           "flow_thermostat_params", "band_thermostat_params", "HELD", "run_batch"]
 
 #: The clock values ``u`` of the setpoint's knots (0.6 and 0.8: the flow thermostat's ramp
 #: starts at 0.6, so the family holds it exactly; denser late, where the schedules differ).
@@ -277,6 +277,21 @@ class ScheduleController:
         return a[0] if one else a
 
 
+def _holding(env, setpoints, *, wall, inject, stop, **extra) -> dict[str, float]:
+    """:meth:`ScheduleController.defaults` with these setpoints (one per knot), a constant
+    wall, every feed at ``inject`` until ``stop``, and ``extra``."""
+    p = ScheduleController.defaults(env)
+    p.update({f"setpoint_{k}": float(v) for k, v in enumerate(setpoints)})
+    p.update({f"wall_{k}": wall for k in range(len(WALL_KNOTS))})
+    for nm in p:
+        if nm.startswith("feed_"):
+            p[nm] = inject
+        elif nm.startswith("stop_"):
+            p[nm] = stop
+    p.update(extra)
+    return p
+
+
 def flow_thermostat_params(env, *, setpoint=3.8, wall=1.0, inject=1.0, ramp=0.7,
                            ramp_from=0.6) -> dict[str, float]:
     """The parameters that make :class:`ScheduleController` the flow thermostat
@@ -284,21 +299,9 @@ def flow_thermostat_params(env, *, setpoint=3.8, wall=1.0, inject=1.0, ramp=0.7,
     one of :data:`SETPOINT_KNOTS`, the ramp is then piecewise linear through the knots)."""
     if ramp_from not in SETPOINT_KNOTS[:-1]:
         raise ValueError(f"ramp_from: expected one of {SETPOINT_KNOTS[:-1]}, got {ramp_from!r}")
-    p = {}
-    for k, knot in enumerate(SETPOINT_KNOTS):
-        late = max(knot - ramp_from, 0.0) / (1.0 - ramp_from)
-        p[f"setpoint_{k}"] = setpoint * (1.0 + ramp * late)
-    p.update({f"wall_{k}": wall for k in range(len(WALL_KNOTS))})
-    for nm in ScheduleController.names(env):
-        if nm.startswith("feed_"):
-            p[nm] = inject
-        elif nm.startswith("stop_"):
-            p[nm] = 1.0
-        elif nm == "inlet_gain":
-            p[nm] = 0.0
-        elif nm == "band":
-            p[nm] = 1.0
-    return p
+    setpoints = [setpoint * (1.0 + ramp * max(knot - ramp_from, 0.0) / (1.0 - ramp_from))
+                 for knot in SETPOINT_KNOTS]
+    return _holding(env, setpoints, wall=wall, inject=inject, stop=1.0)
 
 
 def band_thermostat_params(env, *, t_low=1.0, t_high=2.0, wall=-1.0, inject=1.0,
@@ -307,23 +310,18 @@ def band_thermostat_params(env, *, t_low=1.0, t_high=2.0, wall=-1.0, inject=1.0,
     (:class:`discgym.controllers.BandThermostat` with these settings and ``margin=0``, the
     band kept by a constant setpoint ``sqrt(t_low t_high)`` and ``band = sqrt(t_high /
     t_low)``); the env must charge heat (``heat_cost`` > 0: the family has ``band``)."""
-    names = ScheduleController.names(env)
-    if "band" not in names:
+    if "band" not in ScheduleController.names(env):
         raise ValueError("env: the band thermostat's dead band needs heat_cost > 0")
     if not 0 < t_low <= t_high:
         raise ValueError(f"t_low, t_high: expected 0 < t_low <= t_high, got {t_low!r}, "
                          f"{t_high!r}")
-    p = {f"setpoint_{k}": math.sqrt(t_low * t_high) for k in range(len(SETPOINT_KNOTS))}
-    p.update({f"wall_{k}": wall for k in range(len(WALL_KNOTS))})
-    for nm in names:
-        if nm.startswith("feed_"):
-            p[nm] = inject
-        elif nm.startswith("stop_"):
-            p[nm] = 1.0 - feed_until
-        elif nm == "inlet_gain":
-            p[nm] = 0.0
-    p["band"] = math.sqrt(t_high / t_low)
-    return p
+    return _holding(env, [math.sqrt(t_low * t_high)] * len(SETPOINT_KNOTS), wall=wall,
+                    inject=inject, stop=1.0 - feed_until, band=math.sqrt(t_high / t_low))
+
+
+#: The tasks whose hand-written controller (``discgym.baselines.TASK_BASELINES``) the family
+#: holds exactly: the function giving its parameters (the search starts there).
+HELD = {"DiscFlow-v0": flow_thermostat_params, "DiscEconomic-v0": band_thermostat_params}
 
 
 def run_batch(env_id: str, X, seeds: Sequence[int], env_kwargs: Mapping | None = None,

@@ -34,10 +34,7 @@ class KernelDispatcher(CPUDispatcher):
     """A dispatcher compiled without a Python entry; a call from Python runs its twin."""
 
     def __call__(self, *args, **kwargs):
-        twin = self.__dict__.get("_discgym_twin")
-        if twin is None:
-            twin = self._discgym_twin = _make_twin(self)
-        return twin(*args, **kwargs)
+        return python_twin(self)(*args, **kwargs)
 
 
 def _make_twin(disp: KernelDispatcher) -> CPUDispatcher:
