@@ -43,8 +43,10 @@ def watch(proc: subprocess.Popen, timeout: float):
     while proc.poll() is None and time.monotonic() < end:
         with contextlib.suppress(psutil.Error):
             for p in root.children(recursive=True):
+                # (the latest name: a child caught between fork and exec still has its
+                # parent's name, "python", and a raylet so first seen would be missed)
                 with contextlib.suppress(psutil.Error):
-                    seen.setdefault(p.pid, (p.name(), p.create_time()))
+                    seen[p.pid] = (p.name(), p.create_time())
         names = {pid: v[0] for pid, v in seen.items()} | {proc.pid: "driver"}
         for c in psutil.net_connections(kind="tcp"):
             if c.pid in names:
