@@ -1,20 +1,27 @@
 """Evaluate trained agents on their task against the task's baselines: the task's whole table.
 
     python agents/evaluate.py --run runs/DiscReactor-v0_ppo            # after train_ppo.py
-    python agents/evaluate.py --run runs/DiscReactor-v0_ppo runs/DiscReactor-v0_sac --mpc
+    python agents/evaluate.py --run runs/DiscReactor-v0_ppo runs/DiscReactor-v0_sac --planner
 
 Every policy plays one episode on each evaluation seed (1000-1019 by default; training used
 other seeds, see train_ppo.py), on a fresh ``gymnasium.make(env_id)``:
 - random: ``env.action_space.sample()``;
 - best constant: the best of the task's grid of constant actions, searched on seeds 0-9;
-- hand-written: the task's controller (``discgym.baselines.TASK_BASELINES``);
+- hand-written: the task's simple rule (``discgym.baselines.TASK_BASELINES``);
+- searched: the task's searched controller (``discgym.searched``: CMA-ES along every control
+  on tuning seeds 3000 and up);
 - each trained agent, with deterministic actions (its best validation checkpoint by default);
 - with two or more runs of one algorithm (training seeds, say), a row of their mean return on
   each seed;
-- oracle: rollout MPC on clones of the true env (``discgym.oracle.RolloutOracle``).
+- with ``--planner``: rollout MPC on the searched controller that does not foresee the random
+  draws (``TaskBaselines.planner``);
+- oracle: the same rollout MPC on exact clones of the true env, every random draw foreseen
+  (``discgym.oracle.RolloutOracle``), the ceiling.
 The table gives the mean and the interquartile mean with 95% BCa bootstrap intervals
-(``scipy.stats.bootstrap`` through ``discgym.baselines``) and each policy's paired difference
-to the hand-written controller over the same seeds (separated: its interval excludes 0).
+(``scipy.stats.bootstrap`` through ``discgym.baselines``), each policy's paired differences
+to the hand-written and the searched controller over the same seeds (separated: the interval
+excludes 0) and its normalised score (its mean return mapped so that random is 0 and the
+searched controller 1).
 
 Writes into the first run's folder: ``evaluation.json`` (every return, the table, date,
 machine, versions), ``evaluation.md`` (the table), ``learning_curve.png`` (each agent's
@@ -57,7 +64,7 @@ from argcheck import (  # noqa: E402
 )
 from train_ppo import ALGOS, algo_class, vec_env_wrappers  # noqa: E402
 
-LADDER = ("random", "best constant", "hand-written", "mpc", "oracle")
+LADDER = ("random", "best constant", "hand-written", "searched", "planner", "oracle")
 
 
 @dataclass
@@ -77,9 +84,10 @@ class Args:
     deterministic: bool = True
     """the agents' mean actions (--no-deterministic: sampled, as in training)"""
     oracle: bool = True
-    """run the oracle (about 5-7 s per episode)"""
-    mpc: bool = False
-    """also run the oracle without foresight of the random draws (twice the oracle's cost)"""
+    """run the oracle (about 5-15 s per episode)"""
+    planner: bool = False
+    """also run the planner that does not foresee the random draws (four times the
+    oracle's cost)"""
     oracle_seeds: Annotated[int, Range(2)] = 20
     """the oracles run on the first this many evaluation seeds only (each episode costs them
     seconds), and are compared with the hand-written controller on those"""
@@ -232,6 +240,14 @@ def _loading(path: Path):
 # --------------------------------------------------------------- episodes in worker processes
 
 
+def oracle_factory(tb):
+    """The ceiling: the rollout oracle on the searched controller, with the planner's
+    candidates over every control (as ``benchmarks/ladder.py`` runs it)."""
+    from discgym.baselines import planner_candidates
+
+    return tb.oracle(base=tb.searched, candidates=planner_candidates)
+
+
 def _factory(env_id: str, kind: str, payload):
     from discgym.baselines import TASK_BASELINES, constant_factory, random_factory
 
@@ -242,10 +258,12 @@ def _factory(env_id: str, kind: str, payload):
         return constant_factory(payload)
     if kind == "hand-written":
         return tb.controller
+    if kind == "searched":
+        return tb.searched
+    if kind == "planner":
+        return tb.planner()
     if kind == "oracle":
-        return tb.oracle()
-    if kind == "mpc":
-        return tb.mpc()
+        return oracle_factory(tb)
     if kind == "agent":
         return agent_factory(*payload)
     raise ValueError(f"kind: unknown policy {kind!r}")
@@ -293,12 +311,13 @@ def _chunks(seeds: list, n: int) -> list:
 
 def evaluate_task(env_id: str, runs: list, seeds: list, search_seeds: list,
                   env_kwargs: dict | None = None, checkpoint: str = "best",
-                  oracle: bool = True, workers: int = 1, mpc: bool = False,
+                  oracle: bool = True, workers: int = 1, planner: bool = False,
                   deterministic: bool = True, oracle_seeds: int | None = None,
                   log=print) -> dict:
     """Every policy's per-seed returns on ``seeds`` (the oracles' on the first
     ``oracle_seeds`` of them, all if None) and the table's statistics."""
     from discgym.baselines import (
+        PLANNER_FUTURES,
         TASK_BASELINES,
         check_disjoint,
         iqm_ci,
@@ -334,29 +353,31 @@ def evaluate_task(env_id: str, runs: list, seeds: list, search_seeds: list,
         shown = np.round(best.astype(float), 3).tolist()
         log(f"{env_id}: best constant {shown} of {len(cand)} on seeds "
             f"{search_seeds[0]}..{search_seeds[-1]} ({time.perf_counter() - t0:.0f} s)")
-        jobs = {"random": None, "best constant": best, "hand-written": None}
+        jobs = {"random": None, "best constant": best, "hand-written": None,
+                "searched": None}
         names = {"random": "random", "best constant":
                  f"best constant {np.round(best.astype(float), 3).tolist()}",
-                 "hand-written": tb.controller_name}
+                 "hand-written": f"simple rule: {tb.controller_name}",
+                 "searched": "searched controller"}
         for run in runs:
             info = run_info(run)
             label = f"{info['algo']} ({Path(run).name})"
             jobs[label] = (str(run), checkpoint, deterministic)
             names[label] = label
-        if mpc:
-            jobs["mpc"] = None
-            names["mpc"] = (f"oracle without foresight of the random draws (2 fresh random "
-                            f"futures per candidate, on the {tb.controller_name})")
+        if planner:
+            jobs["planner"] = None
+            names["planner"] = (f"planner (rollout MPC on the searched controller, "
+                                f"{PLANNER_FUTURES} fresh futures per candidate)")
         if oracle:
             jobs["oracle"] = None
-            names["oracle"] = (f"oracle (rollout MPC on the {tb.controller_name}, "
-                               "foreseeing the noise)")
+            names["oracle"] = ("oracle (rollout MPC on the searched controller, every "
+                               "random draw foreseen)")
         futures = {}
         for name, payload in jobs.items():
             kind = "agent" if name not in LADDER else name
             # the slow policies get one chunk per worker, the fast ones a single job
-            n = workers if kind in ("oracle", "mpc", "agent") else 1
-            some = seeds[:oracle_seeds] if kind in ("oracle", "mpc") else seeds
+            n = workers if kind in ("oracle", "planner", "agent") else 1
+            some = seeds[:oracle_seeds] if kind in ("oracle", "planner") else seeds
             futures[name] = [pool.submit(_episodes, env_id, kind, payload, c, kw)
                              for c in _chunks(some, n)]
         runs_out = {}
@@ -370,12 +391,15 @@ def evaluate_task(env_id: str, runs: list, seeds: list, search_seeds: list,
             runs_out[name] = (np.array(rets), np.array(secs))
             log(f"{env_id}: {name} done (waited {time.perf_counter() - t:.0f} s)")
     ref = runs_out["hand-written"][0]
+    top = runs_out["searched"][0]
     rows = {}
     for name, (r, s) in runs_out.items():
         row = {"label": names[name], "mean": mean_ci(r).as_dict(), "iqm": iqm_ci(r).as_dict(),
                "seconds_per_episode": float(s.mean()), "returns": [float(x) for x in r]}
         if name != "hand-written":
             row["minus_hand_written"] = paired_difference(r, ref[:len(r)]).as_dict()
+        if name != "searched":
+            row["minus_searched"] = paired_difference(r, top[:len(r)]).as_dict()
         if len(r) < len(ref):
             row["seeds"] = list(seeds[:len(r)])
         if name not in LADDER:
@@ -384,18 +408,19 @@ def evaluate_task(env_id: str, runs: list, seeds: list, search_seeds: list,
             row["algo"] = info["algo"]
             row["train"] = info["summary"]
         rows[name] = row
-    rows.update(pooled_rows(rows, ref))
+    rows.update(pooled_rows(rows, ref, top))
+    normalise(rows)
     return {"env_id": env_id, "env_kwargs": kw, "eval_seeds": list(seeds),
             "search_seeds": list(search_seeds), "checkpoint": checkpoint,
             "deterministic": deterministic,
             "best_constant": [float(x) for x in best], "policies": rows}
 
 
-def pooled_rows(rows: dict, ref: np.ndarray) -> dict:
+def pooled_rows(rows: dict, ref: np.ndarray, top: np.ndarray) -> dict:
     """For each algorithm with two or more runs in ``rows`` (training seeds, say): a row of
-    their mean return on each evaluation seed, with the same statistics (``ref``: the
-    hand-written controller's returns). Its intervals are over the evaluation seeds for
-    these runs; they say nothing of runs not trained."""
+    their mean return on each evaluation seed, with the same statistics (``ref``, ``top``:
+    the hand-written and the searched controller's returns). Its intervals are over the
+    evaluation seeds for these runs; they say nothing of runs not trained."""
     from discgym.baselines import iqm_ci, mean_ci, paired_difference
 
     by_algo: dict = {}
@@ -411,10 +436,29 @@ def pooled_rows(rows: dict, ref: np.ndarray) -> dict:
         out[key] = {"label": f"{key} (each seed's mean over the runs)", "pooled": names,
                     "mean": mean_ci(r).as_dict(), "iqm": iqm_ci(r).as_dict(),
                     "minus_hand_written": paired_difference(r, ref[:len(r)]).as_dict(),
+                    "minus_searched": paired_difference(r, top[:len(r)]).as_dict(),
                     "seconds_per_episode": float(np.mean(
                         [rows[n]["seconds_per_episode"] for n in names])),
                     "returns": [float(x) for x in r]}
     return out
+
+
+def normalise(rows: dict) -> None:
+    """Each row's ``normalised`` score, in place: its mean return mapped linearly so that
+    random's mean is 0 and the searched controller's 1 (the interval's ends mapped alike;
+    the two references are treated as exact). Rows on fewer seeds (the oracles) are mapped
+    with the references' means on those seeds."""
+    rand = np.array(rows["random"]["returns"])
+    top = np.array(rows["searched"]["returns"])
+    for row in rows.values():
+        n = len(row["returns"])
+        lo_ref, hi_ref = rand[:n].mean(), top[:n].mean()
+        span = hi_ref - lo_ref
+        if not span > 0:  # (the searched controller not above random: no scale)
+            row["normalised"] = None
+            continue
+        row["normalised"] = {k: float((row["mean"][k] - lo_ref) / span)
+                             for k in ("value", "low", "high")}
 
 
 # ------------------------------------------------------------------------ table and figures
@@ -426,14 +470,19 @@ def _ci(d: dict) -> str:
 
 def table(res: dict) -> str:
     n = len(res["eval_seeds"])
-    lines = [f"| policy ({n} seeds) | mean [95% CI] | IQM [95% CI] | minus hand-written "
-             "[95% CI] | training |", "|---|---|---|---|---|"]
-    order = [k for k in LADDER[:3]] + [k for k in res["policies"] if k not in LADDER]
-    order += [k for k in LADDER[3:] if k in res["policies"]]
+    lines = [f"| policy ({n} seeds) | mean [95% CI] | IQM [95% CI] | minus the simple rule "
+             "[95% CI] | minus searched [95% CI] | normalised (random 0, searched 1) | "
+             "training |", "|---|---|---|---|---|---|---|"]
+    order = [k for k in LADDER[:4] if k in res["policies"]]
+    order += [k for k in res["policies"] if k not in LADDER]
+    order += [k for k in LADDER[4:] if k in res["policies"]]
     for k in order:
         r = res["policies"][k]
-        diff = r.get("minus_hand_written")
-        d = "" if diff is None else _ci(diff) + (" **separated**" if diff["low"] > 0 else "")
+        d, ds = (("" if diff is None else _ci(diff) + (" **separated**" if diff["low"] > 0
+                                                      else ""))
+                 for diff in (r.get("minus_hand_written"), r.get("minus_searched")))
+        nm = r.get("normalised")
+        ns = "" if nm is None else _ci(nm)
         train = ""
         if r.get("train"):
             t = r["train"]
@@ -445,7 +494,8 @@ def table(res: dict) -> str:
         label = f"**{r['label']}**" if "train" in r else r["label"]
         if "seeds" in r:
             label += f" (seeds {r['seeds'][0]}-{r['seeds'][-1]} only)"
-        lines.append(f"| {label} | {_ci(r['mean'])} | {_ci(r['iqm'])} | {d} | {train} |")
+        lines.append(f"| {label} | {_ci(r['mean'])} | {_ci(r['iqm'])} | {d} | {ds} | {ns} | "
+                     f"{train} |")
     return "\n".join(lines)
 
 
@@ -459,13 +509,13 @@ def plot_curves(res: dict, path: Path) -> Path:
 
     fig, ax = plt.subplots(figsize=(6.4, 3.8), dpi=120)
     styles = {"random": ("0.6", ":"), "best constant": ("0.4", "--"),
-              "hand-written": ("tab:blue", "--"), "mpc": ("tab:olive", "-."),
-              "oracle": ("tab:green", "-.")}
+              "hand-written": ("tab:blue", "--"), "searched": ("tab:orange", "--"),
+              "planner": ("tab:purple", "-."), "oracle": ("tab:green", "-.")}
     for k, (color, ls) in styles.items():
         if k in res["policies"]:
             ax.axhline(res["policies"][k]["mean"]["value"], color=color, ls=ls, lw=1.2,
                        label={"hand-written": res["policies"][k]["label"],
-                              "mpc": "oracle, random draws not foreseen"}.get(k, k))
+                              "planner": "planner, random draws not foreseen"}.get(k, k))
     for r in res["policies"].values():
         if "run" not in r:
             continue
@@ -580,7 +630,7 @@ def main(argv=None) -> int:
     seeds = list(range(a.first_seed, a.first_seed + a.seeds))
     t0 = time.perf_counter()
     res = evaluate_task(env_id, a.run, seeds, list(range(a.search_seeds)), kw,
-                        a.checkpoint, a.oracle, a.workers, a.mpc, a.deterministic,
+                        a.checkpoint, a.oracle, a.workers, a.planner, a.deterministic,
                         a.oracle_seeds, log=lambda s: print(s, file=sys.stderr, flush=True))
     import gymnasium
     import numba

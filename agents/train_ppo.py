@@ -200,6 +200,7 @@ def make_vec_env(args: Args, n_envs: int, normalize: dict | bool, gamma: float,
     """The SB3 VecEnv: ``n_envs`` reactors of the task (on ``args.train_integrator`` if
     ``training``), VecMonitor, the hyperparameters' ``vec_env_wrapper``
     (:func:`vec_env_wrappers`), then VecNormalize."""
+    import gymnasium as gym
     from stable_baselines3.common.vec_env import VecMonitor, VecNormalize
 
     from discgym.sb3 import DiscReactorSB3VecEnv
@@ -211,8 +212,11 @@ def make_vec_env(args: Args, n_envs: int, normalize: dict | bool, gamma: float,
     kw = {**TASKS[args.env_id][0].defaults, **args.env_kwargs()}
     if training and args.train_integrator is not None:
         kw["integrator"] = args.train_integrator
-    venv = VecMonitor(DiscReactorSB3VecEnv(num_envs=n_envs, threads=args.threads, **kw),
-                      filename=None if monitor is None else str(monitor))
+    inner = DiscReactorSB3VecEnv(num_envs=n_envs, threads=args.threads, **kw)
+    # (the task's spec, with the arguments it was built with: a controller found by task id,
+    # as discgym.searched.searched, finds it from any reactor of the batch)
+    inner.venv.spec = dataclasses.replace(gym.spec(args.env_id), kwargs=kw)
+    venv = VecMonitor(inner, filename=None if monitor is None else str(monitor))
     for cls, kwargs in vec_env_wrappers(wrappers):
         venv = cls(venv, **kwargs)
     if normalize:

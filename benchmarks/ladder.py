@@ -1,31 +1,41 @@
-"""The baseline ladder of a task: random < best constant < hand-written controller, with the
-rollout oracle above, on the same evaluation seeds, with 95% bootstrap confidence intervals.
+"""The baseline ladder of a task: random < best constant < simple rule < searched controller
+< planner < oracle, on the same evaluation seeds, with 95% bootstrap confidence intervals.
 
     python benchmarks/ladder.py --env DiscReactor-v0 --seeds 20 --plot
     python benchmarks/ladder.py --env all            # every task of TASK_BASELINES
-    python benchmarks/ladder.py --env all --plot --plot-path docs/img/ladder_all.png
-    python benchmarks/ladder.py --table docs/data/ladder_Disc*-v0.json   # the README's table
+    python benchmarks/ladder.py --table docs/data/ladder_Disc*-v0.json   # the docs' tables
+    python benchmarks/ladder.py --table docs/data/ladder_Disc*-v0.json --plot \
+        --plot-path docs/img/ladder_all.png                             # and their chart
 
 For each env id of ``discgym.baselines.TASK_BASELINES``:
 - random: ``env.action_space.sample()``, the space seeded with the episode's seed;
 - best constant: the best of the task's constant grid by mean return on the *search* seeds
   (0 .. --search-seeds - 1, disjoint from the evaluation seeds);
-- hand-written: the task's controller (its rule is its docstring);
-- oracle: ``discgym.oracle.RolloutOracle`` on the controller (rollouts to the episode's end on
-  clones of the true env, re-planned every ``--replan-every`` steps).
+- simple rule: the task's hand-written controller (its rule is its docstring);
+- searched: the task's searched controller (``discgym.searched.SEARCHED``: CMA-ES along
+  every control on tuning seeds 3000 and up, the command that found it in the JSON);
+- planner: rollout MPC on the searched controller that does not foresee the random draws
+  (``TaskBaselines.planner``: candidates over every control, each scored on
+  --planner-futures fresh futures shared by all candidates);
+- oracle: ``discgym.oracle.RolloutOracle`` on the searched controller, rollouts to the
+  episode's end on exact clones of the true env (every random draw foreseen: the ceiling,
+  never below the searched controller on any seed), re-planned every ``--replan-every``
+  steps.
 Each runs one episode per evaluation seed (--first-seed .. --first-seed + --seeds - 1) on a
 fresh ``gymnasium.make(env_id)``. The table gives the mean and the IQM with BCa bootstrap
 95% intervals (scipy.stats.bootstrap, fixed random_state) and the wall time per episode; the
 ladder's steps are compared by paired differences over the seeds (separated: the interval
-excludes 0). Writes JSON (--out: per-seed returns, the table, the oracle's budget, date,
-machine, versions) and, with --plot, a bar chart (out/ladder_<env>.png, or ladder_all.png
-with one panel per task; out/ is gitignored, the tracked charts in docs/img change only when
---plot-path names them).
+excludes 0). Writes JSON (--out: per-seed returns, the table, the planner's and the oracle's
+budgets, date, machine, versions) and, with --plot, a bar chart (out/ladder_<env>.png, or
+ladder_all.png with one panel per task; out/ is gitignored, the tracked charts in docs/img
+change only when --plot-path names them).
 
-``--table FILE...`` runs nothing: it prints one Markdown table of the ladders in JSON files
-this script wrote, a row per task (each policy's mean return with its 95% interval, whether
-the ladder is ordered and every step separated by its paired interval, the oracle's wall time
-per episode).
+``--table FILE...`` runs nothing: it prints (and with --plot draws) the ladders in JSON
+files this script wrote: one Markdown table with a row per task (each policy's mean return
+with its 95% interval, whether the ladder is ordered and every step separated by its paired
+interval, the planner's and the oracle's wall time per episode), then every policy's
+normalised IQM over the tasks (random 0, the searched controller 1) with its stratified
+bootstrap interval.
 """
 
 from __future__ import annotations
@@ -43,21 +53,29 @@ import numpy as np
 
 import discgym  # noqa: F401  (registers the envs)
 from discgym.baselines import (
+    PLANNER_FUTURES,
+    PLANNER_GATE,
     SEARCH_SEEDS,
     TASK_BASELINES,
+    aggregate_iqm,
     check_disjoint,
     constant_factory,
     iqm_ci,
     mean_ci,
+    normalised_scores,
     paired_difference,
+    planner_candidates,
     random_factory,
     run_episodes,
     search_constant,
 )
 from discgym.bench import machine_info
+from discgym.searched import SEARCHED
 
 ROOT = Path(__file__).resolve().parent.parent
-LADDER = ("random", "best constant", "hand-written", "oracle")
+LADDER = ("random", "best constant", "hand-written", "searched", "planner", "oracle")
+#: The rows' names in the tables.
+SHORT = ("random", "best constant", "simple rule", "searched", "planner", "oracle")
 
 
 def machine() -> str:
@@ -82,9 +100,10 @@ def versions() -> dict:
 
 def run_task(env_id: str, eval_seeds: list, search_seeds: list, env_kwargs: dict,
              replan_every: int | None = None, horizon: int | None = None,
-             log=print, mpc: bool = False) -> dict:
+             log=print, planner_futures: int = PLANNER_FUTURES,
+             planner_gate: float | None = PLANNER_GATE) -> dict:
     """The ladder of one task: every policy's per-seed returns, the summaries, the paired
-    differences between the ladder's steps, the oracle's budget."""
+    differences between the ladder's steps, the planner's and the oracle's budgets."""
     tb = TASK_BASELINES[env_id]
     check_disjoint(eval_seeds, search_seeds)
     kw = {**dict(tb.env_kwargs), **env_kwargs}
@@ -94,11 +113,12 @@ def run_task(env_id: str, eval_seeds: list, search_seeds: list, env_kwargs: dict
     search_s = time.perf_counter() - t0
     log(f"{env_id}: best constant {[round(float(x), 4) for x in best]} of {len(means)} on seeds "
         f"{search_seeds[0]}..{search_seeds[-1]} ({search_s:.0f} s)")
-    oracle = tb.oracle(replan_every=replan_every, horizon=horizon)
     factories = {"random": random_factory, "best constant": constant_factory(best),
-                 "hand-written": tb.controller, "oracle": oracle}
-    if mpc:  # the oracle without foresight of the random draws (TaskBaselines.mpc)
-        factories["mpc"] = tb.mpc()
+                 "hand-written": tb.controller, "searched": tb.searched,
+                 "planner": tb.planner(samples=planner_futures, replan_every=replan_every,
+                                       gate=planner_gate),
+                 "oracle": tb.oracle(replan_every=replan_every, horizon=horizon,
+                                     base=tb.searched, candidates=planner_candidates)}
     runs = {}
     for name, fac in factories.items():
         t = time.perf_counter()
@@ -114,30 +134,8 @@ def run_task(env_id: str, eval_seeds: list, search_seeds: list, env_kwargs: dict
         d = paired_difference(runs[hi].returns, runs[lo].returns)
         steps.append({"step": f"{hi} - {lo}", "difference": d.as_dict(),
                       "ordered": bool(d.value > 0), "separated": bool(d.low > 0)})
-    extra = {}
-    if mpc:
-        extra["mpc"] = {
-            "minus_hand_written": paired_difference(runs["mpc"].returns,
-                                                    runs["hand-written"].returns).as_dict(),
-            "oracle_minus_mpc": paired_difference(runs["oracle"].returns,
-                                                  runs["mpc"].returns).as_dict()}
-    ost = [s for s in runs["oracle"].stats if s]
     ep_steps = runs["oracle"].steps
-    budget = {
-        "candidates_per_replan": float(np.mean([s["rollouts"] / s["replans"] for s in ost])),
-        "candidate_rule": (tb.oracle_candidates.__doc__ or "").strip(),
-        "replan_every": tb.oracle_replan_every if replan_every is None else replan_every,
-        "horizon": "episode end" if (horizon or tb.oracle_horizon) is None
-        else (horizon or tb.oracle_horizon),
-        "replans_per_episode": float(np.mean([s["replans"] for s in ost])),
-        "rollouts_per_episode": float(np.mean([s["rollouts"] for s in ost])),
-        "simulated_steps_per_episode": float(np.mean([s["simulated_steps"] for s in ost])),
-        "simulated_steps_per_env_step": float(np.mean([s["simulated_steps"] for s in ost])
-                                              / np.mean(ep_steps)),
-        "planning_seconds_per_episode": float(np.mean([s["planning_seconds"] for s in ost])),
-        "seconds_per_episode": float(runs["oracle"].seconds.mean()),
-        "plan_mismatches": int(sum(s["plan_mismatches"] for s in ost)),
-    }
+    searched = SEARCHED[env_id]
     return {
         "env_id": env_id, "env_kwargs": kw, "eval_seeds": eval_seeds,
         "search_seeds": search_seeds, "episode_steps": [int(x) for x in ep_steps],
@@ -146,9 +144,38 @@ def run_task(env_id: str, eval_seeds: list, search_seeds: list, env_kwargs: dict
                           "search_seconds": search_s},
         "controller": {"name": tb.controller_name,
                        "rule": (tb.controller.__doc__ or "").strip()},
+        "searched": {"params": dict(searched["params"]), "command": searched["command"]},
         "policies": rows, "ladder": steps,
         "ordered": all(s["ordered"] for s in steps),
-        "oracle_budget": budget, **extra,
+        "planner_budget": {**budget(runs["planner"], ep_steps, tb, replan_every, None,
+                                    planner_candidates, futures=planner_futures),
+                           "gate": planner_gate,
+                           "gated_per_replan": float(np.mean(
+                               [s["gated"] / s["replans"] for s in runs["planner"].stats]))},
+        "oracle_budget": budget(runs["oracle"], ep_steps, tb, replan_every, horizon,
+                                planner_candidates),
+    }
+
+
+def budget(run, ep_steps, tb, replan_every, horizon, candidates, futures: int = 1) -> dict:
+    """A rollout planner's budget over the ladder's episodes (from its ``stats``)."""
+    st = [s for s in run.stats if s]
+    return {
+        "candidates_per_replan": float(np.mean([s["rollouts"] / s["replans"] for s in st])
+                                       / futures),
+        "futures_per_candidate": futures,
+        "candidate_rule": (candidates.__doc__ or "").strip(),
+        "replan_every": tb.oracle_replan_every if replan_every is None else replan_every,
+        "horizon": "episode end" if (horizon or tb.oracle_horizon) is None
+        else (horizon or tb.oracle_horizon),
+        "replans_per_episode": float(np.mean([s["replans"] for s in st])),
+        "rollouts_per_episode": float(np.mean([s["rollouts"] for s in st])),
+        "simulated_steps_per_episode": float(np.mean([s["simulated_steps"] for s in st])),
+        "simulated_steps_per_env_step": float(np.mean([s["simulated_steps"] for s in st])
+                                              / np.mean(ep_steps)),
+        "planning_seconds_per_episode": float(np.mean([s["planning_seconds"] for s in st])),
+        "seconds_per_episode": float(run.seconds.mean()),
+        "plan_mismatches": int(sum(s["plan_mismatches"] for s in st)),
     }
 
 
@@ -157,18 +184,19 @@ def seconds(s: float) -> str:
 
 
 def oracle_variants(env_id: str) -> dict:
-    """Other planners and budgets on the task's controller (``--variants``), against the
-    default oracle: re-planning every step or every 10, a 10-step horizon, and the sampling
-    planner (:class:`discgym.oracle.ShootingOracle`)."""
+    """Other planners and budgets on the task's searched controller (``--variants``),
+    against the default oracle: re-planning every step or every 10, a 10-step horizon, and
+    the sampling planner (:class:`discgym.oracle.ShootingOracle`)."""
     from discgym.oracle import ShootingOracle
 
     tb = TASK_BASELINES[env_id]
+    on = dict(base=tb.searched, candidates=planner_candidates)
     return {
-        "rollout, re-plan every step": tb.oracle(replan_every=1),
-        "rollout, re-plan every 10": tb.oracle(replan_every=10),
-        "rollout, horizon 10": tb.oracle(horizon=10),
+        "rollout, re-plan every step": tb.oracle(replan_every=1, **on),
+        "rollout, re-plan every 10": tb.oracle(replan_every=10, **on),
+        "rollout, horizon 10": tb.oracle(horizon=10, **on),
         "CEM 2 x 8 sequences, segments of 10, re-plan every 10":
-            lambda env: ShootingOracle(env, tb.controller(env), samples=8, iterations=2,
+            lambda env: ShootingOracle(env, tb.searched(env), samples=8, iterations=2,
                                        elite=2, segment=10, replan_every=10, generator=0),
     }
 
@@ -213,18 +241,22 @@ def variants_table(res: dict) -> str:
 
 def table(res: dict) -> str:
     n = len(res["eval_seeds"])
+    pb = res["planner_budget"]
     names = {"random": "random", "best constant": "best constant "
              f"`{[round(x, 3) for x in res['best_constant']['action']]}`",
-             "hand-written": res["controller"]["name"],
-             "oracle": f"oracle (rollout MPC on the {res['controller']['name']})"}
+             "hand-written": f"simple rule: {res['controller']['name']}",
+             "searched": "searched controller",
+             "planner": f"planner (rollout MPC on the searched controller, "
+                        f"{pb['futures_per_candidate']} fresh futures per candidate"
+                        + (f", gate {pb['gate']:g} SE)" if pb.get("gate") is not None else ")"),
+             "oracle": "oracle (the same on exact copies, every random draw foreseen)"}
     lines = [f"| policy ({n} seeds) | mean [95% CI] | IQM [95% CI] | wall time per episode |",
              "|---|---|---|---|"]
 
     def ci(d):
         return f"{d['value']:.3f} [{d['low']:.3f}, {d['high']:.3f}]"
 
-    names["mpc"] = "oracle without foresight of the random draws (2 fresh futures)"
-    for k in [*LADDER[:3], *(["mpc"] if "mpc" in res["policies"] else []), LADDER[3]]:
+    for k in LADDER:
         r = res["policies"][k]
         lines.append(f"| {names[k]} | {ci(r['mean'])} | {ci(r['iqm'])} | "
                      f"{seconds(r['seconds_per_episode'])} |")
@@ -233,61 +265,113 @@ def table(res: dict) -> str:
     for s in res["ladder"]:
         lines.append(f"| {s['step']} | {ci(s['difference'])} | "
                      f"{'yes' if s['separated'] else 'no'} |")
-    if "mpc" in res:
-        for k, label in (("minus_hand_written", "MPC - hand-written"),
-                         ("oracle_minus_mpc", "oracle - MPC (foreseeing the random draws)")):
-            d = res["mpc"][k]
-            lines.append(f"| {label} | {ci(d)} | {'yes' if d['low'] > 0 else 'no'} |")
     return "\n".join(lines)
 
 
 def summary_row(res: dict) -> str:
     """One task's row of :func:`summary_table` (a result of :func:`run_task` or its JSON)."""
     pol = res["policies"]
-    hand = next(k for k in pol if k not in ("random", "best constant")
-                and not k.startswith("oracle"))
-    oracle = next(k for k in pol if k.startswith("oracle"))
-    name = res.get("controller", {}).get("name", hand)
+    name = res["controller"]["name"]
     sep = all(s["separated"] for s in res["ladder"])
-    ok = "yes" if res["ordered"] and sep else ("ordered" if res["ordered"] else "**no**")
+    below = ", ".join(s["step"] for s in res["ladder"] if not s["ordered"])
+    ok = "yes" if res["ordered"] and sep else (
+        "ordered" if res["ordered"] else f"**no** ({below} below 0)")
 
     def cell(p: dict) -> str:
         m = p["mean"]
         return f"{m['value']:.3f} [{m['low']:.3f}, {m['high']:.3f}]"
 
     return (f"| `{res['env_id']}` | {cell(pol['random'])} | {cell(pol['best constant'])} | "
-            f"{cell(pol[hand])} ({name}) | **{cell(pol[oracle])}** | {ok} | "
+            f"{cell(pol['hand-written'])} ({name}) | {cell(pol['searched'])} | "
+            f"{cell(pol['planner'])} | **{cell(pol['oracle'])}** | {ok} | "
+            f"{res['planner_budget']['seconds_per_episode']:.1f} s, "
             f"{res['oracle_budget']['seconds_per_episode']:.1f} s |")
 
 
 def summary_table(results: list) -> str:
-    """Every task's ladder in one Markdown table, a row per task (the README's summary)."""
-    return "\n".join(["| task | random | best constant | hand-written | oracle | "
-                      "ordered, separated | oracle per episode |",
-                      "|---|---|---|---|---|---|---|", *map(summary_row, results)])
+    """Every task's ladder in one Markdown table, a row per task (the docs' summary)."""
+    return "\n".join(["| task | random | best constant | simple rule | searched | planner | "
+                      "oracle | ordered, separated | planner, oracle per episode |",
+                      "|---|---|---|---|---|---|---|---|---|", *map(summary_row, results)])
+
+
+def normalised(results: list) -> tuple[dict, list]:
+    """Each policy's per-seed normalised scores, task by task (random's mean 0, the searched
+    controller's 1), and the tasks left out because their searched controller is not above
+    random (no scale: a tiny test env, say)."""
+    norm, left_out = {k: [] for k in LADDER}, []
+    for res in results:
+        pol = res["policies"]
+        if not np.mean(pol["searched"]["returns"]) > np.mean(pol["random"]["returns"]):
+            left_out.append(res["env_id"])
+            continue
+        for k in LADDER:
+            norm[k].append(normalised_scores(pol[k]["returns"], pol["random"]["returns"],
+                                             pol["searched"]["returns"]))
+    return norm, left_out
+
+
+def aggregate_table(results: list) -> str:
+    """Every policy's normalised score over the tasks (per task, random's mean 0 and the
+    searched controller's 1; each seed's return so mapped), its IQM over every task's seeds
+    with the stratified bootstrap interval (:func:`discgym.baselines.aggregate_iqm`), and
+    its lowest and highest task mean."""
+    norm, left_out = normalised(results)
+    note = ("" if not left_out else "\n\nLeft out (the searched controller not above "
+            f"random: no scale): {', '.join(left_out)}.")
+    n = len(norm["random"])
+    if n == 0:
+        return note.strip()
+    lines = [f"| policy | normalised IQM over {n} task(s) [95% CI] | task means, lowest - "
+             "highest |", "|---|---|---|"]
+    for k, label in zip(LADDER, SHORT):
+        agg = aggregate_iqm(norm[k])
+        means = [round(float(np.mean(x)), 3) + 0.0 for x in norm[k]]  # (+ 0.0: no "-0.000")
+        lines.append(f"| {label} | {agg.text()} | {min(means):.3f} - {max(means):.3f} |")
+    return "\n".join(lines) + note
+
+
+COLORS = ["0.7", "0.55", "tab:blue", "tab:orange", "tab:purple", "tab:green"]
+TICKS = ["random", "best\nconstant", "simple\nrule", "searched", "planner", "oracle"]
 
 
 def plot(results: list, path: Path) -> Path:
+    """A panel per task (each policy's mean with its 95% interval, a dot per seed) and, for
+    several tasks, one more: the normalised IQM over the tasks with its stratified
+    interval (:func:`aggregate_table`'s figures)."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, axes = plt.subplots(1, len(results), figsize=(4.2 * len(results), 3.4), squeeze=False)
+    norm, _ = normalised(results)
+    both = len(results) > 1 and len(norm["random"]) > 0  # (the aggregate panel too)
+    n = len(results) + both
+    fig, axes = plt.subplots(1, n, figsize=(4.6 * n, 3.6), squeeze=False)
+    x = np.arange(len(LADDER))
     for ax, res in zip(axes[0], results):
         rows = [res["policies"][k] for k in LADDER]
         m = np.array([r["mean"]["value"] for r in rows])
         lo = m - np.array([r["mean"]["low"] for r in rows])
         hi = np.array([r["mean"]["high"] for r in rows]) - m
-        x = np.arange(len(LADDER))
-        ax.bar(x, m, yerr=[lo, hi], capsize=4, color=["0.7", "0.55", "tab:blue", "tab:green"])
+        ax.bar(x, m, yerr=[lo, hi], capsize=4, color=COLORS)
         for i, r in enumerate(rows):
             pts = np.array(r["returns"])
             ax.plot(np.full(len(pts), i) + np.linspace(-0.25, 0.25, len(pts)), pts, ".",
                     color="k", ms=2, alpha=0.5)
-        ax.set_xticks(x, ["random", "best\nconstant", "hand-\nwritten", "oracle"])
         ax.set_ylabel("return (mean, 95% CI; dots: seeds)")
         ax.set_title(f"{res['env_id']} ({len(res['eval_seeds'])} seeds)")
+    if both:
+        ax = axes[0][-1]
+        agg = [aggregate_iqm(norm[k]) for k in LADDER]
+        m = np.array([a.value for a in agg])
+        ax.bar(x, m, yerr=[m - [a.low for a in agg], [a.high for a in agg] - m], capsize=4,
+               color=COLORS)
+        ax.axhline(1.0, color="tab:orange", lw=0.8, ls="--")
+        ax.set_ylabel("normalised score (random 0, searched 1)")
+        ax.set_title(f"{len(norm['random'])} tasks: normalised IQM, stratified 95% CI")
+    for ax in axes[0]:
+        ax.set_xticks(x, TICKS, fontsize=8)
     fig.tight_layout()
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=110)
@@ -328,12 +412,14 @@ def main(argv=None) -> int:
                    "docs/img/... for the charts of the docs")
     p.add_argument("--variants", action="store_true",
                    help="also run other oracle budgets and the sampling planner (slow)")
-    p.add_argument("--mpc", action="store_true",
-                   help="also run the oracle without foresight of the random draws "
-                   "(TaskBaselines.mpc: twice the oracle's cost; it still knows every disc)")
+    p.add_argument("--planner-gate", type=float, default=PLANNER_GATE,
+                   help="standard errors a planner's candidate must clear over the searched "
+                   "controller's action (a negative value: no gate)")
+    p.add_argument("--planner-futures", type=int, default=PLANNER_FUTURES,
+                   help="the planner's fresh random futures per candidate (>= 1; its cost "
+                   "grows with them)")
     p.add_argument("--check", action="store_true",
-                   help="exit 1 if the means are not ordered random < constant < "
-                   "hand-written < oracle")
+                   help="exit 1 if the means are not ordered as the ladder's rows")
     p.add_argument("--table", nargs="+", type=Path, metavar="JSON",
                    help="run nothing: print one Markdown table of the ladders in these JSON "
                    "files (written by --out)")
@@ -342,8 +428,14 @@ def main(argv=None) -> int:
         try:
             results = [json.loads(f.read_text()) for f in a.table]
             print(summary_table(results))
+            print("\nAcross the tasks (normalised per task: random 0, searched controller 1; "
+                  "IQM, stratified bootstrap):\n")
+            print(aggregate_table(results))
         except (OSError, ValueError, KeyError, TypeError, StopIteration) as e:
             p.error(f"--table: not a ladder's JSON ({type(e).__name__}: {e})")
+        if a.plot:  # (the chart of these files, nothing run)
+            path = Path(a.plot_path) if a.plot_path else ROOT / "out" / "ladder_all.png"
+            print(f"wrote {plot(results, path)}")
         return 0
     envs = list(TASK_BASELINES) if a.env == "all" else [a.env]
     for e in envs:
@@ -351,6 +443,13 @@ def main(argv=None) -> int:
             p.error(f"--env: {e!r} has no baselines (known: {', '.join(TASK_BASELINES)})")
     if a.seeds < 2:
         p.error("--seeds: need at least 2 (a confidence interval)")
+    if a.planner_futures < 1:
+        p.error("--planner-futures: need at least 1")
+    if not np.isfinite(a.planner_gate):
+        p.error(f"--planner-gate: need a finite number, got {a.planner_gate}")
+    gate = None if a.planner_gate < 0 else a.planner_gate
+    if gate is not None and a.planner_futures < 2:
+        p.error("--planner-gate: needs --planner-futures >= 2 (or a negative gate: none)")
     if a.search_seeds < 1:
         p.error("--search-seeds: need at least 1")
     if len(envs) > 1 and "{env}" not in a.out:
@@ -369,7 +468,7 @@ def main(argv=None) -> int:
         t0 = time.perf_counter()
         res = run_task(env_id, eval_seeds, search_seeds, env_kwargs, a.replan_every,
                        a.horizon, log=lambda s: print(s, file=sys.stderr, flush=True),
-                       mpc=a.mpc)
+                       planner_futures=a.planner_futures, planner_gate=gate)
         res.update(date=date, machine=machine(), versions=versions(), command=cmd,
                    total_seconds=time.perf_counter() - t0)
         res["table"] = table(res)
@@ -380,16 +479,17 @@ def main(argv=None) -> int:
         out = Path(a.out.format(env=env_id))
         out.parent.mkdir(parents=True, exist_ok=True)
         out.write_text(json.dumps(res, indent=2) + "\n")
-        b = res["oracle_budget"]
         print(f"\n## {env_id}\n\n{res['table']}\n")
         order = " < ".join(LADDER)
         print(f"ordered {order}: {'yes' if res['ordered'] else 'NO'}; separated by their "
               f"CIs: {', '.join(s['step'] for s in res['ladder'] if s['separated']) or 'none'}")
-        print(f"oracle budget: {b['candidates_per_replan']:.1f} candidates per re-plan, every "
-              f"{b['replan_every']} steps, rollouts to {b['horizon']}: "
-              f"{b['simulated_steps_per_episode']:.0f} simulated env steps per episode "
-              f"({b['simulated_steps_per_env_step']:.0f} per step), "
-              f"{seconds(b['seconds_per_episode'])} per episode")
+        for who in ("planner", "oracle"):
+            b = res[f"{who}_budget"]
+            print(f"{who} budget: {b['candidates_per_replan']:.1f} candidates per re-plan x "
+                  f"{b['futures_per_candidate']} future(s), every {b['replan_every']} steps, "
+                  f"rollouts to {b['horizon']}: {b['simulated_steps_per_episode']:.0f} "
+                  f"simulated env steps per episode ({b['simulated_steps_per_env_step']:.0f} "
+                  f"per step), {seconds(b['seconds_per_episode'])} per episode")
         print(f"seeds {eval_seeds[0]}..{eval_seeds[-1]} (search {search_seeds[0]}.."
               f"{search_seeds[-1]}), {date}, {res['machine']}, {res['total_seconds']:.0f} s; "
               f"wrote {out}")

@@ -11,11 +11,14 @@ physics; their returns on the default env are in ``docs/env.md``.
 
 The baseline ladder (``benchmarks/ladder.py``, ``docs/tasks.md``) runs, for every env id of
 :data:`TASK_BASELINES`, random actions, the best constant action (searched on
-:data:`SEARCH_SEEDS`), the task's hand-written controller and the rollout oracle of
-:mod:`discgym.oracle` on :data:`EVAL_SEEDS` (disjoint from the search seeds), one fresh
+:data:`SEARCH_SEEDS`), the task's hand-written controller, its searched controller
+(:mod:`discgym.searched`), the planner and the rollout oracle of :mod:`discgym.oracle` on
+the searched controller (:meth:`TaskBaselines.planner`, :meth:`TaskBaselines.oracle`) on
+:data:`EVAL_SEEDS` (disjoint from the search seeds), one fresh
 ``gymnasium.make`` env per seed (:func:`run_episodes`), and summarises the per-seed returns
 with bootstrap confidence intervals (:func:`mean_ci`, :func:`iqm_ci`,
-:func:`paired_difference`: ``scipy.stats.bootstrap``).
+:func:`paired_difference`: ``scipy.stats.bootstrap``), and over tasks by
+:func:`aggregate_iqm` of :func:`normalised_scores`.
 """
 
 from __future__ import annotations
@@ -47,11 +50,16 @@ __all__ = [
     "Summary",
     "TaskBaselines",
     "TASK_BASELINES",
+    "PLANNER_FUTURES",
+    "PLANNER_GATE",
+    "planner_candidates",
     "run_episodes",
     "search_constant",
     "mean_ci",
     "iqm_ci",
     "paired_difference",
+    "normalised_scores",
+    "aggregate_iqm",
     "check_disjoint",
 ]
 
@@ -391,6 +399,40 @@ def paired_difference(a, b, confidence: float = 0.95, n_resamples: int = 9999,
     return _bootstrap(a - b, _mean, confidence, n_resamples, random_state, method, "a - b")
 
 
+def normalised_scores(returns, low_ref, high_ref) -> np.ndarray:
+    """Per-seed returns on a task mapped linearly so that ``low_ref``'s mean is 0 and
+    ``high_ref``'s 1 (the ladder: random 0, the searched controller 1)."""
+    r = np.asarray(returns, dtype=np.float64)
+    lo, hi = float(np.mean(low_ref)), float(np.mean(high_ref))
+    if not hi > lo:
+        raise ValueError(f"high_ref: its mean ({hi:.6g}) must be above low_ref's ({lo:.6g})")
+    return (r - lo) / (hi - lo)
+
+
+def aggregate_iqm(scores_by_task, confidence: float = 0.95, n_resamples: int = 9999,
+                  random_state: int = 0) -> Summary:
+    """The interquartile mean of normalised scores pooled over tasks, with the *stratified*
+    bootstrap interval of Agarwal et al. (2021), as ``rliable`` computes it: each task's
+    scores (one per seed or run) resampled within that task, the IQM taken over all of them
+    (``scipy.stats.bootstrap`` of several samples, which it resamples independently;
+    percentile intervals, as rliable's). ``rliable`` itself is not used: version 1.2 runs
+    neither on arch 7 with pandas 3 nor on arch 8 (it passes ``random_state=None``)."""
+    from scipy import stats
+
+    xs = [np.asarray(x, dtype=np.float64).ravel() for x in scores_by_task]
+    if not xs or any(x.size == 0 for x in xs):
+        raise ValueError("scores_by_task: need at least one task, each with scores")
+
+    def iqm(*samples, axis=-1):
+        return stats.trim_mean(np.concatenate(samples, axis=axis), 0.25, axis=axis)
+
+    value = float(iqm(*xs))
+    res = stats.bootstrap(xs, iqm, confidence_level=confidence, n_resamples=n_resamples,
+                          method="percentile", random_state=random_state, vectorized=True)
+    ci = res.confidence_interval
+    return Summary(value, float(ci.low), float(ci.high), "stratified percentile")
+
+
 # ---------------------------------------------------------------- the per-task registry
 
 
@@ -445,6 +487,14 @@ def constant_factory(action) -> PolicyFactory:
     return lambda env: constant_policy(action)
 
 
+#: The planner's futures per candidate (:meth:`TaskBaselines.planner`).
+PLANNER_FUTURES = 4
+#: The planner's gate: a candidate replaces the searched controller's action only when its
+#: advantage on the shared futures is this many standard errors above 0 (fixed before any
+#: evaluation, not tuned).
+PLANNER_GATE = 2.0
+
+
 @dataclass(frozen=True)
 class TaskBaselines:
     """The baselines of one task (an env id) for the ladder of ``benchmarks/ladder.py``.
@@ -454,8 +504,9 @@ class TaskBaselines:
     - ``constant_grid``: candidate constant actions, ``env -> (K, A)`` (or an array),
       searched on :data:`SEARCH_SEEDS`.
     - ``oracle_candidates``: ``(base_action, env) -> (K, A)`` first actions of the rollout
-      oracle (:class:`discgym.oracle.RolloutOracle`), row 0 the base action; its base policy
-      is ``controller``.
+      oracle (:class:`discgym.oracle.RolloutOracle`) on ``controller``, row 0 the base
+      action (:meth:`oracle`'s defaults; the ladder's oracle and planner plan on the
+      searched controller with :func:`planner_candidates`).
     - ``oracle_replan_every``, ``oracle_horizon``: the oracle's defaults (horizon None: to
       the episode's end, which guarantees oracle >= controller on every seed).
     - ``env_kwargs``: keyword arguments of ``gymnasium.make`` for the ladder (usually none).
@@ -470,39 +521,85 @@ class TaskBaselines:
     env_kwargs: Mapping = field(default_factory=dict)
     controller_name: str = "hand-written"
 
-    def oracle(self, replan_every: int | None = None,
-               horizon: int | None = None) -> PolicyFactory:
-        """A factory of the rollout oracle on this task's controller (``replan_every`` and
-        ``horizon``: the task's defaults when None)."""
+    def oracle(self, replan_every: int | None = None, horizon: int | None = None,
+               base: PolicyFactory | None = None,
+               candidates: Callable | None = None) -> PolicyFactory:
+        """A factory of the rollout oracle (``replan_every`` and ``horizon``: the task's
+        defaults when None) on ``base`` with first actions ``candidates`` (defaults: this
+        task's hand-written controller and ``oracle_candidates``; the ladder's ceiling runs
+        it on the searched controller, :meth:`searched`, with :func:`planner_candidates`)."""
         from .oracle import RolloutOracle
 
         k = self.oracle_replan_every if replan_every is None else replan_every
         h = self.oracle_horizon if horizon is None else horizon
+        base = self.controller if base is None else base
+        cands = self.oracle_candidates if candidates is None else candidates
 
         def factory(env):
-            return RolloutOracle(env, self.controller(env), self.oracle_candidates,
-                                 horizon=h, replan_every=k)
+            return RolloutOracle(env, base(env), cands, horizon=h, replan_every=k)
 
         return factory
 
-    def mpc(self, samples: int = 2, noise: int = 12345) -> PolicyFactory:
-        """A factory of the oracle *without foresight of the random draws*: the same rollout
-        planner, whose copies meet ``samples`` fresh random futures
-        (``RolloutOracle(noise=...)``) instead of the env's own. It still knows the model
-        and the exact microstate (every disc's position and velocity), whose collisions are
-        deterministic: far more than an observation shows. The oracle's margin over it is
-        the value of foreseeing the random draws (injections, reverse reactions); its own
-        margin over the controller is an upper bound, not an estimate, of what a policy that
-        sees only the observation could gain."""
+    @staticmethod
+    def searched(env):
+        """The task's searched controller (:func:`discgym.searched.searched`), a policy
+        factory."""
+        from .searched import searched
+
+        return searched(env)
+
+    def planner(self, samples: int = PLANNER_FUTURES, noise: int = 12345,
+                replan_every: int | None = None,
+                gate: float | None = PLANNER_GATE) -> PolicyFactory:
+        """A factory of the planner *without foresight of the random draws*: rollout MPC
+        (:class:`~discgym.oracle.RolloutOracle` with ``noise``) on the searched controller,
+        its first actions over every control (:func:`planner_candidates`), each scored by
+        its mean return over ``samples`` fresh random futures that every candidate meets
+        (common random numbers) and taken only if its advantage over the searched
+        controller's action stands ``gate`` standard errors above 0 (``RolloutOracle``'s
+        ``gate``), re-planned every ``replan_every`` steps (the task's default when None)
+        with the searched controller acting in between. It knows the
+        model and the exact microstate (every disc's position and velocity), far more than
+        an observation shows, but not the injections and reverse reactions to come: the
+        fair upper reference of a policy that sees the state but not the noise. The
+        oracle's margin over it is the value of foreseeing the random draws."""
         from .oracle import RolloutOracle
 
+        k = self.oracle_replan_every if replan_every is None else replan_every
+
         def factory(env):
-            return RolloutOracle(env, self.controller(env), self.oracle_candidates,
-                                 horizon=self.oracle_horizon,
-                                 replan_every=self.oracle_replan_every, noise=noise,
-                                 samples=samples)
+            return RolloutOracle(env, self.searched(env), planner_candidates,
+                                 horizon=self.oracle_horizon, replan_every=k, noise=noise,
+                                 samples=samples, gate=gate)
 
         return factory
+
+
+def planner_candidates(base: np.ndarray, env) -> np.ndarray:
+    """The planner's first actions on every task, over every control: the base action; its
+    heat (or jacket) action moved by -0.6, -0.3, -0.1, +0.1, +0.3, +0.6; its wall action set
+    to -1, 0 and +1; each feed's action set to 0 (none this step) and 1 (full). Clipped to
+    the action space, duplicates of an earlier row dropped (at most ``10 + 2 x feeds``)."""
+    base = np.asarray(base, dtype=np.float32)
+    space = env.action_space
+    rows = [base]
+    for d in (-0.6, -0.3, -0.1, 0.1, 0.3, 0.6):
+        a = base.copy()
+        a[0] += d
+        rows.append(a)
+    for j, values in [(1, (-1.0, 0.0, 1.0))] + [(j, (0.0, 1.0))
+                                                  for j in range(2, base.shape[0])]:
+        for v in values:
+            a = base.copy()
+            a[j] = v
+            rows.append(a)
+    out, seen = [], set()
+    for r in rows:
+        r = np.clip(r, space.low, space.high).astype(np.float32)
+        if r.tobytes() not in seen:
+            seen.add(r.tobytes())
+            out.append(r)
+    return np.stack(out)
 
 
 #: The baselines of every task, keyed by env id (extend it when you register a task).

@@ -124,19 +124,28 @@ class RolloutOracle:
             generators (``clone(reseed=...)``), drawn from this seed, so the oracle knows
             the model and the exact state (every disc; the collisions themselves are
             deterministic) but not the random draws to come. Every candidate meets the same
-            ``samples`` futures (common random numbers) and is scored by their mean. The
-            guarantee "never below the base policy" holds only without noise.
+            ``samples`` futures (common random numbers) and is scored by their mean; between
+            re-plans the base policy acts on the real observations (a planned action after
+            the first was the base policy's answer to an imagined future). The guarantee
+            "never below the base policy" holds only without noise.
         samples: futures per candidate (only with ``noise``).
+        gate: None (default), or (with ``samples`` >= 2) a number z: a candidate other than
+            the base action is taken only if its mean advantage over the base action on the
+            shared futures exceeds z standard errors of that advantage (their spread over
+            the futures). Without it, the best of many noisy means is the one whose futures
+            happened to favour it (the winner's curse), and the planner can fall below its
+            base policy.
 
     ``stats`` holds the planning budget of the episode so far: decisions, replans,
-    candidates rolled out, simulated env steps, copies, seconds spent planning, and the
+    candidates rolled out, simulated env steps, copies, seconds spent planning, the
     steps where the base policy's action differed from the executed plan (0 unless copies
-    are not exact or the base policy is random without its state in the copy).
+    are not exact or the base policy is random without its state in the copy), and the
+    candidates the ``gate`` turned down.
     """
 
     def __init__(self, env: gym.Env, base: Policy, candidates: CandidateFn | None = None,
                  horizon: int | None = None, replan_every: int = 1, noise=None,
-                 samples: int = 1):
+                 samples: int = 1, gate: float | None = None):
         if not callable(base):
             raise TypeError(f"base: expected a policy (observation -> action), got {base!r}")
         if candidates is not None and not callable(candidates):
@@ -154,21 +163,31 @@ class RolloutOracle:
         if samples > 1 and noise is None:
             raise ValueError("samples: more than one rollout per candidate needs noise (an "
                              "exact copy repeats the same future)")
+        if gate is not None and (isinstance(gate, bool) or not isinstance(
+                gate, (int, float, np.integer, np.floating)) or not 0 <= gate < np.inf):
+            raise ValueError(f"gate: need None or a finite number >= 0, got {gate!r}")
+        if gate is not None and samples < 2:
+            raise ValueError("gate: needs samples >= 2 (a standard error over the futures)")
         self.env = env
         self.base = base
         self.samples = int(samples)
+        self.gate = None if gate is None else float(gate)
         self._noise = None if noise is None else np.random.SeedSequence(noise)
         self.candidates = candidates or (lambda a, env: np.asarray(a, np.float32)[None])
         self.horizon = None if horizon is None else int(horizon)
         self.replan_every = int(replan_every)
         self._plan: deque = deque()
+        self._follow = 0
         self.stats = dict(decisions=0, replans=0, rollouts=0, simulated_steps=0, copies=0,
-                          planning_seconds=0.0, plan_mismatches=0)
+                          planning_seconds=0.0, plan_mismatches=0, gated=0)
 
     def __call__(self, obs: np.ndarray) -> np.ndarray:
         st = self.stats
         st["decisions"] += 1
         a_base = np.asarray(self.base(obs), dtype=np.float32)
+        if self._follow:  # (with noise: the base policy until the next re-plan)
+            self._follow -= 1
+            return a_base
         if self._plan:
             a = self._plan.popleft()
             if a.tobytes() != a_base.tobytes():
@@ -189,17 +208,31 @@ class RolloutOracle:
         best_k = 0
         # common random numbers: every candidate meets the same `samples` futures
         futures = [None] if self._noise is None else self._noise.spawn(self.samples)
+        base_returns = None
         for k, first in enumerate(cands):
-            total, plan = 0.0, None
+            total, plan, returns = 0.0, None, []
             for fut in futures:
                 t, p = self._rollout(u, first, limit, fut)
                 total += t / len(futures)
                 plan = p if plan is None else plan
+                returns.append(t)
+            if k == 0:
+                base_returns = np.array(returns)
+            elif self.gate is not None:
+                # the candidate's advantage over the base action on the shared futures must
+                # stand `gate` standard errors above 0, else it is noise
+                d = np.array(returns) - base_returns
+                if not d.mean() - self.gate * d.std(ddof=1) / np.sqrt(d.size) > 0:
+                    st["gated"] += 1
+                    continue
             if total > best:  # strictly: a tie keeps the earlier candidate (row 0: the base)
                 best, best_plan, best_k = total, plan, k
         if best_plan is None:  # (every rollout's return was NaN: follow the base policy)
             best_plan, best_k = [cands[0]], 0
-        self._plan = deque(best_plan[1:])
+        if self._noise is None:
+            self._plan = deque(best_plan[1:])
+        else:
+            self._follow = self.replan_every - 1
         st["replans"] += 1
         st["planning_seconds"] += time.perf_counter() - t0
         return cands[best_k].copy()

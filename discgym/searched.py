@@ -485,10 +485,25 @@ SEARCHED: dict[str, dict] = {
 }
 
 
+def task_id(env) -> str | None:
+    """The task ``env`` is: its registered id (``env.spec``), or for an env or vector env
+    of a task's own class built directly (no spec), that task's id; None otherwise (also
+    for :class:`~discgym.env.DiscReactorEnv` and its vector env built directly: with
+    keyword arguments they may be any task)."""
+    if getattr(env, "spec", None) is not None:
+        return env.spec.id
+    from .env import ENV_ID
+    from .tasks import TASKS
+
+    u = getattr(env, "unwrapped", env)
+    return next((k for k, classes in TASKS.items() if k != ENV_ID and type(u) in classes),
+                None)
+
+
 def searched(env) -> ScheduleController:
-    """The searched controller of the task ``env`` (found by its registered id in
-    :data:`SEARCHED`)."""
-    env_id = env.spec.id if getattr(env, "spec", None) is not None else None
+    """The searched controller of the task ``env`` (an env or a vector env of it, found by
+    :func:`task_id` in :data:`SEARCHED`)."""
+    env_id = task_id(env)
     if env_id not in SEARCHED:
         raise ValueError(f"env: no searched controller for {env_id!r} (searched: "
                          f"{', '.join(sorted(SEARCHED)) or 'none'})")

@@ -77,29 +77,43 @@ def test_train_writes_every_file(ppo_run):
 
 def test_evaluate_table_has_every_policy_and_paired_differences(ppo_run):
     res = evaluate.evaluate_task("DiscReactor-v0", [ppo_run], [1000, 1001], [0],
-                                 {"episode_steps": 20}, workers=1, oracle=True, mpc=True,
+                                 {"episode_steps": 20}, workers=1, oracle=True, planner=True,
                                  log=lambda s: None)
-    assert set(res["policies"]) == {"random", "best constant", "hand-written",
-                                    f"ppo ({ppo_run.name})", "mpc", "oracle"}
+    assert set(res["policies"]) == {"random", "best constant", "hand-written", "searched",
+                                    f"ppo ({ppo_run.name})", "planner", "oracle"}
     for name, row in res["policies"].items():
         assert len(row["returns"]) == 2 and np.isfinite(row["mean"]["value"])
         assert ("minus_hand_written" in row) == (name != "hand-written")
+        assert ("minus_searched" in row) == (name != "searched")
     ag = res["policies"][f"ppo ({ppo_run.name})"]
     hw = res["policies"]["hand-written"]
+    sc = res["policies"]["searched"]
     d = np.array(ag["returns"]) - np.array(hw["returns"])
     assert ag["minus_hand_written"]["value"] == pytest.approx(d.mean())
-    # the oracle plans on its controller: never below it on a seed
+    d = np.array(ag["returns"]) - np.array(sc["returns"])
+    assert ag["minus_searched"]["value"] == pytest.approx(d.mean())
+    # the normalised score: random 0, searched 1, a policy's mean on that scale
+    rnd = res["policies"]["random"]["mean"]["value"]
+    if sc["mean"]["value"] > rnd:
+        assert res["policies"]["random"]["normalised"]["value"] == pytest.approx(0.0)
+        assert sc["normalised"]["value"] == pytest.approx(1.0)
+        assert ag["normalised"]["value"] == pytest.approx(
+            (ag["mean"]["value"] - rnd) / (sc["mean"]["value"] - rnd))
+    # the oracle plans on the searched controller: never below it on a seed
     assert np.all(np.array(res["policies"]["oracle"]["returns"])
-                  >= np.array(hw["returns"]) - 1e-12)
+                  >= np.array(sc["returns"]) - 1e-12)
     md = evaluate.table(res)
     assert "| **ppo (ppo)** |" in md and "IQM" in md and "oracle" in md
+    assert "| planner (rollout MPC on the searched controller" in md
+    assert md.index("| searched controller |") < md.index("| **ppo (ppo)** |") \
+        < md.index("| planner")
     png = evaluate.plot_curves(res, ppo_run / "curve.png")
     assert png.stat().st_size > 0
 
 
 def test_oracles_on_the_first_seeds_only_are_compared_on_those(ppo_run):
     res = evaluate.evaluate_task("DiscReactor-v0", [ppo_run], [1000, 1001, 1002], [0],
-                                 {"episode_steps": 20}, workers=1, oracle=True, mpc=False,
+                                 {"episode_steps": 20}, workers=1, oracle=True, planner=False,
                                  oracle_seeds=2, log=lambda s: None)
     orc, hw = res["policies"]["oracle"], res["policies"]["hand-written"]
     assert len(orc["returns"]) == 2 and orc["seeds"] == [1000, 1001]
@@ -128,9 +142,12 @@ def test_several_runs_of_one_algorithm_get_a_row_of_their_mean(ppo_run, tmp_path
         f"ppo ({ppo_run.name})", "ppo (twin_run)"]
     d = mean - np.array(P["hand-written"]["returns"])
     assert pooled["minus_hand_written"]["value"] == pytest.approx(d.mean())
+    d = mean - np.array(P["searched"]["returns"])
+    assert pooled["minus_searched"]["value"] == pytest.approx(d.mean())
     assert "| ppo: mean of 2 runs (each seed's mean over the runs) |" in evaluate.table(res)
     lone = evaluate.pooled_rows({k: v for k, v in P.items() if k != "ppo (twin_run)"},
-                                np.array(P["hand-written"]["returns"]))
+                                np.array(P["hand-written"]["returns"]),
+                                np.array(P["searched"]["returns"]))
     assert lone == {}  # (one run: nothing to pool)
 
 

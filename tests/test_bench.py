@@ -387,13 +387,17 @@ def test_ladder_table_summarises_the_ladders_of_the_docs(tmp_path, capsys):
     files = sorted((ROOT / "docs" / "data").glob("ladder_Disc*-v0.json"))
     assert files
     assert ladder.main(["--table", *map(str, files)]) == 0
-    lines = capsys.readouterr().out.splitlines()
-    assert lines[0].startswith("| task | random | best constant | hand-written | oracle |")
+    out = capsys.readouterr().out
+    lines = out.split("\n\n")[0].splitlines()  # (the suite's table; then the aggregate)
+    assert "| policy | normalised IQM over 5 task(s) [95% CI] |" in out
+    assert lines[0].startswith("| task | random | best constant | simple rule | searched | "
+                               "planner | oracle |")
     assert len(lines) == 2 + len(files)
     for f, line in zip(files, lines[2:]):
         d = json.loads(f.read_text())
         assert line.startswith(f"| `{d['env_id']}` | ")
-        assert f"{d['policies']['random']['mean']['value']:.3f} [" in line
+        for k in ladder.LADDER:
+            assert f"{d['policies'][k]['mean']['value']:.3f} [" in line
     bad = tmp_path / "bad.json"
     bad.write_text("{}")
     with pytest.raises(SystemExit) as e:

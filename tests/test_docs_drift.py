@@ -11,6 +11,7 @@ import argparse
 import ast
 import contextlib
 import io
+import json
 import math
 import re
 import sys
@@ -466,3 +467,46 @@ def test_cli_doc_has_every_flag_and_no_other():
     for flag, value in re.findall(r"`(--[\w-]+)` \((\d+(?:\.\d+)?)\)", doc):
         assert float(ours[flag].default) == float(value), f"docs/cli.md: {flag} ({value})"
 
+
+
+# --------------------------------------------------------------------------------------------
+# the measured ladders
+
+
+def _ladder_module():
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("ladder_script",
+                                                  ROOT / "benchmarks" / "ladder.py")
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+def test_the_measured_ladders_are_the_code_and_the_pages_show_them():
+    """docs/data/ladder_<task>.json: every task's ladder, measured with the searched
+    controller the code ships and the planner's settings of the code; each task page's
+    Baselines section shows it; docs/tasks.md's suite and aggregate tables are what
+    ``ladder.py --table`` prints from those files."""
+    from discgym.baselines import PLANNER_FUTURES, PLANNER_GATE
+    from discgym.searched import SEARCHED
+
+    ladder = _ladder_module()
+    results = []
+    for env_id in TASKS:
+        res = json.loads((DOCS / "data" / f"ladder_{env_id}.json").read_text())
+        assert res["env_id"] == env_id and list(res["policies"]) == list(ladder.LADDER)
+        assert res["searched"]["params"] == SEARCHED[env_id]["params"], env_id
+        pb = res["planner_budget"]
+        assert (pb["futures_per_candidate"], pb["gate"]) == (PLANNER_FUTURES, PLANNER_GATE)
+        assert res["env_kwargs"] == {} and len(res["eval_seeds"]) >= 20
+        page = gen_pages.task_page(env_id)
+        assert "## Baselines" in page and res["table"] in page
+        results.append(res)
+    text = (DOCS / "tasks.md").read_text()
+    results.sort(key=lambda r: r["env_id"])  # (the order of ladder.py --table ladder_Disc*)
+    assert ladder.summary_table(results) in text
+    assert ladder.aggregate_table(results) in text
+    variants = json.loads((DOCS / "data" / "ladder_variants_DiscReactor-v0.json").read_text())
+    assert variants["variants_table"] in text
+    assert variants["searched"]["params"] == SEARCHED["DiscReactor-v0"]["params"]

@@ -13,11 +13,14 @@ from discgym.baselines import (
     EVAL_SEEDS,
     SEARCH_SEEDS,
     TASK_BASELINES,
+    aggregate_iqm,
     check_disjoint,
     constant_factory,
     iqm_ci,
     mean_ci,
+    normalised_scores,
     paired_difference,
+    planner_candidates,
     random_factory,
     reactor_heuristic,
     reactor_oracle_candidates,
@@ -162,6 +165,105 @@ def test_the_oracle_without_foresight_of_the_random_draws():
     assert one.returns.tobytes() == base.returns.tobytes()
 
 
+def test_without_foresight_the_base_policy_acts_between_replans():
+    """With noise, an imagined future's plan is not replayed: between two re-plans the
+    executed action is the base policy's on the real observation, and a re-plan comes every
+    ``replan_every`` decisions."""
+    env = gym.make(ENV, **TINY)
+    obs, _ = env.reset(seed=5)
+    h = reactor_heuristic(env)
+    o = RolloutOracle(env, reactor_heuristic(env), reactor_oracle_candidates, replan_every=3,
+                      noise=2, samples=2)
+    done, t = False, 0
+    while not done:
+        replans = o.stats["replans"]
+        a = o(obs)
+        if t % 3:
+            assert o.stats["replans"] == replans
+            np.testing.assert_array_equal(a, h(obs))
+        else:
+            assert o.stats["replans"] == replans + 1
+        obs, _, term, trunc, _ = env.step(a)
+        done, t = term or trunc, t + 1
+    assert o.stats["replans"] == -(-TINY["episode_steps"] // 3)
+
+
+def test_the_gate_takes_a_candidate_only_clear_of_the_noise():
+    """gate=z: a candidate replaces the base action only when its mean advantage on the
+    shared futures is z standard errors above 0 (an advantage with no spread always is);
+    among those, the best mean. Rollout returns are set by hand: base (1.0, 1.2), A (1.5,
+    1.3): advantage 0.3, standard error 0.2; B (1.05, 1.25): advantage 0.05, no spread."""
+    env = gym.make(ENV, **TINY)
+    obs, _ = env.reset(seed=0)
+    h = reactor_heuristic(env)
+    a0 = np.asarray(h(obs), np.float32)
+    cands = np.stack([a0, a0 + np.float32(0.1), a0 - np.float32(0.1)])
+    table = {cands[0].tobytes(): (1.0, 1.2), cands[1].tobytes(): (1.5, 1.3),
+             cands[2].tobytes(): (1.05, 1.25)}
+
+    def chosen(gate):
+        o = RolloutOracle(env, h, lambda a, e: cands, noise=1, samples=2, gate=gate)
+        calls = {}
+
+        def rollout(u, first, limit, future=None):
+            i = calls[first.tobytes()] = calls.get(first.tobytes(), -1) + 1
+            return table[first.tobytes()][i], [first]
+
+        o._rollout = rollout
+        a = o(obs)
+        return next(k for k in range(3) if cands[k].tobytes() == a.tobytes()), o.stats["gated"]
+
+    assert chosen(None) == (1, 0) and chosen(0.0) == (1, 0) and chosen(1.0) == (1, 0)
+    assert chosen(2.0) == (2, 1)  # A turned down (0.3 - 2 x 0.2 < 0); B has no spread
+    assert chosen(1e9) == (2, 1)
+    table[cands[2].tobytes()] = (1.0, 1.2)  # B no better than the base: the base kept
+    assert chosen(2.0) == (0, 2)
+    for bad in (-1.0, float("nan"), float("inf"), True, "2"):
+        with pytest.raises(ValueError, match="gate"):
+            RolloutOracle(env, h, noise=1, samples=2, gate=bad)
+    with pytest.raises(ValueError, match="gate"):
+        RolloutOracle(env, h, noise=1, samples=1, gate=1.0)
+    # on real rollouts an unreachable gate turns candidates down, and gate 0 takes what the
+    # ungated planner takes
+    def planner(gate):
+        return lambda env: RolloutOracle(env, reactor_heuristic(env), reactor_oracle_candidates,
+                                         replan_every=3, noise=4, samples=2, gate=gate)
+
+    free, zero, shut = (run_episodes(ENV, planner(g), SEEDS[:2], TINY) for g in (None, 0.0, 1e9))
+    assert zero.returns.tobytes() == free.returns.tobytes()
+    assert sum(st["gated"] for st in shut.stats) > sum(st["gated"] for st in zero.stats)
+
+
+@pytest.mark.parametrize("env_id", list(TASK_BASELINES))
+def test_the_planners_candidates_cover_every_control(env_id):
+    """Row 0 the base action; every other row moves one component: the heat (or jacket)
+    action by up to 0.6, the wall to -1, 0 or +1, a feed to 0 or 1; within the space, no
+    duplicates; the planner plans on the searched controller with them."""
+    env = gym.make(env_id)
+    obs, _ = env.reset(seed=0)
+    tb = TASK_BASELINES[env_id]
+    base = np.asarray(tb.searched(env)(obs), np.float32)
+    for b in (base, np.zeros_like(base), env.action_space.low, env.action_space.high):
+        c = planner_candidates(b, env)
+        b = np.clip(b, env.action_space.low, env.action_space.high)
+        assert c.dtype == np.float32 and c[0].tobytes() == b.tobytes()
+        assert len({r.tobytes() for r in c}) == len(c) <= 10 + 2 * (b.shape[0] - 2)
+        assert np.all(c >= env.action_space.low) and np.all(c <= env.action_space.high)
+        moved = set()
+        for r in c[1:]:
+            (j,) = np.flatnonzero(r != b)
+            moved.add(int(j))
+            if j == 0:
+                assert abs(r[0] - b[0]) <= 0.6 + 1e-6
+            else:
+                assert r[j] in ((-1.0, 0.0, 1.0) if j == 1 else (0.0, 1.0))
+        if b.tobytes() == np.zeros_like(b).tobytes():
+            assert moved == set(range(b.shape[0]))  # (from 0 every control has a move)
+    o = tb.planner(samples=2)(env)
+    assert o.samples == 2 and o.candidates is planner_candidates
+    assert type(o.base).__name__ == "ScheduleController"
+
+
 def test_the_shooting_oracle_is_never_worse_than_its_base_policy():
     """The CEM planner keeps the incumbent sequence (first: the base policy's own actions)
     among its samples, so it too never falls below the base policy."""
@@ -267,3 +369,31 @@ def test_the_registry_has_the_default_task():
     assert tb.controller(env)(obs).shape == (4,)
     assert tb.controller.__doc__ and tb.oracle_horizon is None
     assert isinstance(tb.oracle()(env), RolloutOracle)
+
+
+def test_the_aggregate_iqm_is_a_stratified_bootstrap():
+    """aggregate_iqm: the IQM of every task's scores pooled, its interval that of resampling
+    each task's scores within the task (checked against a hand-rolled stratified bootstrap),
+    narrower than resampling the pool (which mixes the tasks); normalised scores put the two
+    references at 0 and 1."""
+    from scipy.stats import trim_mean
+
+    rng = np.random.default_rng(3)
+    tasks = [rng.normal(0.0, 0.1, 15), rng.normal(1.0, 0.1, 25), rng.normal(2.0, 0.3, 10)]
+    agg = aggregate_iqm(tasks)
+    pool = np.concatenate(tasks)
+    assert agg.value == pytest.approx(trim_mean(pool, 0.25))
+    boot = np.array([trim_mean(np.concatenate([rng.choice(t, t.size) for t in tasks]), 0.25)
+                     for _ in range(4000)])
+    lo, hi = np.percentile(boot, [2.5, 97.5])
+    assert agg.low == pytest.approx(lo, abs=0.02) and agg.high == pytest.approx(hi, abs=0.02)
+    mixed = iqm_ci(pool, method="percentile")
+    assert agg.high - agg.low < mixed.high - mixed.low
+    assert aggregate_iqm([np.ones(4), np.ones(7)]).as_dict() == {
+        "value": 1.0, "low": 1.0, "high": 1.0, "method": "stratified percentile"}
+    np.testing.assert_allclose(normalised_scores([1.0, 3.0, 5.0], [1.0, 1.0], [3.0]),
+                               [0.0, 1.0, 2.0])
+    with pytest.raises(ValueError, match="high_ref"):
+        normalised_scores([1.0], [2.0], [1.0])
+    with pytest.raises(ValueError, match="scores_by_task"):
+        aggregate_iqm([np.ones(3), []])

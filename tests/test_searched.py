@@ -20,6 +20,7 @@ from discgym.searched import (
     flow_thermostat_params,
     run_batch,
     searched,
+    task_id,
 )
 from discgym.tasks import TASKS
 
@@ -159,6 +160,31 @@ def test_every_task_has_its_searched_controller(env_id, first_two):
     env = gym.make(env_id)
     assert list(searched(env).params()) == ScheduleController.names(env)
     assert run_episodes(env_id, searched, [1000, 1001]).returns.tolist() == first_two
+
+
+def test_the_task_is_found_from_any_env_of_it():
+    """searched() finds its task from a made env, an env or vector env built from the task's
+    class (no spec), and a reactor of the SB3 adapter given the task's spec (as
+    agents/train_ppo.py builds it); an env of no task is refused, naming it."""
+    import dataclasses
+
+    from discgym.sb3 import DiscReactorSB3VecEnv
+
+    for env_id, (env_cls, vec_cls) in TASKS.items():
+        assert task_id(gym.make(env_id)) == env_id
+        # (the base classes built directly may be any task: no id)
+        mine = None if env_id == "DiscReactor-v0" else env_id
+        assert task_id(env_cls()) == mine and task_id(vec_cls(num_envs=2)) == mine
+    kw = dict(TASKS["DiscFlow-v0"][0].defaults)
+    sb3 = DiscReactorSB3VecEnv(num_envs=2, **kw)
+    reactor = sb3.get_attr("unwrapped", [0])[0]
+    assert task_id(reactor) is None  # (built by keywords: no task to tell)
+    sb3.venv.spec = dataclasses.replace(gym.spec("DiscFlow-v0"), kwargs=kw)
+    assert task_id(reactor) == "DiscFlow-v0"
+    assert searched(reactor).params() == SEARCHED["DiscFlow-v0"]["params"]
+    assert task_id(object()) is None
+    with pytest.raises(ValueError, match="no searched controller for None"):
+        searched(object())
 
 
 @pytest.mark.parametrize("args, message", [

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import dataclasses
 import inspect
+import json
 import re
 from pathlib import Path
 
@@ -28,6 +29,8 @@ from discgym.tasks import TASKS
 DOCS = Path(__file__).resolve().parent.parent
 #: Where make_gifs.py writes each task's episode and the pages look for it.
 GIF_DIR = DOCS / "img" / "tasks"
+#: The measured ladders (benchmarks/ladder.py's JSON) the task pages show.
+DATA_DIR = DOCS / "data"
 
 SECTION_ORDER = ("Description", "Action Space", "Observation Space", "Rewards",
                  "Starting State", "Episode End", "Arguments", "Version History")
@@ -237,8 +240,54 @@ def task_page(env_id: str) -> str:
             lines += [extra.pop(title), ""]
     for title, text in extra.items():  # (a section the docstring lacks: the tables anyway)
         lines += [f"## {title}", "", text, ""]
+    lines += [baselines_section(env_id)]
     env.close()
     return "\n".join(lines).rstrip() + "\n"
+
+
+def ladder_data(env_id: str) -> dict | None:
+    """The task's measured ladder (``docs/data/ladder_<env>.json``, written by
+    ``benchmarks/ladder.py``), or None."""
+    path = DATA_DIR / f"ladder_{env_id}.json"
+    return json.loads(path.read_text()) if path.exists() else None
+
+
+def baselines_section(env_id: str) -> str:
+    """The task page's "Baselines" section: its ladder as measured (the table the ladder
+    script wrote into its JSON, with the run's command, date and machine) and the searched
+    controller's parameters."""
+    res = ladder_data(env_id)
+    if res is None:
+        return "## Baselines\n\nNot measured yet (`python benchmarks/ladder.py --env " \
+               f"{env_id}`).\n"
+    cmd = re.sub(r"--out \S+", f"--out docs/data/ladder_{env_id}.json", res["command"])
+    pb, ob = res["planner_budget"], res["oracle_budget"]
+    seeds = res["eval_seeds"]
+    sp = res["searched"]
+    lines = [
+        "## Baselines", "",
+        f"`{cmd}` ({res['date']}; {res['machine']}; {res['total_seconds']:.0f} s in all). "
+        f"One episode per evaluation seed {seeds[0]}-{seeds[-1]}; the constant searched on "
+        f"seeds {res['search_seeds'][0]}-{res['search_seeds'][-1]}; mean and IQM with 95% BCa "
+        "bootstrap intervals, each step of the ladder by its paired difference "
+        "([the ladder](../tasks.md#tasks-and-their-baseline-ladders)):", "",
+        res["table"], "",
+        f"The planner: {pb['candidates_per_replan']:.1f} candidate first actions per re-plan, "
+        f"each on {pb['futures_per_candidate']} fresh random futures, every "
+        f"{pb['replan_every']} steps, rollouts to the {pb['horizon']}, "
+        + (f"a candidate taken only {pb['gate']:g} standard errors clear of the searched "
+           f"controller's action ({pb['gated_per_replan']:.1f} turned down per re-plan); "
+           if pb.get("gate") is not None else "")
+        + f"{pb['simulated_steps_per_episode']:,.0f} simulated env steps per episode. The "
+        f"oracle: the same candidates on exact copies, {ob['simulated_steps_per_episode']:,.0f}"
+        " simulated env steps per episode. Wall times are of this run (the machine may have "
+        "run other jobs beside it).", "",
+        f"The searched controller ({{py:func}}`discgym.searched.searched`), found by "
+        f"`{sp['command']}`:", "",
+        _table(("parameter", "value"), [(f"`{k}`", f"{v:.4g}") for k, v in sp["params"].items()]),
+        "",
+    ]
+    return "\n".join(lines)
 
 
 def _action_table(env) -> str:
