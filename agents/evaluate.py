@@ -240,14 +240,6 @@ def _loading(path: Path):
 # --------------------------------------------------------------- episodes in worker processes
 
 
-def oracle_factory(tb):
-    """The ceiling: the rollout oracle on the searched controller, with the planner's
-    candidates over every control (as ``benchmarks/ladder.py`` runs it)."""
-    from discgym.baselines import planner_candidates
-
-    return tb.oracle(base=tb.searched, candidates=planner_candidates)
-
-
 def _factory(env_id: str, kind: str, payload):
     from discgym.baselines import TASK_BASELINES, constant_factory, random_factory
 
@@ -263,7 +255,7 @@ def _factory(env_id: str, kind: str, payload):
     if kind == "planner":
         return tb.planner()
     if kind == "oracle":
-        return oracle_factory(tb)
+        return tb.oracle()
     if kind == "agent":
         return agent_factory(*payload)
     raise ValueError(f"kind: unknown policy {kind!r}")
@@ -448,17 +440,18 @@ def normalise(rows: dict) -> None:
     random's mean is 0 and the searched controller's 1 (the interval's ends mapped alike;
     the two references are treated as exact). Rows on fewer seeds (the oracles) are mapped
     with the references' means on those seeds."""
-    rand = np.array(rows["random"]["returns"])
-    top = np.array(rows["searched"]["returns"])
+    from discgym.baselines import normalised_scores
+
+    rand, top = rows["random"]["returns"], rows["searched"]["returns"]
+    keys = ("value", "low", "high")
     for row in rows.values():
         n = len(row["returns"])
-        lo_ref, hi_ref = rand[:n].mean(), top[:n].mean()
-        span = hi_ref - lo_ref
-        if not span > 0:  # (the searched controller not above random: no scale)
+        try:
+            ends = normalised_scores([row["mean"][k] for k in keys], rand[:n], top[:n])
+        except ValueError:  # (the searched controller not above random: no scale)
             row["normalised"] = None
             continue
-        row["normalised"] = {k: float((row["mean"][k] - lo_ref) / span)
-                             for k in ("value", "low", "high")}
+        row["normalised"] = dict(zip(keys, map(float, ends)))
 
 
 # ------------------------------------------------------------------------ table and figures

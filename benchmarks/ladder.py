@@ -64,7 +64,6 @@ from discgym.baselines import (
     mean_ci,
     normalised_scores,
     paired_difference,
-    planner_candidates,
     random_factory,
     run_episodes,
     search_constant,
@@ -117,8 +116,7 @@ def run_task(env_id: str, eval_seeds: list, search_seeds: list, env_kwargs: dict
                  "hand-written": tb.controller, "searched": tb.searched,
                  "planner": tb.planner(samples=planner_futures, replan_every=replan_every,
                                        gate=planner_gate),
-                 "oracle": tb.oracle(replan_every=replan_every, horizon=horizon,
-                                     base=tb.searched, candidates=planner_candidates)}
+                 "oracle": tb.oracle(replan_every=replan_every, horizon=horizon)}
     runs = {}
     for name, fac in factories.items():
         t = time.perf_counter()
@@ -148,23 +146,22 @@ def run_task(env_id: str, eval_seeds: list, search_seeds: list, env_kwargs: dict
         "policies": rows, "ladder": steps,
         "ordered": all(s["ordered"] for s in steps),
         "planner_budget": {**budget(runs["planner"], ep_steps, tb, replan_every, None,
-                                    planner_candidates, futures=planner_futures),
+                                    futures=planner_futures),
                            "gate": planner_gate,
                            "gated_per_replan": float(np.mean(
                                [s["gated"] / s["replans"] for s in runs["planner"].stats]))},
-        "oracle_budget": budget(runs["oracle"], ep_steps, tb, replan_every, horizon,
-                                planner_candidates),
+        "oracle_budget": budget(runs["oracle"], ep_steps, tb, replan_every, horizon),
     }
 
 
-def budget(run, ep_steps, tb, replan_every, horizon, candidates, futures: int = 1) -> dict:
+def budget(run, ep_steps, tb, replan_every, horizon, futures: int = 1) -> dict:
     """A rollout planner's budget over the ladder's episodes (from its ``stats``)."""
     st = [s for s in run.stats if s]
     return {
         "candidates_per_replan": float(np.mean([s["rollouts"] / s["replans"] for s in st])
                                        / futures),
         "futures_per_candidate": futures,
-        "candidate_rule": (candidates.__doc__ or "").strip(),
+        "candidate_rule": (tb.oracle_candidates.__doc__ or "").strip(),
         "replan_every": tb.oracle_replan_every if replan_every is None else replan_every,
         "horizon": "episode end" if (horizon or tb.oracle_horizon) is None
         else (horizon or tb.oracle_horizon),
@@ -190,11 +187,10 @@ def oracle_variants(env_id: str) -> dict:
     from discgym.oracle import ShootingOracle
 
     tb = TASK_BASELINES[env_id]
-    on = dict(base=tb.searched, candidates=planner_candidates)
     return {
-        "rollout, re-plan every step": tb.oracle(replan_every=1, **on),
-        "rollout, re-plan every 10": tb.oracle(replan_every=10, **on),
-        "rollout, horizon 10": tb.oracle(horizon=10, **on),
+        "rollout, re-plan every step": tb.oracle(replan_every=1),
+        "rollout, re-plan every 10": tb.oracle(replan_every=10),
+        "rollout, horizon 10": tb.oracle(horizon=10),
         "CEM 2 x 8 sequences, segments of 10, re-plan every 10":
             lambda env: ShootingOracle(env, tb.searched(env), samples=8, iterations=2,
                                        elite=2, segment=10, replan_every=10, generator=0),
@@ -302,12 +298,14 @@ def normalised(results: list) -> tuple[dict, list]:
     norm, left_out = {k: [] for k in LADDER}, []
     for res in results:
         pol = res["policies"]
-        if not np.mean(pol["searched"]["returns"]) > np.mean(pol["random"]["returns"]):
+        refs = pol["random"]["returns"], pol["searched"]["returns"]
+        try:
+            scores = {k: normalised_scores(pol[k]["returns"], *refs) for k in LADDER}
+        except ValueError:  # (the searched controller not above random)
             left_out.append(res["env_id"])
             continue
         for k in LADDER:
-            norm[k].append(normalised_scores(pol[k]["returns"], pol["random"]["returns"],
-                                             pol["searched"]["returns"]))
+            norm[k].append(scores[k])
     return norm, left_out
 
 

@@ -487,6 +487,28 @@ def constant_factory(action) -> PolicyFactory:
     return lambda env: constant_policy(action)
 
 
+def planner_candidates(base: np.ndarray, env) -> np.ndarray:
+    """The planner's first actions on every task, over every control: the base action; its
+    heat (or jacket) action moved by -0.6, -0.3, -0.1, +0.1, +0.3, +0.6; its wall action set
+    to -1, 0 and +1; each feed's action set to 0 (none this step) and 1 (full). Clipped to
+    the action space, duplicates of an earlier row dropped (at most ``10 + 2 x feeds``)."""
+    from .oracle import clipped_unique
+
+    base = np.asarray(base, dtype=np.float32)
+    rows = [base]
+    for d in (-0.6, -0.3, -0.1, 0.1, 0.3, 0.6):
+        a = base.copy()
+        a[0] += d
+        rows.append(a)
+    for j, values in [(1, (-1.0, 0.0, 1.0))] + [(j, (0.0, 1.0))
+                                                  for j in range(2, base.shape[0])]:
+        for v in values:
+            a = base.copy()
+            a[j] = v
+            rows.append(a)
+    return clipped_unique(rows, env.action_space)
+
+
 #: The planner's futures per candidate (:meth:`TaskBaselines.planner`).
 PLANNER_FUTURES = 4
 #: The planner's gate: a candidate replaces the searched controller's action only when its
@@ -503,19 +525,18 @@ class TaskBaselines:
       rule is its docstring (shown in docs/tasks.md).
     - ``constant_grid``: candidate constant actions, ``env -> (K, A)`` (or an array),
       searched on :data:`SEARCH_SEEDS`.
-    - ``oracle_candidates``: ``(base_action, env) -> (K, A)`` first actions of the rollout
-      oracle (:class:`discgym.oracle.RolloutOracle`) on ``controller``, row 0 the base
-      action (:meth:`oracle`'s defaults; the ladder's oracle and planner plan on the
-      searched controller with :func:`planner_candidates`).
+    - ``oracle_candidates``: ``(base_action, env) -> (K, A)`` first actions of the oracle
+      and the planner (:class:`discgym.oracle.RolloutOracle`), row 0 the base action
+      (default :func:`planner_candidates`, over every control).
     - ``oracle_replan_every``, ``oracle_horizon``: the oracle's defaults (horizon None: to
-      the episode's end, which guarantees oracle >= controller on every seed).
+      the episode's end, which guarantees oracle >= its base policy on every seed).
     - ``env_kwargs``: keyword arguments of ``gymnasium.make`` for the ladder (usually none).
     - ``controller_name``: the controller's name in the ladder's table.
     """
 
     controller: PolicyFactory
     constant_grid: Callable | np.ndarray
-    oracle_candidates: Callable
+    oracle_candidates: Callable = planner_candidates
     oracle_replan_every: int = 5
     oracle_horizon: int | None = None
     env_kwargs: Mapping = field(default_factory=dict)
@@ -524,15 +545,15 @@ class TaskBaselines:
     def oracle(self, replan_every: int | None = None, horizon: int | None = None,
                base: PolicyFactory | None = None,
                candidates: Callable | None = None) -> PolicyFactory:
-        """A factory of the rollout oracle (``replan_every`` and ``horizon``: the task's
-        defaults when None) on ``base`` with first actions ``candidates`` (defaults: this
-        task's hand-written controller and ``oracle_candidates``; the ladder's ceiling runs
-        it on the searched controller, :meth:`searched`, with :func:`planner_candidates`)."""
+        """A factory of the rollout oracle, the ladder's ceiling (``replan_every`` and
+        ``horizon``: the task's defaults when None), on ``base`` with first actions
+        ``candidates`` (defaults: the searched controller, :meth:`searched`, and
+        ``oracle_candidates``)."""
         from .oracle import RolloutOracle
 
         k = self.oracle_replan_every if replan_every is None else replan_every
         h = self.oracle_horizon if horizon is None else horizon
-        base = self.controller if base is None else base
+        base = self.searched if base is None else base
         cands = self.oracle_candidates if candidates is None else candidates
 
         def factory(env):
@@ -553,7 +574,7 @@ class TaskBaselines:
                 gate: float | None = PLANNER_GATE) -> PolicyFactory:
         """A factory of the planner *without foresight of the random draws*: rollout MPC
         (:class:`~discgym.oracle.RolloutOracle` with ``noise``) on the searched controller,
-        its first actions over every control (:func:`planner_candidates`), each scored by
+        its first actions over every control (``oracle_candidates``), each scored by
         its mean return over ``samples`` fresh random futures that every candidate meets
         (common random numbers) and taken only if its advantage over the searched
         controller's action stands ``gate`` standard errors above 0 (``RolloutOracle``'s
@@ -568,38 +589,11 @@ class TaskBaselines:
         k = self.oracle_replan_every if replan_every is None else replan_every
 
         def factory(env):
-            return RolloutOracle(env, self.searched(env), planner_candidates,
+            return RolloutOracle(env, self.searched(env), self.oracle_candidates,
                                  horizon=self.oracle_horizon, replan_every=k, noise=noise,
                                  samples=samples, gate=gate)
 
         return factory
-
-
-def planner_candidates(base: np.ndarray, env) -> np.ndarray:
-    """The planner's first actions on every task, over every control: the base action; its
-    heat (or jacket) action moved by -0.6, -0.3, -0.1, +0.1, +0.3, +0.6; its wall action set
-    to -1, 0 and +1; each feed's action set to 0 (none this step) and 1 (full). Clipped to
-    the action space, duplicates of an earlier row dropped (at most ``10 + 2 x feeds``)."""
-    base = np.asarray(base, dtype=np.float32)
-    space = env.action_space
-    rows = [base]
-    for d in (-0.6, -0.3, -0.1, 0.1, 0.3, 0.6):
-        a = base.copy()
-        a[0] += d
-        rows.append(a)
-    for j, values in [(1, (-1.0, 0.0, 1.0))] + [(j, (0.0, 1.0))
-                                                  for j in range(2, base.shape[0])]:
-        for v in values:
-            a = base.copy()
-            a[j] = v
-            rows.append(a)
-    out, seen = [], set()
-    for r in rows:
-        r = np.clip(r, space.low, space.high).astype(np.float32)
-        if r.tobytes() not in seen:
-            seen.add(r.tobytes())
-            out.append(r)
-    return np.stack(out)
 
 
 #: The baselines of every task, keyed by env id (extend it when you register a task).
@@ -607,7 +601,6 @@ TASK_BASELINES: dict[str, TaskBaselines] = {
     "DiscReactor-v0": TaskBaselines(
         controller=reactor_heuristic,
         constant_grid=reactor_grid,
-        oracle_candidates=reactor_oracle_candidates,
         controller_name="scheduled heuristic",
     ),
 }
@@ -627,16 +620,6 @@ def jacket_grid(env) -> np.ndarray:
                     dtype=np.float32)
 
 
-def flow_oracle_candidates(base: np.ndarray, env) -> np.ndarray:
-    """The oracle's first actions on ``DiscFlow-v0``: those of the reactor, with the wall
-    moved inward (-1, -2: the controller holds it wide open) instead of outward."""
-    from .oracle import component_offsets
-
-    n_feed = env.action_space.shape[0] - 2
-    offsets = [(-0.6, -0.3, -0.1, 0.1, 0.3, 0.6), (-1.0, -2.0)] + [(-1.0,)] * n_feed
-    return component_offsets(offsets)(base, env)
-
-
 from .controllers import (  # noqa: E402  (the suite's controllers; no import circle)
     AdaptiveThermostat,
     BandThermostat,
@@ -647,18 +630,14 @@ from .controllers import (  # noqa: E402  (the suite's controllers; no import ci
 TASK_BASELINES.update({
     "DiscKinetics-v0": TaskBaselines(
         controller=AdaptiveThermostat, constant_grid=reactor_grid,
-        oracle_candidates=reactor_oracle_candidates,
         controller_name="adaptive thermostat"),
     "DiscEconomic-v0": TaskBaselines(
         controller=BandThermostat, constant_grid=reactor_grid,
-        oracle_candidates=reactor_oracle_candidates,
         controller_name="band thermostat"),
     "DiscJacket-v0": TaskBaselines(
         controller=JacketThermostat, constant_grid=jacket_grid,
-        oracle_candidates=reactor_oracle_candidates,
         controller_name="jacket thermostat"),
     "DiscFlow-v0": TaskBaselines(
         controller=flow_thermostat, constant_grid=reactor_grid,
-        oracle_candidates=flow_oracle_candidates,
         controller_name="flow thermostat"),
 })

@@ -35,7 +35,8 @@ from collections.abc import Callable, Sequence
 import gymnasium as gym
 import numpy as np
 
-__all__ = ["RolloutOracle", "ShootingOracle", "component_offsets", "steps_left"]
+__all__ = ["RolloutOracle", "ShootingOracle", "clipped_unique", "component_offsets",
+           "steps_left"]
 
 Policy = Callable[[np.ndarray], np.ndarray]
 #: ``candidates(base_action, env) -> (K, A)`` first actions to try; row 0 must be the base
@@ -58,23 +59,28 @@ def component_offsets(offsets: Sequence[Sequence[float]]) -> CandidateFn:
         if len(offs) > base.shape[-1]:
             raise ValueError(f"offsets: {len(offs)} components given, the action has "
                              f"{base.shape[-1]}")
-        space = env.action_space
         rows = [base]
         for i, o in enumerate(offs):
             for d in o:
                 a = base.copy()
                 a[i] = a[i] + d
-                rows.append(np.clip(a, space.low, space.high).astype(np.float32))
-        out, seen = [], set()
-        for r in rows:
-            key = r.tobytes()
-            if key not in seen:
-                seen.add(key)
-                out.append(r)
-        return np.stack(out)
+                rows.append(a)
+        return clipped_unique(rows, env.action_space)
 
     candidates.offsets = offs
     return candidates
+
+
+def clipped_unique(rows, space) -> np.ndarray:
+    """Candidate actions ``rows`` clipped to ``space`` (float32), each duplicate of an
+    earlier row dropped (two offsets clipped to the same bound, say), as a (K, A) array."""
+    out, seen = [], set()
+    for r in rows:
+        r = np.clip(r, space.low, space.high).astype(np.float32)
+        if r.tobytes() not in seen:
+            seen.add(r.tobytes())
+            out.append(r)
+    return np.stack(out)
 
 
 def steps_left(env: gym.Env) -> int | None:
