@@ -10,6 +10,7 @@ deep call chains pay for their leaves again at every level.
 
     python benchmarks/compile_profile.py                       # the flagship's env
     python benchmarks/compile_profile.py --env DiscReactor-v0 --integrator step --num-envs 1
+    python benchmarks/compile_profile.py --simulation reactor --integrator step
 """
 
 from __future__ import annotations
@@ -24,23 +25,30 @@ import time
 from collections import defaultdict
 
 
-def profile(env_id: str, integrator: str | None, num_envs: int) -> dict:
-    """In this process (its numba cache must be empty): compile times by function."""
+def profile(env_id: str, integrator: str | None, num_envs: int,
+            scene: str | None = None) -> dict:
+    """In this process (its numba cache must be empty): compile times by function, to the
+    first step of the env (or, with ``scene``, of a ``Simulation`` of that scene)."""
     import numpy as np
     from numba.core import event
 
     t0 = time.perf_counter()
     c0 = time.process_time()
     with event.install_recorder("numba:compile") as rec:
-        from discgym.tasks import TASKS
-        from discgym.vector import DiscReactorVectorEnv
+        if scene:
+            import discgym as dg
 
-        kw = dict(TASKS[env_id][0].defaults)
-        if integrator:
-            kw["integrator"] = integrator
-        venv = DiscReactorVectorEnv(num_envs=num_envs, **kw)
-        venv.reset(seed=0)
-        venv.step(np.zeros((num_envs,) + venv.single_action_space.shape, np.float32))
+            dg.Simulation(scene, seed=0, integrator=integrator or "step").step(1)
+        else:
+            from discgym.tasks import TASKS
+            from discgym.vector import DiscReactorVectorEnv
+
+            kw = dict(TASKS[env_id][0].defaults)
+            if integrator:
+                kw["integrator"] = integrator
+            venv = DiscReactorVectorEnv(num_envs=num_envs, **kw)
+            venv.reset(seed=0)
+            venv.step(np.zeros((num_envs,) + venv.single_action_space.shape, np.float32))
     wall = time.perf_counter() - t0
     cpu = time.process_time() - c0
     return {"wall": wall, "cpu": cpu, **compile_times(rec.buffer)}
@@ -77,6 +85,9 @@ def main(argv=None) -> int:
     p.add_argument("--env", default="DiscFlow-v0")
     p.add_argument("--integrator", default="event", help="'step', 'event' or '' (the task's)")
     p.add_argument("--num-envs", type=int, default=16)
+    p.add_argument("--simulation", metavar="SCENE", default=None,
+                   help="profile a Simulation of this built-in scene (or TOML) instead of an "
+                   "env: its first step(1), on --integrator")
     p.add_argument("--top", type=int, default=15)
     p.add_argument("--literal-args", action="store_true",
                    help="print the argument types of the literal versions")
@@ -87,11 +98,12 @@ def main(argv=None) -> int:
             env = dict(os.environ, NUMBA_CACHE_DIR=cache)
             args = sys.argv[1:] if argv is None else list(argv)
             return subprocess.call([sys.executable, __file__, "--child", *args], env=env)
-    r = profile(a.env, a.integrator or None, a.num_envs)
+    r = profile(a.env, a.integrator or None, a.num_envs, a.simulation)
     total = sum(r["own"].values())
-    print(f"{a.env}, {a.num_envs} reactors, integrator {a.integrator or 'of the task'}: first "
-          f"step after {r['wall']:.1f} s ({r['cpu']:.1f} s of CPU), of which {total:.1f} s "
-          f"compiling ({len(r['own'])} functions)\n")
+    what = f"Simulation({a.simulation!r}), integrator {a.integrator or 'step'}" if a.simulation \
+        else f"{a.env}, {a.num_envs} reactors, integrator {a.integrator or 'of the task'}"
+    print(f"{what}: first step after {r['wall']:.1f} s ({r['cpu']:.1f} s of CPU), of which "
+          f"{total:.1f} s compiling ({len(r['own'])} functions)\n")
     print("| function | own s | inclusive s |\n|---|---|---|")
     for name, t in sorted(r["own"].items(), key=lambda kv: -kv[1])[:a.top]:
         print(f"| {name.replace('discgym.kernels.', '')} | {t:.1f} | {r['incl'][name]:.1f} |")

@@ -1267,11 +1267,12 @@ class DiscReactorEnv(gym.Env):
         self._feed_kT = np.full(1, np.nan, dtype=FLOAT)
         self._feed_kT_next = np.full(1, np.nan, dtype=FLOAT)
         self._feed_switch = np.full(1, -1, dtype=np.int64)
+        self._pending = np.zeros((1, 2), dtype=FLOAT)
         self._ep = Episodes(self._size, self._feed_left, self._steps, self._n_init, self._n_ref,
                             self._temp, self._kin, self._stats, self._obs, self._fout,
                             self._iout, self._sp_form, self._ch_rate, self._ch_energy,
                             self._ch_last, self._out_last, self._feed_kT,
-                            self._feed_kT_next, self._feed_switch)
+                            self._feed_kT_next, self._feed_switch, self._pending)
         self._ashape = (2 + F,)
         self._n_feed = F
         self._n_species = S

@@ -394,8 +394,13 @@ class Simulation:
         counters = (self._icnt, self._fsum, self._ch_count, self._outflow)
         tables = tuple(cs.tables)
         if self._integrator == "event":  # one exact run of n_steps * dt
-            discs, n = _event.run_steps_rngs(discs, self._n, n_steps, dt, bounds, tables,
-                                             cs.params, cs.flags, self._rngs, counters)
+            discs, n, rest = _event.run_steps_rngs(discs, self._n, n_steps, dt, bounds,
+                                                   tables, cs.params, cs.flags, self._rngs,
+                                                   counters)
+            if rest > 0.0:  # its event bound: the rest stepped (compiled when first needed)
+                discs, n = _event.finish_capped_rngs(discs, n, n_steps, dt, rest, bounds,
+                                                     tables, cs.params, cs.flags, self._rngs,
+                                                     counters)
         else:
             discs, n, self._work = _step.advance_rngs(
                 discs, self._n, n_steps, dt, bounds, tables, cs.params, cs.flags, self._rngs,

@@ -212,6 +212,7 @@ class DiscReactorVectorEnv(VectorEnv):
         self._feed_kT = np.full(R, np.nan, dtype=FLOAT)
         self._feed_kT_next = np.full(R, np.nan, dtype=FLOAT)
         self._feed_switch = np.full(R, -1, dtype=np.int64)
+        self._pending = np.zeros((R, 2), dtype=FLOAT)
         self._started = False
         self._link()
 
@@ -231,7 +232,7 @@ class DiscReactorVectorEnv(VectorEnv):
                             self._n_ref, self._temps, self._kin, self._stats, self._obs,
                             self._fout, self._iout, self._sp_form, self._ch_rate,
                             self._ch_energy, self._ch_last, self._out_last, self._feed_kT,
-                            self._feed_kT_next, self._feed_switch)
+                            self._feed_kT_next, self._feed_switch, self._pending)
         # (the structs as plain tuples of their fields: see kernels.batch.env_step)
         cfg = self.config
         self._fields = (tuple(self._rx), tuple(self._ep), tuple(cfg.tables),

@@ -273,6 +273,83 @@ def test_a_step_past_the_event_bound_is_finished_by_the_time_stepped_integrator(
     assert sim.kinetic_energy() == pytest.approx(e0, rel=1e-12)
 
 
+def caged(sim):
+    """Move ``sim``'s two discs level, 1e-9 apart from each other and the walls (see the
+    test above)."""
+    st = sim.get_state()
+    st["positions"] = np.array([[0.5 + 2.5e-10, 5.0], [1.5 + 7.5e-10, 5.0]])
+    sim.set_state(st)
+
+
+def one_run(sim, n_steps):
+    """``n_steps`` of ``sim`` as one compiled :func:`~discgym.kernels.event_driven.run_steps`
+    (the exact run and the time-stepped rest in one call) on its own arrays and generator,
+    booked as ``Simulation.step`` books them: the reference of the split calls."""
+    cs = sim._cs
+    d = Discs(sim._pos, sim._vel, sim._species, sim._internal_energy, sim._ids, sim._idctr)
+    cnt = ev.Counters(sim._icnt, sim._fsum, sim._ch_count, np.zeros(ev.N_STATS, np.int64),
+                      sim._outflow)
+    d, n = ev.run_steps(d, sim._n, n_steps, sim.scene.dt,
+                        Bounds(*kernel_bounds(sim.bounds), sim._walls), cs.tables, cs.params,
+                        cs.flags, sim._rngs[0], cnt, ev.CELLS_PER_DISC)
+    sim._pos, sim._vel, sim._species, sim._internal_energy, sim._ids = tuple(d)[:5]
+    sim._n = n
+    sim._steps += n_steps
+    sim._tick(n_steps, sim.scene.dt)
+
+
+CAGE = dg.Scene(bounds=dg.Box(2.0 + 1e-9, 10.0),
+                species=[dg.Species("A", 0.5, 1.0), dg.Species("B", 0.5, 1.0)],
+                counts={"A": 2}, dt=0.05)
+
+
+def test_a_capped_step_split_in_two_calls_is_one_run_bit_for_bit():
+    """``Simulation.step`` runs the exact part and the time-stepped rest of a step past the
+    event bound as two compiled calls (the second compiled only when a run first needs it):
+    the same bits as one compiled ``run_steps``."""
+    sim = event(CAGE, [[0.5, 3.0], [1.5, 7.0]], [[1.0, 0.3], [-1.0, -0.2]], [0, 0])
+    caged(sim)
+    ref = sim.copy()
+    sim.step(2)
+    one_run(ref, 2)
+    assert sim.counters()["events_capped"] >= 1
+    same_state(sim, ref)
+
+
+@pytest.mark.parametrize("num_envs", [1, 3])
+def test_an_env_step_past_the_event_bound_is_one_run_bit_for_bit(num_envs):
+    """An environment of the exact integrator leaves a step that reaches the event bound to
+    a second compiled call (the time-stepped rest, then the step's booking): the reactor's
+    state is that of one compiled ``run_steps`` of the step, and its observation that of the
+    state; the single env (``num_envs`` 1) and the vector env (3, one caged) alike."""
+    from discgym.env import DiscReactorEnv
+    from discgym.vector import DiscReactorVectorEnv
+
+    kw = dict(scene=CAGE, feed=("A",), product="B", count_jitter=0.0, size_range=(1.0, 1.0),
+              integrator="event", episode_steps=5)
+    env = DiscReactorEnv(**kw) if num_envs == 1 else DiscReactorVectorEnv(num_envs=num_envs, **kw)
+    env.reset(seed=0)
+    sims = [env.simulation] if num_envs == 1 else env.simulations
+    caged(sims[0])
+    if num_envs == 1:
+        env._observe()
+    else:
+        env._observe_all()
+    refs = [s.copy() for s in sims]
+    for s in refs[1:]:
+        s.step(env.config.steps_per_action)  # (not caged: exact throughout)
+    one_run(refs[0], env.config.steps_per_action)
+    zero = np.zeros(env.action_space.shape, np.float32)
+    obs = env.step(zero)[0]
+    assert sims[0].counters()["events_capped"] >= 1
+    for s, r in zip(sims, refs):
+        same_state(s, r)
+    # the observation booked is that of the state reached (observing again changes nothing)
+    booked = np.array(obs).reshape(num_envs, -1)
+    env._observe() if num_envs == 1 else env._observe_all()
+    assert np.array_equal(booked, env._obs)
+
+
 # ------------------------------------------------------- class 5: split calls, restores
 HOT = dg.Species("AB", 0.6, 2.0, formation_energy=1.0)
 SA = dg.Species("A", 0.4, 1.0)

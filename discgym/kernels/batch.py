@@ -39,7 +39,7 @@ import numpy as np
 from numba import njit, prange
 
 from .controls import RESIZED, heat, inject, resize
-from .event_driven import CELLS_PER_DISC, N_STATS, run_steps
+from .event_driven import CELLS_PER_DISC, N_STATS, finish_capped, run_exact
 from .event_structs import Counters as EventCounters
 from .jit import kernel
 from .step import FS_WALL_HEAT, advance, empty_work
@@ -63,6 +63,9 @@ from .structs import (
 GREW = 1
 #: status of a reactor whose injection did not fit in its arrays (capacity too small).
 FULL = 2
+#: status of a reactor whose exact run reached its event bound, within a compiled step only:
+#: :func:`env_step` finishes its step (:func:`_finish_capped`) before it returns.
+CAPPED = 3
 
 # Columns of the outputs: ``fout`` (R, 2 + F) and ``iout`` (R, 3 + 2 F)
 O_HEAT, O_ENERGY_HEAT = range(2)  # then the energy each feed species' injection put in (F)
@@ -70,6 +73,7 @@ O_STATUS, O_BLOCKED, O_INVALID = range(3)  # then injected (F), then refused (F)
 
 
 _INTEGRATOR = ReactorConsts._fields.index("integrator")
+_IOUT = Episodes._fields.index("iout")
 
 
 def env_step(rx, ep, tables, params, flags, consts, rngs, active, act):
@@ -80,11 +84,15 @@ def env_step(rx, ep, tables, params, flags, consts, rngs, active, act):
     these four).
 
     The integrator is chosen here, in Python, as :class:`~discgym.Simulation` chooses its
-    entry point: the compiled step of a stepped environment is :func:`_env_step` with
-    ``event=None``, for which numba prunes the event-driven integrator and never compiles it
-    (see :func:`reactor_step`)."""
-    _env_step(rx, ep, tables, params, flags, consts, rngs, active, act,
-              True if consts[_INTEGRATOR] == EVENT else None)
+    entry point: the compiled step is :func:`_env_step` with ``exact=None`` for a stepped
+    environment and ``stepped=None`` for an exact one, and numba prunes the integrator given
+    None and never compiles it (see :func:`reactor_step`). The time-stepped integrator that
+    finishes an exact run which reached its event bound is a call of its own
+    (:func:`_finish_capped`, compiled when a run first needs it)."""
+    exact, stepped = _integrators(consts)
+    _env_step(rx, ep, tables, params, flags, consts, rngs, active, act, exact, stepped)
+    if exact:
+        _finish_capped_rows(rx, ep, tables, params, flags, consts, rngs, active)
 
 
 def env_step_parallel(rx, ep, tables, params, flags, consts, rngs, active, act, order, starts):
@@ -93,38 +101,92 @@ def env_step_parallel(rx, ep, tables, params, flags, consts, rngs, active, act, 
     threads gives each thread one list). Each reactor touches only its own rows, so there
     are no races, and the result is the same bits whatever the lists. The structs come as
     plain tuples, and the integrator is chosen, as for :func:`env_step`."""
+    exact, stepped = _integrators(consts)
     _env_step_parallel(rx, ep, tables, params, flags, consts, rngs, active, act, order, starts,
-                       True if consts[_INTEGRATOR] == EVENT else None)
+                       exact, stepped)
+    if exact:
+        _finish_capped_rows(rx, ep, tables, params, flags, consts, rngs, active)
+
+
+def _integrators(consts) -> tuple:
+    """``(exact, stepped)`` of :func:`reactor_step` for ``consts.integrator``: one True, the
+    other None (numba prunes a branch on ``x is not None`` only where ``x`` is None)."""
+    return (True, None) if consts[_INTEGRATOR] == EVENT else (None, True)
+
+
+def _finish_capped_rows(rx, ep, tables, params, flags, consts, rngs, active):
+    """Finish the step of every active reactor whose exact run reached its event bound (one
+    after the other; each has its own rows and generator, so the order changes nothing)."""
+    capped = active & (ep[_IOUT][:, O_STATUS] == CAPPED)
+    if capped.any():
+        _finish_capped(rx, ep, tables, params, flags, consts, rngs, capped)
 
 
 @njit(cache=True)
-def _env_step(rx, ep, tables, params, flags, consts, rngs, active, act, event):
+def _finish_capped(rx, ep, tables, params, flags, consts, rngs, capped):
+    """The rest of the step of each reactor r with ``capped[r]``, which :func:`reactor_step`
+    left at its exact run's event bound (``ep.pending[r]``: the time left, the thermal walls'
+    heat before the step): the time-stepped integrator to the end of the step
+    (:func:`~discgym.kernels.event_driven.finish_capped`, as ``run_steps`` would in one call),
+    then what follows the physics (:func:`_book`)."""
+    rx, ep, tables, consts = _structs(rx, ep, tables, consts)
+    for r in range(capped.shape[0]):
+        if capped[r]:
+            discs, own, bounds = _views(r, rx, ep, tables)
+            ep.iout[r, O_STATUS] = 0
+            after, m = finish_capped(discs, rx.n[r], consts.steps_per_action, consts.dt,
+                                     ep.pending[r, 0], bounds, own, params, flags, rngs[r],
+                                     Counters(rx.icnt[r], rx.fsum[r], rx.ch_count[r],
+                                              rx.outflow[r]))
+            _book(r, after.pos.shape[0] != discs.pos.shape[0], m, rx, ep, own.sp_mass, consts,
+                  ep.pending[r, 1])
+
+
+@njit(cache=True)
+def _env_step(rx, ep, tables, params, flags, consts, rngs, active, act, exact, stepped):
     rx, ep, tables, consts = _structs(rx, ep, tables, consts)
     for r in range(rx.pos.shape[0]):
         if active[r]:
-            reactor_step(r, rx, ep, tables, params, flags, consts, rngs, act, event)
+            reactor_step(r, rx, ep, tables, params, flags, consts, rngs, act, exact, stepped)
 
 
 @njit(cache=True)
 def _env_step_parallel(rx, ep, tables, params, flags, consts, rngs, active, act, order, starts,
-                       event):
+                       exact, stepped):
     rx, ep, tables, consts = _structs(rx, ep, tables, consts)
-    _in_parallel(rx, ep, tables, params, flags, consts, rngs, active, act, order, starts, event)
+    _in_parallel(rx, ep, tables, params, flags, consts, rngs, active, act, order, starts, exact,
+                 stepped)
 
 
 @kernel(parallel=True)
-def _in_parallel(rx, ep, tables, params, flags, consts, rngs, active, act, order, starts, event):
+def _in_parallel(rx, ep, tables, params, flags, consts, rngs, active, act, order, starts, exact,
+                 stepped):
     # (apart from _env_step_parallel: numba's parfor lowering fails on the unpacked structs)
     for t in prange(starts.shape[0] - 1):
         for q in range(starts[t], starts[t + 1]):
             r = order[q]
             if active[r]:
-                _reactor_step(r, rx, ep, tables, params, flags, consts, rngs, act, event)
+                _reactor_step(r, rx, ep, tables, params, flags, consts, rngs, act, exact,
+                              stepped)
 
 
 @njit(cache=True, inline="always")
 def _structs(rx, ep, tables, consts):
     return Reactors(*rx), Episodes(*ep), Tables(*tables), ReactorConsts(*consts)
+
+
+@njit(cache=True, inline="always")
+def _views(r, rx, ep, tables):
+    """Reactor r's :class:`~discgym.kernels.structs.Discs`, its
+    :class:`~discgym.kernels.structs.Tables` (its kinetics: the scene's, or those drawn for
+    its episode; the same values give the same bits, the shared tables being these rows'
+    copies) and its :class:`~discgym.kernels.structs.Bounds`: views of its rows."""
+    discs = Discs(rx.pos[r], rx.vel[r], rx.species[r], rx.internal_energy[r], rx.ids[r],
+                  rx.next_id[r])
+    own = Tables(tables.sp_radius, tables.sp_mass, ep.sp_form[r], tables.ch_kind,
+                 tables.ch_reac, tables.ch_prod, ep.ch_rate[r], ep.ch_energy[r],
+                 tables.uni_start, tables.uni_chan, tables.bi_table, tables.outlets)
+    return discs, own, Bounds(rx.bounds_kind[r], rx.bounds_params[r], rx.bounds_walls[r])
 
 
 @njit(cache=True)
@@ -162,12 +224,15 @@ def balance(cost, active, T, order, starts):
 
 
 @njit(cache=True, inline="always")
-def reactor_step(r, rx, ep, tables, params, flags, consts, rngs, act, event=None):
+def reactor_step(r, rx, ep, tables, params, flags, consts, rngs, act, exact, stepped):
     """Apply the action ``act[r]`` to reactor r (heat, then the wall, then injection), advance
-    it ``consts.steps_per_action`` steps of ``consts.dt`` (``event`` not None: one exact
-    event-driven run of that time), count the episode step and observe it. ``event`` None
-    or omitted, numba prunes the event-driven integrator at compile time (:func:`env_step`
-    passes None for ``consts.integrator`` = ``STEPPED``, True for ``EVENT``).
+    it ``consts.steps_per_action`` steps of ``consts.dt`` (``exact`` not None: one exact
+    event-driven run of that time; ``stepped`` not None: the time-stepped integrator), count
+    the episode step and observe it. One of the two is None, and numba prunes that
+    integrator at compile time (:func:`env_step` passes ``(None, True)`` for
+    ``consts.integrator`` = ``STEPPED``, ``(True, None)`` for ``EVENT``). An exact run that
+    reaches its event bound leaves the rest of the step to :func:`_finish_capped` (status
+    :data:`CAPPED`, ``ep.pending[r]``).
 
     ``rx`` the batch's :class:`~discgym.kernels.structs.Reactors` (rows r), ``ep`` its
     :class:`~discgym.kernels.structs.Episodes` (``ep.temperature`` and ``ep.kinetic``, those
@@ -198,13 +263,7 @@ def reactor_step(r, rx, ep, tables, params, flags, consts, rngs, act, event=None
         fout[r, k] = 0.0
     for k in range(iout.shape[1]):
         iout[r, k] = 0
-    discs = Discs(rx.pos[r], rx.vel[r], rx.species[r], rx.internal_energy[r], rx.ids[r],
-                  rx.next_id[r])
-    # this reactor's kinetics: the scene's, or those drawn for its episode (the same values
-    # give the same bits: the shared tables are these rows' copies)
-    tables = Tables(tables.sp_radius, tables.sp_mass, ep.sp_form[r], tables.ch_kind,
-                    tables.ch_reac, tables.ch_prod, ep.ch_rate[r], ep.ch_energy[r],
-                    tables.uni_start, tables.uni_chan, tables.bi_table, tables.outlets)
+    discs, tables, bounds = _views(r, rx, ep, tables)
     a, bad_heat, bad_wall = _read_action(r, act, iout)
     if consts.heating == JACKET:
         if not bad_heat:
@@ -229,32 +288,51 @@ def reactor_step(r, rx, ep, tables, params, flags, consts, rngs, act, event=None
         out_last[k] = outflow[k]
     fsum = rx.fsum[r]
     wall_heat0 = _wall_heat(fsum)
-    bounds = Bounds(rx.bounds_kind[r], rx.bounds_params[r], rx.bounds_walls[r])
-    if event is not None:  # one exact run of the step (Simulation.step's call)
-        after, m = run_steps(discs, rx.n[r], consts.steps_per_action, consts.dt, bounds,
-                             tables, params, flags, rngs[r],
-                             EventCounters(rx.icnt[r], fsum, ch_count,
-                                           np.zeros(N_STATS, dtype=COUNT), outflow),
-                             CELLS_PER_DISC)
-    else:
+    if exact is not None:  # one exact run of the step (Simulation.step's call)
+        after, m, rest = run_exact(discs, rx.n[r], consts.steps_per_action, consts.dt, bounds,
+                                   tables, params, flags, rngs[r],
+                                   EventCounters(rx.icnt[r], fsum, ch_count,
+                                                 np.zeros(N_STATS, dtype=COUNT), outflow),
+                                   CELLS_PER_DISC)
+        if rest > 0.0 and after.pos.shape[0] == cap:  # its event bound: _finish_capped
+            rx.n[r] = m
+            ep.pending[r, 0] = rest
+            ep.pending[r, 1] = wall_heat0
+            iout[r, O_STATUS] = CAPPED
+            return
+    if stepped is not None:
         after, m, _w = advance(discs, rx.n[r], consts.steps_per_action, consts.dt, bounds,
                                tables, params, flags, rngs[r],
                                Counters(rx.icnt[r], rx.fsum[r], ch_count, rx.outflow[r]),
                                np.int64(1), rx.ksteps[r], consts.reorder_every,
                                empty_work())
-    if after.pos.shape[0] != cap:
-        iout[r, O_STATUS] = GREW
+    _book(r, after.pos.shape[0] != cap, m, rx, ep, tables.sp_mass, consts, wall_heat0)
+
+
+@kernel
+def _book(r, grew, m, rx, ep, sp_mass, consts, wall_heat0):
+    """What follows the physics of reactor r's step, ``m`` discs after it: the reactions and
+    outflow of the step (``ep.ch_last[r]``, ``ep.out_last[r]``: the counts before it, made
+    differences), the jacket's heat (what the thermal walls exchanged since ``wall_heat0``),
+    the clocks, the observation. ``grew``: the arrays had to grow (status :data:`GREW`,
+    nothing booked)."""
+    if grew:
+        ep.iout[r, O_STATUS] = GREW
         return
+    ch_count = rx.ch_count[r]
+    ch_last = ep.ch_last[r]
     for k in range(ch_count.shape[0]):
         ch_last[k] = ch_count[k] - ch_last[k]
+    outflow = rx.outflow[r]
+    out_last = ep.out_last[r]
     for k in range(outflow.shape[0]):
         out_last[k] = outflow[k] - out_last[k]
     if consts.heating == JACKET:  # the heat is what the thermal walls exchanged
-        fout[r, O_HEAT] = _wall_heat(fsum) - wall_heat0
+        ep.fout[r, O_HEAT] = _wall_heat(rx.fsum[r]) - wall_heat0
     rx.n[r] = m
     rx.ksteps[r] += consts.steps_per_action
     ep.steps[r] += 1
-    observe_one(r, rx, ep, tables.sp_mass, consts)
+    observe_one(r, rx, ep, sp_mass, consts)
 
 
 # reactor_step compiled as a function of its own, for the prange body of _in_parallel:
@@ -354,7 +432,8 @@ def _wall(r, a1, discs, rx, ep, sp_radius, params, consts, rngs):
     done, _ = resize(discs.pos, discs.species, rx.n[r], sp_radius, params[P_RMAX], kind, nb,
                      fit_radius, area, consts.packing, rngs, r, consts.attempts)
     if done == RESIZED:
-        rx.bounds_params[r, :] = nb
+        for k in range(nb.shape[0]):  # (a loop: numba's slice assignment compiles an error)
+            rx.bounds_params[r, k] = nb[k]
         size[r] = new
     else:
         ep.iout[r, O_BLOCKED] = 1

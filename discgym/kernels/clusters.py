@@ -615,7 +615,9 @@ def _undo_done(c, res, lg, lg2, h, pos, vel, sc):
 @kernel
 def _grown(a, used):
     b = np.empty((2 * a.shape[0], a.shape[1]), dtype=a.dtype)
-    b[:used] = a[:used]
+    for i in range(used):  # (loops: numba's slice assignment compiles an error)
+        for k in range(a.shape[1]):
+            b[i, k] = a[i, k]
     return b
 
 

@@ -790,14 +790,16 @@ def _may_split(s, tables):
 @njit(cache=True, inline="always")
 def _grow_fill(a, cap, fill):
     out = np.full(cap, fill, dtype=a.dtype)
-    out[: a.shape[0]] = a
+    for i in range(a.shape[0]):  # (a loop: numba's slice assignment compiles an error)
+        out[i] = a[i]
     return out
 
 
 @kernel
 def _grow_range(a, cap):
     out = np.arange(cap).astype(a.dtype)
-    out[: a.shape[0]] = a
+    for i in range(a.shape[0]):  # (a loop: numba's slice assignment compiles an error)
+        out[i] = a[i]
     return out
 
 
@@ -1053,7 +1055,7 @@ def _write_back(n, t, fl, state):
             vel[e, 1] = 0.0
 
 
-@kernel
+@kernel(optimise=True)  # (see kernels.jit.kernel: an env's step runs it 10 % faster)
 def _simulate(state, n, n_steps, step_dt, bounds, tables, params, flags, rng, counters,
               cells_per_disc):
     """Advance discs [0, n) by ``n_steps`` steps of ``step_dt`` in one run, from time 0 to
@@ -1089,7 +1091,44 @@ def _simulate(state, n, n_steps, step_dt, bounds, tables, params, flags, rng, co
     return state, n, t
 
 
-@njit(cache=True, inline="always")  # (its one caller each optimises it once, not twice)
+@njit(cache=True, inline="always")
+def run_exact(state, n, n_steps, dt, bounds, tables, params, flags, rng, counters,
+              cells_per_disc):
+    """The exact part of :func:`run_steps`: one event-driven run of ``n_steps`` steps of
+    ``dt``, up to its event bound. Returns ``(state, n, rest)``: ``rest`` > 0 the time the
+    run did not reach (it reached the bound), which :func:`finish_capped` finishes with the
+    time-stepped integrator. Apart, so that an environment or a ``Simulation`` compiles that
+    integrator only when a run first needs it (an env of the exact integrator otherwise
+    never runs it)."""
+    state, n, t = _simulate(state, n, n_steps, dt, bounds, tables, params, flags, rng,
+                            counters, cells_per_disc)
+    n = _compact(n, state.pos, state.vel, state.species, state.internal_energy, state.ids)
+    return state, n, n_steps * dt - t
+
+
+@kernel
+def finish_capped(state, n, n_steps, dt, rest, bounds, tables, params, flags, rng, cnt):
+    """Finish a run of ``n_steps`` steps of ``dt`` whose exact part stopped ``rest`` before
+    its end (:func:`run_exact`) with the time-stepped integrator (steps of ``dt``, the
+    remainder in one shorter step), counted in ``events_capped``. ``cnt`` the time-stepped
+    integrator's :class:`~discgym.kernels.structs.Counters` (the same arrays as the run's).
+    Returns ``(state, n)``."""
+    cnt.icnt[IC_EVENTS_CAPPED] += 1
+    whole = min(int(rest / dt), n_steps)
+    # int64, not literals, for n_steps, threads, step0 and reorder_every: the signature of
+    # the batch's call (kernels.batch.reactor_step), so that numba compiles advance once
+    zero = np.int64(0)
+    one = np.int64(1)
+    if whole > 0:
+        state, n, _w = advance(state, n, whole, dt, bounds, tables, params, flags, rng, cnt,
+                               one, zero, zero, empty_work())
+    if rest - whole * dt > 0.0:
+        state, n, _w = advance(state, n, one, rest - whole * dt, bounds, tables, params,
+                               flags, rng, cnt, one, zero, zero, empty_work())
+    return state, n
+
+
+@njit(cache=True, inline="always")
 def run_steps(state, n, n_steps, dt, bounds, tables, params, flags, rng, counters,
               cells_per_disc):
     """Advance ``n_steps`` steps of ``dt`` in one exact run (every disc brought to the end).
@@ -1106,39 +1145,39 @@ def run_steps(state, n, n_steps, dt, bounds, tables, params, flags, rng, counter
     Returns ``(state, n)``: new (larger) arrays when decompositions needed more capacity,
     else the ones passed in. Discs consumed by combinations are removed (the order of the
     others is kept); fragments are appended, taking the identity ``state.next_id[0]``.
+
+    :func:`run_exact` then :func:`finish_capped` in one compiled call (the ``Simulation``
+    and the environments call the two apart).
     """
-    state, n, t = _simulate(state, n, n_steps, dt, bounds, tables, params, flags, rng,
-                            counters, cells_per_disc)
-    n = _compact(n, state.pos, state.vel, state.species, state.internal_energy, state.ids)
-    rest = n_steps * dt - t
+    state, n, rest = run_exact(state, n, n_steps, dt, bounds, tables, params, flags, rng,
+                               counters, cells_per_disc)
     if rest > 0.0:
-        counters.icnt[IC_EVENTS_CAPPED] += 1
-        cnt = StepCounters(counters.icnt, counters.fsum, counters.ch_count, counters.outflow)
-        whole = min(int(rest / dt), n_steps)
-        # int64, not literals, for n_steps, threads, step0 and reorder_every: the signature
-        # of the batch's call (kernels.batch.reactor_step), so that numba compiles advance
-        # once
-        zero = np.int64(0)
-        one = np.int64(1)
-        if whole > 0:
-            state, n, _w = advance(state, n, whole, dt, bounds, tables, params, flags, rng, cnt,
-                                   one, zero, zero, empty_work())
-        if rest - whole * dt > 0.0:
-            state, n, _w = advance(state, n, one, rest - whole * dt, bounds, tables,
-                                   params, flags, rng, cnt, one, zero, zero, empty_work())
+        state, n = finish_capped(state, n, n_steps, dt, rest, bounds, tables, params, flags,
+                                 rng, StepCounters(counters.icnt, counters.fsum,
+                                                   counters.ch_count, counters.outflow))
     return state, n
 
 
 @njit(cache=True)
 def run_steps_rngs(discs, n, n_steps, dt, bounds, tables, params, flags, rngs, cnt):
-    """:func:`run_steps` called from Python (the structs as plain tuples of their fields, the
+    """:func:`run_exact` called from Python (the structs as plain tuples of their fields, the
     generator as ``rngs[0]``: see :func:`discgym.kernels.step.advance_rngs`), with the
     counters of the time-stepped integrator (``cnt``: the fields of a
     :class:`~discgym.kernels.structs.Counters`; the statistics are dropped): the entry point
-    of :class:`~discgym.Simulation`."""
+    of :class:`~discgym.Simulation`. Returns ``(discs, n, rest)``; ``rest`` > 0: the run
+    reached its event bound, and :func:`finish_capped_rngs` finishes it."""
     icnt, fsum, ch_count, outflow = cnt
     stats = np.zeros(N_STATS, dtype=COUNT)
-    d, n = run_steps(Discs(*discs), n, n_steps, dt, Bounds(*bounds), Tables(*tables), params,
-                     flags, rngs[0], Counters(icnt, fsum, ch_count, stats, outflow),
-                     CELLS_PER_DISC)
+    d, n, rest = run_exact(Discs(*discs), n, n_steps, dt, Bounds(*bounds), Tables(*tables),
+                           params, flags, rngs[0],
+                           Counters(icnt, fsum, ch_count, stats, outflow), CELLS_PER_DISC)
+    return fields(d), n, rest
+
+
+@njit(cache=True)
+def finish_capped_rngs(discs, n, n_steps, dt, rest, bounds, tables, params, flags, rngs, cnt):
+    """:func:`finish_capped` called from Python, as :func:`run_steps_rngs`. Returns
+    ``(discs, n)``."""
+    d, n = finish_capped(Discs(*discs), n, n_steps, dt, rest, Bounds(*bounds),
+                         Tables(*tables), params, flags, rngs[0], StepCounters(*cnt))
     return fields(d), n

@@ -86,7 +86,9 @@ def reserve(H, size, extra):
     if need <= H.shape[0]:
         return H
     G = np.empty((max(need, 2 * H.shape[0]), 5), dtype=FLOAT)
-    G[:size] = H[:size]
+    for i in range(size):  # (a loop: numba's slice assignment compiles a formatted error)
+        for k in range(5):
+            G[i, k] = H[i, k]
     return G
 
 

@@ -1,40 +1,187 @@
-"""``kernel``: the decorator of the kernels that compiled code calls, compiled without the
-wrappers that only a call from Python needs.
+"""``kernel``: the decorator of the kernels that compiled code calls. A kernel is compiled
+without the wrappers that only a call from Python needs, and its code is *linked only*: it
+is optimised and turned into machine code once, inside each entry point that calls it.
 
-With every function numba compiles a CPython wrapper (it unboxes each argument, a struct field
-by field, and boxes the result) and a C wrapper. A kernel called only from other kernels never
-runs either, yet both are generated, optimised and turned into machine code, and again at
-every level that links the kernel in: most of a small kernel's compile time, and about a
-fifth of a stepped env's first step. ``kernel`` is ``njit(cache=True)`` with numba's
+**No wrappers.** With every function numba compiles a CPython wrapper (it unboxes each
+argument, a struct field by field, and boxes the result) and a C wrapper. A kernel called
+only from other kernels never runs either. ``kernel`` is ``njit(cache=True)`` with numba's
 ``no_cpython_wrapper`` and ``no_cfunc_wrapper`` options; the functions Python calls (the
 entry points a ``Simulation`` or an env calls) stay ``njit(cache=True)``.
 
-Calling code without a CPython wrapper from Python would crash the interpreter, so a call
-from Python (a test, a probe) goes to the kernel's *twin*: the same function compiled with
-the wrappers, made on first use and cached under its own name (``<name>__py``), so that the
-two versions never share a cache entry. The twin's own calls are the kernels', compiled
-without wrappers. Never make a plain ``njit`` dispatcher of a kernel's ``py_func``: it would
-share the kernel's cache entries and load code it cannot call (use :func:`python_twin`).
+**Linked only.** numba compiles each function into an LLVM module of its own, links the
+modules of its callees into it, optimises the whole at -O3 and generates machine code for
+all of it. Down a call tree that work is done again at every level (``advance`` optimises
+and emits the whole stepped integrator, then the env's step all of it once more), about
+half of a stepped env's first compile. A kernel's module (:class:`LinkOnlyLibrary`) stops
+after the cheap per-function passes and after linking its callees: no -O3 of its own, no
+machine code. The entry point that calls it (an ``njit`` function) links the tree and
+optimises and emits it once. Everything compiled while a kernel is being lowered (the
+bodies and wrappers of a ``prange`` loop, numba's helpers) is linked only as well; numba's
+overloads typed for a kernel (``np.empty``...) are compiled as numba compiles them. The
+machine code of an entry point is the same computation (``tests/golden.py``'s
+fingerprints are unchanged); LLVM sees each kernel once, unoptimised, instead of already
+optimised. The cache keeps a kernel as its LLVM bitcode, ready to link; a process that
+compiles a new entry point loads its kernels from there instead of compiling them again.
+
+This hooks numba's code libraries (``numba.core.codegen.JITCodeLibrary``) and the
+lowering pass of a kernel's pipeline, internals of numba that ``tests/test_kernel_jit.py``
+exercises; the versions it was written against are those of ``pyproject.toml``.
+
+**A call from Python.** Calling code that has no CPython wrapper would crash the
+interpreter (and a linked-only kernel has no machine code of its own), so a call from
+Python (a test, a probe) goes to the kernel's *twin*: the same function compiled as an
+ordinary ``njit`` function, made on first use and cached under its own name
+(``<name>__py``), so that the two never share a cache entry. The twin's own calls are the
+kernels'. Never make a plain ``njit`` dispatcher of a kernel's ``py_func``: it would share
+the kernel's cache entries and load code it cannot call (use :func:`python_twin`).
 """
 
 from __future__ import annotations
 
+import contextlib
 import types
 
-from numba.core import config
+import llvmlite.binding as ll
+import llvmlite.ir as llvmir
+from numba.core import cgutils, config
+from numba.core.caching import CompileResultCacheImpl, FunctionCache
+from numba.core.codegen import JITCodeLibrary
+from numba.core.compiler import Compiler
+from numba.core.compiler_lock import require_global_compiler_lock
 from numba.core.registry import CPUDispatcher
 
-__all__ = ["kernel", "KernelDispatcher", "python_twin"]
+__all__ = ["kernel", "KernelDispatcher", "LinkOnlyLibrary", "python_twin"]
 
 #: What a kernel leaves out (numba's jit options).
 _NO_WRAPPERS = {"no_cpython_wrapper": True, "no_cfunc_wrapper": True}
+#: The prefixes of numba's environment globals (one per compiled function) and of its CPython
+#: wrappers' names.
+_ENV_PREFIX, _PYTHON_ENTRY = "_ZN08NumbaEnv", "_ZN7cpython"
+
+
+class LinkOnlyLibrary(JITCodeLibrary):
+    """The code library of everything compiled for a kernel (module docstring): unless it
+    has a CPython wrapper (a function Python may call), finalising it links the libraries
+    it calls and stops, without -O3 or machine code."""
+
+    #: The cache's name for a library kept as the bitcode of its module for linking.
+    KIND = "discgym-link-only"
+    #: Whether this library is linked only (decided when it is finalised).
+    link_only = False
+    #: Whether it is optimised (-O3) before it is linked (``kernel(optimise=True)``).
+    optimise = False
+
+    def finalize(self):
+        require_global_compiler_lock()
+        self._raise_if_finalized()
+        if any(fn.name.startswith(_PYTHON_ENTRY) and not fn.is_declaration
+               for fn in self._final_module.functions):
+            return super().finalize()  # (an njit function a kernel calls: Python may too)
+        self.link_only = True
+        seen = set()
+        for library in self._linking_libraries:
+            if library not in seen:
+                seen.add(library)
+                self._reload_init.update(library._reload_init)
+                self._final_module.link_in(library._get_module_for_linking(), preserve=True)
+        if self.optimise:
+            self._optimize_final_module()
+        self._finalize_dynamic_globals()
+        self._define_environments()
+        self._finalized = True
+
+    def _define_environments(self):
+        """Define in the engine the environment globals this module uses that it does not
+        have yet, in a module of their own, so that numba can point each at its function's
+        ``Environment`` now (``set_env``), as it does after compiling an ordinary function.
+        The entry points linking this code then refer to those same globals."""
+        engine = self._codegen._engine
+        names = [gv.name for gv in self._final_module.global_variables
+                 if gv.name.startswith(_ENV_PREFIX) and not engine.is_symbol_defined(gv.name)]
+        if not names:
+            return
+        module = self._codegen._create_empty_module(f"{self.name}.environments")
+        for name in names:
+            gv = llvmir.GlobalVariable(module, cgutils.voidptr_t, name=name)
+            gv.linkage = "common"
+            gv.initializer = cgutils.get_null_value(gv.type.pointee)
+        engine.add_module(ll.parse_assembly(str(module)))
+        engine.finalize_object()
+
+    def serialize_using_object_code(self):
+        # (numba's cache asks every library for its object code; a linked-only one has none)
+        self._ensure_finalized()
+        if not self.link_only:
+            return super().serialize_using_object_code()
+        return self.name, self.KIND, self._get_module_for_linking().as_bitcode()
+
+    @classmethod
+    def _unserialize(cls, codegen, state):
+        name, kind, data = state
+        if kind != cls.KIND:  # (object code: an njit function, or a kernel cached before)
+            with _libraries_of(codegen, JITCodeLibrary):
+                return codegen.unserialize_library(state)
+        self = cls(codegen, name)
+        self._final_module = self._shared_module = ll.parse_bitcode(data)
+        self.link_only = True
+        self._finalize_dynamic_globals()
+        self._define_environments()
+        self._finalized = True
+        return self
+
+
+@contextlib.contextmanager
+def _libraries_of(codegen, cls):
+    """Within: the code libraries ``codegen`` creates are ``cls``'s (numba creates them
+    through ``codegen._library_class``; the global compiler lock is held throughout)."""
+    saved = codegen.__dict__.get("_library_class")
+    codegen._library_class = cls
+    try:
+        yield
+    finally:
+        if saved is None:
+            del codegen._library_class
+        else:
+            codegen._library_class = saved
+
+
+class _KernelCompiler(Compiler):
+    """numba's default compiler, everything compiled within (the kernel, the kernels and
+    numba's overloads it calls, the bodies of its ``prange`` loops) in
+    :class:`LinkOnlyLibrary` s."""
+
+    def _compile_core(self):
+        codegen = self.state.targetctx.codegen()
+        with _libraries_of(codegen, LinkOnlyLibrary):
+            if self.state.library is None:  # (the kernel's own library: numba's, made here)
+                self.state.library = codegen.create_library(self.state.func_id.func_qualname)
+                self.state.library.enable_object_caching()
+                self.state.library.optimise = getattr(self.state.func_id.func,
+                                                      "_discgym_optimise", False)
+            return super()._compile_core()
+
+
+class _KernelCacheImpl(CompileResultCacheImpl):
+    def rebuild(self, target_context, payload):
+        with _libraries_of(target_context.codegen(), LinkOnlyLibrary):
+            return super().rebuild(target_context, payload)
+
+
+class _KernelCache(FunctionCache):
+    """numba's function cache, storing and loading a kernel as a linked-only library."""
+
+    _impl_class = _KernelCacheImpl
 
 
 class KernelDispatcher(CPUDispatcher):
-    """A dispatcher compiled without a Python entry; a call from Python runs its twin."""
+    """A dispatcher compiled without a Python entry and linked only; a call from Python
+    runs its twin."""
 
     def __call__(self, *args, **kwargs):
         return python_twin(self)(*args, **kwargs)
+
+    def enable_caching(self):
+        self._cache = _KernelCache(self.py_func)
 
 
 def _make_twin(disp: KernelDispatcher) -> CPUDispatcher:
@@ -56,15 +203,22 @@ def python_twin(disp: KernelDispatcher) -> CPUDispatcher:
     return disp._discgym_twin
 
 
-def kernel(func=None, **options):
+def kernel(func=None, *, optimise=False, **options):
     """``@kernel`` or ``@kernel(parallel=True, ...)``: ``njit(cache=True, **options)``
-    without the wrappers (module docstring)."""
+    without the wrappers, linked only (module docstring). ``optimise=True``: its module is
+    optimised (-O3, with everything it calls) before entry points link it, still without
+    machine code of its own: for a kernel that runs a large, hot tree of its own which the
+    entry points calling it would otherwise optimise less well (the exact integrator's run,
+    ``event_driven._simulate``: an env's step, one large function, ran it about 10 % slower
+    as linked only)."""
 
     def wrap(f):
         if config.DISABLE_JIT:
             return f
+        f._discgym_optimise = bool(optimise)
         opts = {"nopython": True, "boundscheck": None, **options, **_NO_WRAPPERS}
-        disp = KernelDispatcher(py_func=f, locals=opts.pop("locals", {}), targetoptions=opts)
+        disp = KernelDispatcher(py_func=f, locals=opts.pop("locals", {}), targetoptions=opts,
+                                pipeline_class=_KernelCompiler)
         disp.enable_caching()
         return disp
 

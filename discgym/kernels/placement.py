@@ -165,7 +165,9 @@ def relocate(pos, species, n, sp_radius, bounds_kind, bounds_params, rng, attemp
         c = _cell(x, y, grid)
         nxt[k] = head[c]
         head[c] = k
-    pos[:n] = work
+    for k in range(n):  # (a loop: numba's slice assignment compiles a formatted error)
+        pos[k, 0] = work[k, 0]
+        pos[k, 1] = work[k, 1]
     return 0
 
 

@@ -112,7 +112,8 @@ def apply_exchange(i, j, si, sj, qi, qj, pos, vel, species, internal_energy):
 @kernel
 def apply_fission(i, k, sb, sc, qb, qc, pos, vel, species, internal_energy):
     """A -> B + C: i becomes the fragment qb (species sb), disc k the fragment qc (sc)."""
-    write_product(i, sb, qb, pos, vel, species, internal_energy)
+    # (int64 indices: the signature of the other callers, so that numba compiles one version)
+    write_product(np.int64(i), sb, qb, pos, vel, species, internal_energy)
     write_product(k, sc, qc, pos, vel, species, internal_energy)
 
 
@@ -394,7 +395,8 @@ def transform(i, c, collide, tables, pos, vel, species, internal_energy, bounds_
     sp_radius = tables.sp_radius
     p = tables.ch_prod[c, 0]
     if sp_radius[p] > sp_radius[species[i]] and not room(
-            pos[i, 0], pos[i, 1], sp_radius[p], 0.0, i, i, collide, bounds_kind, bounds_params,
+            pos[i, 0], pos[i, 1], sp_radius[p], 0.0, np.int64(i), np.int64(i), collide,
+            bounds_kind, bounds_params,
             pos, vel, species, sp_radius, grid, cell_start, cell_items, nbin, n, reach):
         return False
     apply_transformation(i, p, tables.sp_form, species, internal_energy)
@@ -456,11 +458,12 @@ def fission(i, c, n, collide, tables, pos, vel, species, internal_energy, bounds
     d = (sp_radius[b] + sp_radius[cc]) * _SEP
     X = pos[i, 0]
     Y = pos[i, 1]
+    ii = np.int64(i)  # (the signature of room's other callers: one version compiled)
     for _attempt in range(2):
         qb, qc = fission_outcome(X, Y, Vx, Vy, E, m1, m2, d, nx, ny)
-        if room(qb.x, qb.y, sp_radius[b], 0.0, i, i, collide, bounds_kind, bounds_params, pos,
-                vel, species, sp_radius, grid, cell_start, cell_items, nbin, n, reach) and \
-                room(qc.x, qc.y, sp_radius[cc], 0.0, i, i, collide, bounds_kind, bounds_params,
+        if room(qb.x, qb.y, sp_radius[b], 0.0, ii, ii, collide, bounds_kind, bounds_params,
+                pos, vel, species, sp_radius, grid, cell_start, cell_items, nbin, n, reach) and \
+                room(qc.x, qc.y, sp_radius[cc], 0.0, ii, ii, collide, bounds_kind, bounds_params,
                      pos, vel, species, sp_radius, grid, cell_start, cell_items, nbin, n, reach):
             apply_fission(i, n, b, cc, qb, qc, pos, vel, species, internal_energy)
             return True
@@ -472,12 +475,15 @@ def fission(i, c, n, collide, tables, pos, vel, species, internal_energy, bounds
 @kernel
 def grow1(a, n_new):
     out = np.zeros(n_new, dtype=a.dtype)
-    out[: a.shape[0]] = a
+    for i in range(a.shape[0]):  # (a loop: numba's slice assignment compiles an error)
+        out[i] = a[i]
     return out
 
 
 @kernel
 def grow2(a, n_new):
     out = np.zeros((n_new, a.shape[1]), dtype=a.dtype)
-    out[: a.shape[0]] = a
+    for i in range(a.shape[0]):  # (loops: numba's slice assignment compiles an error)
+        for k in range(a.shape[1]):
+            out[i, k] = a[i, k]
     return out

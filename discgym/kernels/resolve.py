@@ -29,6 +29,8 @@ or the pass bound is reached: ``RESOLVE_WORK / n`` passes, at least 64 and at mo
 
 import math
 
+import numpy as np
+
 from .celllist import build, cell_range
 from .jit import kernel
 from .walls import inside, push_inside
@@ -120,8 +122,9 @@ def _repair_pair(i, j, pos, vel, species, sp_radius, sp_mass, e, bounds_kind, bo
     pos[i, 1] -= gap * mj / M * ny
     pos[j, 0] += gap * mi / M * nx
     pos[j, 1] += gap * mi / M * ny
-    held_i = _move_inside(i, pos, sp_radius[si], bounds_kind, bounds_params)
-    held_j = _move_inside(j, pos, sp_radius[sj], bounds_kind, bounds_params)
+    # (int64 indices: the signature of the other callers, so that numba compiles one version)
+    held_i = _move_inside(np.int64(i), pos, sp_radius[si], bounds_kind, bounds_params)
+    held_j = _move_inside(np.int64(j), pos, sp_radius[sj], bounds_kind, bounds_params)
     if held_i != held_j:  # the one held by the wall stays, the other moves the rest
         k = j if held_i else i
         ex = pos[j, 0] - pos[i, 0]

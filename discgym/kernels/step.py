@@ -340,18 +340,22 @@ def _pl_resize(pl, ws, cap):
     """``pl`` with room for ``ws`` discs and ``cap`` pairs, its entries kept, the refresh's
     marks and to-do list too (discs past the old size not listed)."""
     q = new_pairlist(ws, cap)
-    m = min(pl.ref.shape[0], ws)
-    q.ref[:m] = pl.ref[:m]
-    q.listed[:m] = pl.listed[:m]
-    q.mark[:m] = pl.mark[:m]
-    q.todo[:m] = pl.todo[:m]
-    p = pl.count[0]
-    q.pi[:p] = pl.pi[:p]
-    q.pj[:p] = pl.pj[:p]
-    v = pl.count[1]
-    q.ovi[:v] = pl.ovi[:v]
-    q.ovj[:v] = pl.ovj[:v]
-    q.count[:] = pl.count
+    # (loops, not slice assignments: numba compiles a formatted error message for the shape
+    # check of each of those, seconds of a first compile)
+    for i in range(min(pl.ref.shape[0], ws)):
+        q.ref[i, 0] = pl.ref[i, 0]
+        q.ref[i, 1] = pl.ref[i, 1]
+        q.listed[i] = pl.listed[i]
+        q.mark[i] = pl.mark[i]
+        q.todo[i] = pl.todo[i]
+    for i in range(pl.count[0]):
+        q.pi[i] = pl.pi[i]
+        q.pj[i] = pl.pj[i]
+    for i in range(pl.count[1]):
+        q.ovi[i] = pl.ovi[i]
+        q.ovj[i] = pl.ovj[i]
+    for i in range(pl.count.shape[0]):
+        q.count[i] = pl.count[i]
     return q
 
 
@@ -505,8 +509,8 @@ def _pl_broad(n, pos, species, sp_radius, grid, sc, pl, full, big):
         pl = _pl_resize(pl, pl.ref.shape[0], 2 * pl.pi.shape[0])
     nbc = int(grid[4]) * int(grid[5])
     # the big discs' positions, for _queue_initial
-    _gather(sc.cell_start[nbc], sc.cell_start[nbc + 1], sc.cell_items, pos, species, sp_radius,
-            sc.sx, sc.sy, sc.sr)
+    _gather(np.int64(sc.cell_start[nbc]), np.int64(sc.cell_start[nbc + 1]), sc.cell_items, pos,
+            species, sp_radius, sc.sx, sc.sy, sc.sr)  # (int64: _drift_and_bin's signature)
     return pl
 
 
@@ -1128,15 +1132,18 @@ def _reorder(n, pos, vel, species, internal_energy, ids, grid, work):
         perm[start[cell[i]]] = i
         start[cell[i]] += 1
     p2 = fw[0:2 * n].reshape((n, 2))
-    p2[:] = pos[:n]
     v2 = fw[2 * n:4 * n].reshape((n, 2))
-    v2[:] = vel[:n]
     u2 = fw[4 * n:5 * n]
-    u2[:] = internal_energy[:n]
     s2 = iw[2 * n:3 * n]
-    s2[:] = species[:n]
     d2 = cw[0:n]
-    d2[:] = ids[:n]
+    for i in range(n):  # (a loop, not slice assignments: see _pl_resize)
+        p2[i, 0] = pos[i, 0]
+        p2[i, 1] = pos[i, 1]
+        v2[i, 0] = vel[i, 0]
+        v2[i, 1] = vel[i, 1]
+        u2[i] = internal_energy[i]
+        s2[i] = species[i]
+        d2[i] = ids[i]
     for a in range(n):
         i = perm[a]
         pos[a, 0] = p2[i, 0]

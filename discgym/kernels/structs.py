@@ -237,6 +237,8 @@ class Episodes(NamedTuple):
     feed_kT: np.ndarray  #: (R,) FLOAT kT of injected discs (NaN: the reactor's own kT)
     feed_kT_next: np.ndarray  #: (R,) FLOAT the inlet kT from step feed_switch on
     feed_switch: np.ndarray  #: (R,) int64 the step at which the inlet kT changes (-1: never)
+    pending: np.ndarray  #: (R, 2) FLOAT a step left at its exact run's event bound: the time
+    #: left and the thermal walls' heat before the step (kernels.batch.CAPPED)
 
 
 class ReactorConsts(NamedTuple):
