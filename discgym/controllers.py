@@ -344,8 +344,11 @@ class SetpointActions:
     agent *corrects* that hand-written controller instead of replacing it (residual policy
     learning): one instance per reactor sees every env step's observation, as it would alone,
     and the agent's component 0 multiplies its setpoint by ``span ** a0`` (``a0`` in [-1, 1]:
-    a factor in [1/span, span]), its other components are added to the controller's wall and
-    feeds (the sum clipped to [-1, 1]). An action of 0 is the controller itself. ``kT_low``
+    a factor in [1/span, span]), which the env's heating law then holds (a controller with a
+    ``setpoint_scale``, such as the searched :class:`~discgym.searched.ScheduleController`,
+    holds it by its own law instead: a jacket's, a dead band's), and its other components are
+    added to the controller's wall and feeds (the sum clipped to [-1, 1]). An action of 0 is
+    the controller itself. ``kT_low``
     and ``kT_high`` are then unused. ``correct`` names which of the controller's actions the
     agent corrects, ``"all"`` or a comma-separated subset of ``setpoint``, ``wall`` and
     ``feeds``, e.g. ``"setpoint"`` (an action of shape (1,): the wall and the feeds are the
@@ -473,13 +476,19 @@ class SetpointActions:
                                  f"{a.shape[1]}")
             # (checked before the controllers are called: a refused call leaves them as
             # they were)
-            b = np.array([c(oi) for c, oi in zip(bases, o)], dtype=np.float32)
-            sp = np.array([c.setpoint for c in bases], dtype=np.float64)
-            full = np.zeros_like(b)
+            full = np.zeros((a.shape[0], 2 + self.s.n_feed), dtype=np.float32)
             full[:, self.columns] = a
-            setpoint = sp * self.span ** np.clip(full[:, 0].astype(np.float64), -1.0, 1.0)
+            factor = self.span ** np.clip(full[:, 0].astype(np.float64), -1.0, 1.0)
+            own = hasattr(bases[0], "setpoint_scale")
+            if own:  # the controller holds the corrected setpoint by its own law
+                for c, f in zip(bases, factor):
+                    c.setpoint_scale = float(f)
+            b = np.array([c(oi) for c, oi in zip(bases, o)], dtype=np.float32)
+            setpoint = np.array([c.setpoint for c in bases], dtype=np.float64) * factor
             a = b
             a[:, 1:] = np.clip(b[:, 1:] + full[:, 1:], -1.0, 1.0)
+            if own:
+                return a[0] if one else a
         a[:, 0] = self.s.heat_actions(setpoint, self.s.temperatures(o))
         return a[0] if one else a
 

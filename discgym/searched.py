@@ -78,7 +78,16 @@ class ScheduleController:
     the action (A,) (float32, within the action space); a :meth:`batch` controller maps
     observations (R, D) to actions (R, A). Stateless: the action depends on the observation
     alone (:meth:`reset` does nothing); ``setpoint`` is the last kT setpoint (a float, or
-    (R,) for a batch), so the controller can be a residual agent's base."""
+    (R,) for a batch), so the controller can be a residual agent's base.
+
+    ``setpoint_scale`` (1 by default; a float, or (R,) for a batch) multiplies the setpoint
+    after its clip to the env's temperature range, before the heating law holds it: a
+    residual agent's correction (:class:`~discgym.controllers.SetpointActions` sets it),
+    which the controller's own law then follows, the jacket's or the dead band's included.
+    At 1 the law is unchanged, bit for bit."""
+
+    #: The residual agent's factor on the setpoint (see the class docstring).
+    setpoint_scale = 1.0
 
     def __init__(self, env, **params):
         self.s = _Slots(env)
@@ -254,7 +263,7 @@ class ScheduleController:
         if self.i_inlet is not None:
             inlet = np.maximum(o[:, self.i_inlet], 1e-6) / self.inlet_ref
             target = target * inlet ** X[:, self._col["inlet_gain"]]
-        target = np.clip(target, self.t_min, self.t_max)
+        target = np.clip(target, self.t_min, self.t_max) * self.setpoint_scale
         T = s.temperatures(o)
         a = np.empty((o.shape[0], 2 + s.n_feed), dtype=np.float32)
         if self.jacket:

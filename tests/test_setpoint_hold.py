@@ -450,6 +450,38 @@ def test_setpoint_only_correction_keeps_the_controllers_wall_and_feeds():
     env.close()
 
 
+SEARCHED_BASE = "discgym.searched.searched"
+
+
+@pytest.mark.parametrize("env_id", ["DiscReactor-v0", "DiscKinetics-v0", "DiscEconomic-v0",
+                                    "DiscJacket-v0", "DiscFlow-v0"])
+def test_residual_zero_is_the_searched_controller_on_every_task(env_id):
+    """With the searched controller as the base, an agent that answers 0 plays its episode
+    bit for bit on every task (hyperparams/residual_searched), the jacket's law and the dead
+    band included; a correction of the setpoint is held by the controller's own law (its
+    ``setpoint_scale``)."""
+    from discgym.searched import searched
+
+    kw = {"episode_steps": 24}
+
+    def residual(e):
+        return SetpointActions(e, hold=4, average=0.8, base=SEARCHED_BASE, span=1.3,
+                               correct="setpoint,wall").policy(lambda o: np.zeros(2, np.float32))
+
+    np.testing.assert_array_equal(run_episodes(env_id, residual, [1000, 1001], kw).returns,
+                                  run_episodes(env_id, searched, [1000, 1001], kw).returns)
+    env = gym.make(env_id, **kw)
+    obs, _ = env.reset(seed=7)
+    law = SetpointActions(env, base=SEARCHED_BASE, span=1.3, correct="setpoint,wall")
+    got = law.env_actions(np.array([1.0, 0.25], np.float32), obs, law.new_bases(1))
+    ref = searched(env)
+    ref.setpoint_scale = 1.3
+    want = ref(obs)
+    assert got[0] == want[0] and got[2:].tolist() == want[2:].tolist()
+    assert got[1] == pytest.approx(min(want[1] + 0.25, 1.0))
+    env.close()
+
+
 FLOW_BASE = "discgym.controllers.flow_thermostat"
 
 
