@@ -118,6 +118,14 @@ def run_info(run: Path) -> dict:
     return info
 
 
+def variant(info: dict) -> str:
+    """What a run is, for grouping runs of different seeds: its algorithm, and the folder
+    of its hyperparameters where that is not the default ``hyperparams`` (e.g. ``"ppo,
+    residual_searched"``)."""
+    folder = Path(str(info.get("hyperparams") or "hyperparams")).name
+    return info["algo"] if folder == "hyperparams" else f"{info['algo']}, {folder}"
+
+
 def _read_json(path: Path):
     try:
         return json.loads(path.read_text())
@@ -398,6 +406,7 @@ def evaluate_task(env_id: str, runs: list, seeds: list, search_seeds: list,
             info = run_info(jobs[name][0])
             row["run"] = jobs[name][0]
             row["algo"] = info["algo"]
+            row["variant"] = variant(info)
             row["train"] = info["summary"]
         rows[name] = row
     rows.update(pooled_rows(rows, ref, top))
@@ -409,23 +418,27 @@ def evaluate_task(env_id: str, runs: list, seeds: list, search_seeds: list,
 
 
 def pooled_rows(rows: dict, ref: np.ndarray, top: np.ndarray) -> dict:
-    """For each algorithm with two or more runs in ``rows`` (training seeds, say): a row of
-    their mean return on each evaluation seed, with the same statistics (``ref``, ``top``:
-    the hand-written and the searched controller's returns). Its intervals are over the
+    """For each :func:`variant` with two or more runs in ``rows`` (training seeds, say): a
+    row of their mean return on each evaluation seed, with the same statistics (``ref``,
+    ``top``: the hand-written and the searched controller's returns), and the runs' own
+    means (``run_means``: the spread across training seeds). Its intervals are over the
     evaluation seeds for these runs; they say nothing of runs not trained."""
     from discgym.baselines import iqm_ci, mean_ci, paired_difference
 
-    by_algo: dict = {}
+    by_variant: dict = {}
     for name, row in rows.items():
         if "algo" in row and "pooled" not in row:
-            by_algo.setdefault(row["algo"], []).append(name)
+            by_variant.setdefault(row.get("variant", row["algo"]), []).append(name)
     out = {}
-    for algo, names in by_algo.items():
+    for kind, names in by_variant.items():
         if len(names) < 2:
             continue
         r = np.mean([rows[n]["returns"] for n in names], axis=0)
-        key = f"{algo}: mean of {len(names)} runs"
-        out[key] = {"label": f"{key} (each seed's mean over the runs)", "pooled": names,
+        means = [float(np.mean(rows[n]["returns"])) for n in names]
+        key = f"{kind}: mean of {len(names)} runs"
+        spread = ", ".join(f"{m:.3f}" for m in means)
+        out[key] = {"label": f"{key} (each seed's mean over the runs; the runs' means "
+                             f"{spread})", "pooled": names, "run_means": means,
                     "mean": mean_ci(r).as_dict(), "iqm": iqm_ci(r).as_dict(),
                     "minus_hand_written": paired_difference(r, ref[:len(r)]).as_dict(),
                     "minus_searched": paired_difference(r, top[:len(r)]).as_dict(),

@@ -136,7 +136,9 @@ def test_several_runs_of_one_algorithm_get_a_row_of_their_mean(ppo_run, tmp_path
                                  log=lambda s: None)
     P = res["policies"]
     a, b = P[f"ppo ({ppo_run.name})"], P["ppo (twin_run)"]
-    pooled = P["ppo: mean of 2 runs"]
+    kind = evaluate.variant(evaluate.run_info(ppo_run))  # (its hyperparams: a temporary folder)
+    assert kind.startswith("ppo, ")
+    pooled = P[f"{kind}: mean of 2 runs"]
     mean = (np.array(a["returns"]) + np.array(b["returns"])) / 2
     assert np.allclose(pooled["returns"], mean) and pooled["pooled"] == [
         f"ppo ({ppo_run.name})", "ppo (twin_run)"]
@@ -144,11 +146,26 @@ def test_several_runs_of_one_algorithm_get_a_row_of_their_mean(ppo_run, tmp_path
     assert pooled["minus_hand_written"]["value"] == pytest.approx(d.mean())
     d = mean - np.array(P["searched"]["returns"])
     assert pooled["minus_searched"]["value"] == pytest.approx(d.mean())
-    assert "| ppo: mean of 2 runs (each seed's mean over the runs) |" in evaluate.table(res)
+    assert pooled["run_means"] == pytest.approx([np.mean(a["returns"]), np.mean(b["returns"])])
+    spread = ", ".join(f"{m:.3f}" for m in pooled["run_means"])
+    assert (f"| {kind}: mean of 2 runs (each seed's mean over the runs; the runs' means "
+            f"{spread}) |") in evaluate.table(res)
     lone = evaluate.pooled_rows({k: v for k, v in P.items() if k != "ppo (twin_run)"},
                                 np.array(P["hand-written"]["returns"]),
                                 np.array(P["searched"]["returns"]))
     assert lone == {}  # (one run: nothing to pool)
+    # runs of other hyperparameters are another variant: pooled apart, never together
+    other = dict(b, variant="ppo, residual_searched")
+    apart = evaluate.pooled_rows({"ppo (a)": a, "ppo (b)": dict(b), "res (c)": other,
+                                  "res (d)": dict(other)},
+                                 np.array(P["hand-written"]["returns"]),
+                                 np.array(P["searched"]["returns"]))
+    assert set(apart) == {f"{kind}: mean of 2 runs", "ppo, residual_searched: mean of 2 runs"}
+    assert apart["ppo, residual_searched: mean of 2 runs"]["pooled"] == ["res (c)", "res (d)"]
+    info = {"algo": "ppo"}
+    assert evaluate.variant(info) == "ppo" == evaluate.variant(
+        dict(info, hyperparams="/x/hyperparams"))
+    assert evaluate.variant(dict(info, hyperparams="hyperparams/residual")) == "ppo, residual"
 
 
 def test_evaluation_does_not_depend_on_the_worker_count(ppo_run):
