@@ -375,10 +375,12 @@ def run_batch(env_id: str, X, seeds: Sequence[int], env_kwargs: Mapping | None =
 
 
 #: Parameters found by ``benchmarks/search_controller.py``, per task: ``{"params": {name:
-#: value}, "command": the command that found them}``.
+#: value}, "budget": {"env_steps": simulated env steps of the search and its re-scoring,
+#: "wall_seconds": its wall time}, "command": the command that found them}``.
 SEARCHED: dict[str, dict] = {
     # 2,892,800 env steps of CMA-ES (28,928 episodes, 41 generations of 11) on seeds
-    # 3000-3063, the best 5 and CMA's mean re-scored on seeds 3064-3163; 28 min of wall time
+    # 3000-3063, the best 5 and CMA's mean re-scored on seeds 3000-3163 (98,400 more);
+    # 28 min of wall time
     # (2026-12-04, the 2-core AMD EPYC VM shared with other jobs). docs/tasks.md, "Searched
     # controllers", has its returns on the evaluation seeds.
     "DiscFlow-v0": {
@@ -398,6 +400,7 @@ SEARCHED: dict[str, dict] = {
             "inlet_gain": -0.10781558901620825,
             "band": 1.0,  # (the search ran before the family had a dead band)
         },
+        "budget": {"env_steps": 2_991_200, "wall_seconds": 1680},
         "command": ("python benchmarks/search_controller.py --env DiscFlow-v0 "
                     "--budget-steps 2900000 --sigma0 0.05 --tune-seeds 3000 64 --compare"),
     },
@@ -419,6 +422,7 @@ SEARCHED: dict[str, dict] = {
             "feed_B": 0.7837558844819702,
             "stop_B": 0.8641790882861077,
         },
+        "budget": {"env_steps": 1_583_200, "wall_seconds": 540},
         "command": ("python benchmarks/search_controller.py --env DiscReactor-v0 "
                     "--budget-steps 1500000 "
                     "--tune-seeds 3000 64 --compare"),
@@ -441,6 +445,7 @@ SEARCHED: dict[str, dict] = {
             "feed_B": 0.9450413027832495,
             "stop_B": 0.9929395850222468,
         },
+        "budget": {"env_steps": 1_583_200, "wall_seconds": 540},
         "command": ("python benchmarks/search_controller.py --env DiscKinetics-v0 "
                     "--budget-steps 1500000 "
                     "--tune-seeds 3000 64 --compare"),
@@ -464,6 +469,7 @@ SEARCHED: dict[str, dict] = {
             "stop_B": 0.5865961812790057,
             "band": 2.3137216932844,
         },
+        "budget": {"env_steps": 1_583_200, "wall_seconds": 540},
         "command": ("python benchmarks/search_controller.py --env DiscEconomic-v0 "
                     "--budget-steps 1500000 "
                     "--tune-seeds 3000 64 --compare"),
@@ -487,6 +493,7 @@ SEARCHED: dict[str, dict] = {
             "stop_B": 0.9984303728783593,
             "jacket_gain": 3.5248711372497796,
         },
+        "budget": {"env_steps": 1_583_200, "wall_seconds": 660},
         "command": ("python benchmarks/search_controller.py --env DiscJacket-v0 "
                     "--budget-steps 1500000 "
                     "--tune-seeds 3000 64 --compare"),
