@@ -74,6 +74,13 @@ def _load(path: Path, name: str, keys: set) -> dict:
     return data
 
 
+def _check_scale(data: dict, path: Path, name: str) -> None:
+    rand, top = (np.mean(data["policies"][k]["returns"]) for k in ("random", "searched"))
+    if not top > rand:
+        raise usage(name, f"{path}: the searched controller ({top:.4g}) is not above random "
+                          f"({rand:.4g}) on its seeds: no scale to normalise on")
+
+
 def check_args(a: Args) -> tuple[list, dict]:
     """The evaluations (one per task, each with the random and searched rows) and the
     ladders by task, read and checked before anything is written."""
@@ -90,6 +97,7 @@ def check_args(a: Args) -> tuple[list, dict]:
         if missing:
             raise usage("evaluation", f"{a.evaluation[k]} has no {', '.join(sorted(missing))}"
                                       f" row")
+        _check_scale(evals[k], a.evaluation[k], "evaluation")
     ladders = {}
     for p in a.ladder:
         d = _load(p, "ladder", {"env_id", "policies"})
@@ -97,6 +105,7 @@ def check_args(a: Args) -> tuple[list, dict]:
             raise usage("ladder", f"two ladders of {d['env_id']}")
         if not {"random", "searched"} <= set(d["policies"]):
             raise usage("ladder", f"{p} has no random and searched rows")
+        _check_scale(d, p, "ladder")
         ladders[d["env_id"]] = d
     out = Path(a.out)
     if out.exists() and not out.is_dir():

@@ -282,6 +282,18 @@ def test_evaluate_main_writes_the_table_with_date_and_machine(ppo_run, tmp_path)
     res = json.loads((out / "evaluation.json").read_text())
     assert res["policies"]["ppo (ppo)"]["train"]["timesteps"] >= 256
     assert len(res["best_constant"]) == 4
+    # the evaluation is aggregate.py's input as it is
+    import aggregate
+
+    rows = res["policies"]
+    lo, hi = (np.mean(rows[k]["returns"]) for k in ("random", "searched"))
+    assert hi > lo  # (on these two seeds: a scale)
+    assert aggregate.main(["--evaluation", str(out / "evaluation.json"),
+                           "--out", str(tmp_path / "agg")]) == 0
+    got = json.loads((tmp_path / "agg" / "aggregate.json").read_text())["normalised"]
+    kind = evaluate.variant(evaluate.run_info(ppo_run))
+    want = (np.mean(rows["ppo (ppo)"]["returns"]) - lo) / (hi - lo)
+    assert got["policies"][kind]["DiscReactor-v0"] == pytest.approx([want])
     from PIL import Image
 
     with Image.open(out / "episode.gif") as im:

@@ -121,6 +121,7 @@ def _refused(tmp_path, argv, flag):
     ("twice", "two evaluations of DiscFlow-v0"),
     ("other json", "not written by agents/evaluate.py"),
     ("out is a file", "--out"),
+    ("no scale", "is not above random"),
 ])
 def test_bad_arguments_are_refused_in_one_line(files, tmp_path, case, flag):
     paths, lp = files
@@ -130,10 +131,14 @@ def test_bad_arguments_are_refused_in_one_line(files, tmp_path, case, flag):
     stripped = json.loads(lp.read_text())
     stripped["policies"] = {"planner": stripped["policies"]["planner"]}
     (tmp_path / "no_random.json").write_text(json.dumps(stripped))
+    flat = json.loads(paths[0].read_text())
+    flat["policies"]["searched"]["returns"] = flat["policies"]["random"]["returns"]
+    (tmp_path / "flat.json").write_text(json.dumps(flat))
     argv = {"none": [], "missing": ["--evaluation", "nope.json"],
             "not json": ["--evaluation", "bad.json"],
             "a ladder as evaluation": ["--evaluation", "no_random.json"],
             "twice": ["--evaluation", str(paths[0]), str(paths[0])],
             "other json": ["--evaluation", "other.json"],
-            "out is a file": ["--evaluation", str(paths[0]), "--out", "a_file"]}[case]
+            "out is a file": ["--evaluation", str(paths[0]), "--out", "a_file"],
+            "no scale": ["--evaluation", str(paths[1]), "flat.json"]}[case]
     _refused(tmp_path, argv, flag)
