@@ -2,7 +2,7 @@
 one figure over all of them.
 
     python agents/aggregate.py --evaluation results/*/evaluation.json \
-        --ladder docs/data/ladder_*.json --out results/aggregate
+        --ladder docs/data/ladder_Disc*.json --out results/aggregate
 
 Each ``--evaluation`` is an ``evaluation.json`` written by ``agents/evaluate.py``, one per
 task, holding the task's baselines and its trained runs (several training seeds of each
@@ -10,17 +10,21 @@ learner: ``--run A B C ...``). Every return is mapped to the task's normalised s
 mean of uniform random actions 0, the searched controller's 1 (``discgym.baselines.
 normalised_scores``), on the same evaluation seeds.
 
-- A learner (a :func:`evaluate.variant`: an algorithm and its hyperparameter folder) scores,
-  on each task, one number per training run: the run's mean normalised score over the
-  evaluation seeds. Its aggregate is the interquartile mean (IQM) of those numbers over the
-  tasks, with the stratified bootstrap interval over runs of Agarwal et al. (2021), as
-  ``rliable`` computes it (``discgym.baselines.aggregate_iqm``): the interval is over
-  training seeds, the randomness a reader's own run would meet.
+- A learner (an ``evaluate.variant``: an algorithm, its hyperparameter folder and its
+  non-default training settings) scores, on each task, one number per training run: the
+  run's mean normalised score over the evaluation seeds. Its aggregate is the interquartile
+  mean (IQM) of those numbers over the tasks, with the stratified bootstrap interval over
+  runs of Agarwal et al. (2021), as ``rliable`` computes it (``discgym.baselines.
+  aggregate_iqm``): the interval is over training seeds, the randomness a reader's own run
+  would meet. As in rliable, it needs the same number of runs on every task it was run on.
 - A controller (best constant, the simple rule, the searched controller) has no training
-  seed: its scores are per evaluation seed, and its interval is over those.
-- With ``--ladder`` (the JSON files of ``benchmarks/ladder.py``), the planner and the oracle
-  join, each on its ladder's seeds and mapped with that ladder's random and searched
-  controller.
+  seed: it is a learner with one run per task, whose score is its mean over the evaluation
+  seeds; its IQM is over the task means, its interval from resampling the evaluation seeds
+  within each task (so the searched controller is 1 and random 0 exactly).
+- With ``--ladder`` (the JSON files of ``benchmarks/ladder.py``; its
+  ``ladder_variants_*.json`` are another kind), the planner and the oracle join as
+  controllers do, each on its ladder's seeds and mapped with that ladder's random and
+  searched controller.
 
 Writes ``aggregate.json`` (every score), ``aggregate.md`` (the table, the per-task cells and
 the budgets: each learner's training steps and wall time beside the search that found the
@@ -75,15 +79,36 @@ def _load(path: Path, name: str, keys: set) -> dict:
 
 
 def _check_scale(data: dict, path: Path, name: str) -> None:
-    rand, top = (np.mean(data["policies"][k]["returns"]) for k in ("random", "searched"))
-    if not top > rand:
-        raise usage(name, f"{path}: the searched controller ({top:.4g}) is not above random "
-                          f"({rand:.4g}) on its seeds: no scale to normalise on")
+    """Each row's seeds must give a scale: the searched controller above random on them."""
+    rows = data["policies"]
+    for key, row in rows.items():
+        n = len(row.get("returns") or [])
+        if n == 0:
+            raise usage(name, f"{path}: the row {key!r} has no returns")
+        rand, top = (np.mean(rows[k]["returns"][:n]) for k in ("random", "searched"))
+        if not top > rand:
+            raise usage(name, f"{path}: the searched controller ({top:.4g}) is not above "
+                              f"random ({rand:.4g}) on the seeds of {key!r}: no scale to "
+                              f"normalise on")
+
+
+def _variant(row: dict, path: Path) -> str:
+    """A learner row's variant; rebuilt from its run folder for an evaluation.json written
+    before evaluate.py recorded it."""
+    from evaluate import run_info, variant
+
+    if row.get("variant"):
+        return row["variant"]
+    if row.get("run") and Path(row["run"]).is_dir():
+        return variant(run_info(Path(row["run"])))
+    raise usage("evaluation", f"{path}: the row {row.get('label')!r} has no variant and its "
+                              f"run folder is gone (an older evaluate.py): evaluate it again")
 
 
 def check_args(a: Args) -> tuple[list, dict]:
     """The evaluations (one per task, each with the random and searched rows) and the
-    ladders by task, read and checked before anything is written."""
+    ladders by task, read and checked before anything is written; each learner row gets its
+    ``variant``."""
     if not a.evaluation:
         raise usage("evaluation", "name at least one evaluation.json of agents/evaluate.py")
     evals = [_load(p, "evaluation", {"env_id", "policies"}) for p in a.evaluation]
@@ -98,15 +123,37 @@ def check_args(a: Args) -> tuple[list, dict]:
             raise usage("evaluation", f"{a.evaluation[k]} has no {', '.join(sorted(missing))}"
                                       f" row")
         _check_scale(evals[k], a.evaluation[k], "evaluation")
-    ladders = {}
+        for row in evals[k]["policies"].values():
+            if "algo" in row and "pooled" not in row:
+                row["variant"] = _variant(row, a.evaluation[k])
+    runs: dict = {}  # (rliable's stratified bootstrap: as many runs on each task)
+    for e in evals:
+        for row in e["policies"].values():
+            if "algo" in row and "pooled" not in row:
+                runs.setdefault(row["variant"], {}).setdefault(e["env_id"], 0)
+                runs[row["variant"]][e["env_id"]] += 1
+    for kind, by_task in runs.items():
+        if len(set(by_task.values())) > 1:
+            counts = ", ".join(f"{n} on {t}" for t, n in by_task.items())
+            raise usage("evaluation", f"{kind}: {counts}: give each task the same number of "
+                                      f"runs (training seeds)")
+    ladders, where = {}, {}
     for p in a.ladder:
         d = _load(p, "ladder", {"env_id", "policies"})
         if d["env_id"] in ladders:
-            raise usage("ladder", f"two ladders of {d['env_id']}")
+            raise usage("ladder", f"two ladders of {d['env_id']} ({where[d['env_id']]} and {p})"
+                                  f": give one per task")
         if not {"random", "searched"} <= set(d["policies"]):
             raise usage("ladder", f"{p} has no random and searched rows")
+        if d["env_id"] not in tasks:
+            raise usage("ladder", f"{p} is a ladder of {d['env_id']}, which no --evaluation "
+                                  f"has")
+        e = evals[tasks.index(d["env_id"])]
+        if "env_kwargs" in d and "env_kwargs" in e and d["env_kwargs"] != e["env_kwargs"]:
+            raise usage("ladder", f"{p} ran {d['env_id']} with {d['env_kwargs']}, its "
+                                  f"evaluation with {e['env_kwargs']}: not one task")
         _check_scale(d, p, "ladder")
-        ladders[d["env_id"]] = d
+        ladders[d["env_id"]], where[d["env_id"]] = d, p
     out = Path(a.out)
     if out.exists() and not out.is_dir():
         raise usage("out", f"{out} exists and is not a folder")
@@ -123,9 +170,8 @@ def _scores(rows: dict, key: str) -> np.ndarray:
 
 def normalise(evals: list, ladders: dict) -> dict:
     """``{policy: {task: scores}}``: a learner's per-run means, a controller's or a
-    reference's per-seed scores; plus, for each learner, its runs' training budgets."""
-    from evaluate import variant
-
+    reference's per-seed scores; plus, for each learner, its runs' training budgets, and
+    each ladder's seeds."""
     out: dict = {"tasks": [e["env_id"] for e in evals], "policies": {}, "budgets": {}}
     pol = out["policies"]
     for e in evals:
@@ -136,7 +182,7 @@ def normalise(evals: list, ladders: dict) -> dict:
         for name, row in rows.items():
             if "algo" not in row or "pooled" in row:
                 continue
-            kind = row.get("variant") or variant({"algo": row["algo"]})
+            kind = row["variant"]
             pol.setdefault(kind, {}).setdefault(task, []).append(
                 float(np.mean(_scores(rows, name))))
             t = row.get("train") or {}
@@ -144,6 +190,8 @@ def normalise(evals: list, ladders: dict) -> dict:
                 {"env_steps": t.get("env_steps", t.get("timesteps")),
                  "wall_seconds": t.get("wall_seconds")})
         lad = ladders.get(task)
+        if lad is not None:
+            out.setdefault("ladder_seeds", {})[task] = len(lad["policies"]["random"]["returns"])
         for key, _ in REFERENCES:
             if lad is not None and key in lad["policies"]:
                 pol.setdefault(key, {})[task] = _scores(lad["policies"], key).tolist()
@@ -156,12 +204,42 @@ def learners(norm: dict) -> list:
 
 
 def label(key: str) -> str:
-    return dict(CONTROLLERS + REFERENCES).get(key) or NAMES.get(key, key)
+    """A row's name: the controllers' and references' own; a learner's from its variant
+    (its settings, ``k=v``, in brackets)."""
+    if key in dict(CONTROLLERS + REFERENCES):
+        return dict(CONTROLLERS + REFERENCES)[key]
+    parts = key.split(", ")
+    head = ", ".join(p for p in parts if "=" not in p)
+    settings = [p for p in parts if "=" in p]
+    return NAMES.get(head, head) + (f" ({', '.join(settings)})" if settings else "")
+
+
+def _task_means_iqm(xs: list, confidence: float = 0.95, n_resamples: int = 9999,
+                    random_state: int = 0) -> dict:
+    """The IQM of per-task means of per-seed scores ``xs`` (one array per task), with the
+    percentile interval from resampling the seeds within each task."""
+    from scipy import stats
+
+    xs = [np.asarray(x, dtype=np.float64) for x in xs]
+
+    def stat(*samples, axis=-1):
+        means = np.stack([np.mean(x, axis=axis) for x in samples], axis=-1)
+        return stats.trim_mean(means, 0.25, axis=-1)
+
+    value = float(stat(*xs))
+    if min(len(x) for x in xs) < 2:
+        return {"value": value, "low": None, "high": None, "method": None}
+    ci = stats.bootstrap(xs, stat, confidence_level=confidence, n_resamples=n_resamples,
+                         method="percentile", random_state=random_state,
+                         vectorized=True).confidence_interval
+    return {"value": value, "low": float(ci.low), "high": float(ci.high),
+            "method": "percentile over seeds within tasks"}
 
 
 def aggregate(norm: dict) -> dict:
-    """Each policy's IQM over the tasks it was measured on, with its stratified interval
-    (none, ``low`` and ``high`` None, where a task has a single run: nothing to resample)."""
+    """Each policy's IQM over the tasks it was measured on, with its interval: a learner's
+    over its runs (stratified bootstrap over runs; none, ``low`` and ``high`` None, with a
+    single run per task), a controller's or reference's over its task means."""
     from scipy import stats
 
     from discgym.baselines import aggregate_iqm
@@ -169,7 +247,9 @@ def aggregate(norm: dict) -> dict:
     out = {}
     for k, v in norm["policies"].items():
         xs = list(v.values())
-        if min(len(x) for x in xs) > 1:
+        if k not in learners(norm):
+            out[k] = {"tasks": list(v), **_task_means_iqm(xs)}
+        elif min(len(x) for x in xs) > 1:
             out[k] = {"tasks": list(v), **aggregate_iqm(xs).as_dict()}
         else:
             out[k] = {"tasks": list(v), "low": None, "high": None, "method": None,
@@ -201,7 +281,7 @@ def table(norm: dict, agg: dict) -> str:
             else:
                 cells.append(f"{np.mean(x):.3f}")
         ci = (f"{a['value']:.3f} [{a['low']:.3f}, {a['high']:.3f}]" if a["low"] is not None
-              else f"{a['value']:.3f} (no interval: a task with one run)")
+              else f"{a['value']:.3f} (no interval: one run per task)")
         if len(a["tasks"]) < len(tasks):
             ci += f" ({len(a['tasks'])} task{'s' * (len(a['tasks']) > 1)})"
         lines.append(f"| {label(k)} | {ci} | " + " | ".join(cells) + " |")
@@ -229,7 +309,8 @@ def budget_table(norm: dict) -> str:
             b = [x for x in norm["budgets"][k].get(t, []) if x["env_steps"] is not None]
             cells.append(cell(np.mean([x["env_steps"] for x in b]),
                               np.mean([x["wall_seconds"] for x in b])) if b else "")
-        lines.append(f"| {label(k)}: training, per run | " + " | ".join(cells) + " |")
+        extra = ", on top of the search" if "residual_searched" in k else ""
+        lines.append(f"| {label(k)}: training, per run{extra} | " + " | ".join(cells) + " |")
     return "\n".join(lines)
 
 
@@ -247,28 +328,36 @@ def plot(norm: dict, agg: dict, path: Path) -> Path:
     width = 0.8 / len(keys)
     colors = plt.get_cmap("tab10")
     fig, ax = plt.subplots(figsize=(max(8.0, 1.6 * len(groups) + 4), 4.2), dpi=110)
+    shown = [0.0]  # (every plotted value, for the axis: nothing clipped)
     for i, k in enumerate(keys):
         x0 = np.arange(len(groups)) - 0.4 + (i + 0.5) * width
         vals = [np.mean(norm["policies"][k][t]) if t in norm["policies"][k] else np.nan
                 for t in tasks]
         a = agg[k]
-        ax.bar(x0[:-1], vals, width, color=colors(i), label=label(k))
+        name = label(k)
+        if len(a["tasks"]) < len(tasks):
+            name += f" [IQM over {len(a['tasks'])} task{'s' * (len(a['tasks']) > 1)}]"
+        if a["low"] is None:
+            name += " [no interval: one run]"
+        ax.bar(x0[:-1], vals, width, color=colors(i), label=name)
         err = (None if a["low"] is None else
                [[a["value"] - a["low"]], [a["high"] - a["value"]]])
         ax.bar(x0[-1], a["value"], width, color=colors(i), yerr=err, capsize=3)
+        shown += [v for v in vals if np.isfinite(v)] + [a["value"]]
+        shown += [] if a["low"] is None else [a["low"], a["high"]]
         if k in learners(norm):
             for j, t in enumerate(tasks):
                 runs = norm["policies"][k].get(t, [])
                 ax.plot(np.full(len(runs), x0[j]), runs, "k.", ms=4)
+                shown += list(runs)
     ax.axhline(1.0, color="k", lw=0.8, ls="--")
     ax.axhline(0.0, color="k", lw=0.5)
     ax.set_xticks(np.arange(len(groups)), groups, fontsize=8)
     ax.set_ylabel("normalised score (random 0, searched 1)")
-    ax.set_title("Learners and controllers across the tasks (dots: training runs; "
-                 "interval: stratified 95% bootstrap)", fontsize=9)
-    lo = min(np.nanmin([np.mean(v) for p in norm["policies"].values() for v in p.values()]),
-             0.0)
-    ax.set_ylim(max(lo - 0.05, -0.5), None)
+    ax.set_title("Across the tasks (dots: training runs). 95% bootstrap intervals: a "
+                 "learner's over its runs, a controller's over evaluation seeds", fontsize=8)
+    pad = 0.03 * (max(shown) - min(shown))
+    ax.set_ylim(min(shown) - pad, max(shown) + pad)
     ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0))
     fig.tight_layout()
     fig.savefig(path)
@@ -284,10 +373,15 @@ def main(argv=None) -> int:
     norm = normalise(evals, ladders)
     agg = aggregate(norm)
     seeds = {e["env_id"]: [e["eval_seeds"][0], e["eval_seeds"][-1]] for e in evals}
+    lad = norm.get("ladder_seeds", {})
     text = (f"Normalised scores (random 0, the searched controller 1) on each task's "
             f"evaluation seeds ({', '.join(f'{t} {s[0]}-{s[1]}' for t, s in seeds.items())})"
-            f"; a learner's cell is its runs' mean (their range), its interval over training "
-            f"runs, a controller's over evaluation seeds.\n\n{table(norm, agg)}\n\n"
+            + (f"; the planner and the oracle on their ladders' first seeds "
+               f"({', '.join(f'{t} {n}' for t, n in lad.items())}), each mapped with its "
+               f"ladder's random and searched controller" if lad else "")
+            + f". A learner's cell is its runs' mean (their range); its IQM is over runs and "
+            f"tasks, its interval over runs. A controller's IQM is over its task means, its "
+            f"interval over evaluation seeds.\n\n{table(norm, agg)}\n\n"
             f"{budget_table(norm)}\n")
     out = Path(a.out)
     out.mkdir(parents=True, exist_ok=True)

@@ -118,12 +118,28 @@ def run_info(run: Path) -> dict:
     return info
 
 
+#: The training arguments that change what a run learns (its seed aside): runs that differ
+#: in one of them are different variants, never pooled as seeds of one.
+SETTINGS = ("total_timesteps", "n_envs", "scene", "episode_steps", "train_integrator",
+            "eval_freq", "eval_episodes")
+
+
 def variant(info: dict) -> str:
-    """What a run is, for grouping runs of different seeds: its algorithm, and the folder
-    of its hyperparameters where that is not the default ``hyperparams`` (e.g. ``"ppo,
-    residual_searched"``)."""
+    """What a run is, for grouping runs of different seeds: its algorithm, the folder of its
+    hyperparameters unless it is named ``hyperparams`` (the repository's own, in whichever
+    checkout trained it), and each of :data:`SETTINGS` not at train_ppo.py's default (e.g.
+    ``"ppo, residual_searched, train_integrator=event"``)."""
+    import dataclasses
+
+    from train_ppo import Args
+
+    parts = [info["algo"]]
     folder = Path(str(info.get("hyperparams") or "hyperparams")).name
-    return info["algo"] if folder == "hyperparams" else f"{info['algo']}, {folder}"
+    if folder != "hyperparams":
+        parts.append(folder)
+    defaults = {f.name: f.default for f in dataclasses.fields(Args)}
+    parts += [f"{k}={info[k]}" for k in SETTINGS if k in info and info[k] != defaults[k]]
+    return ", ".join(parts)
 
 
 def _read_json(path: Path):

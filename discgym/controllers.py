@@ -484,11 +484,11 @@ class SetpointActions:
                 for c, f in zip(bases, factor):
                     c.setpoint_scale = float(f)
             b = np.array([c(oi) for c, oi in zip(bases, o)], dtype=np.float32)
-            setpoint = np.array([c.setpoint for c in bases], dtype=np.float64) * factor
             a = b
             a[:, 1:] = np.clip(b[:, 1:] + full[:, 1:], -1.0, 1.0)
             if own:
                 return a[0] if one else a
+            setpoint = np.array([c.setpoint for c in bases], dtype=np.float64) * factor
         a[:, 0] = self.s.heat_actions(setpoint, self.s.temperatures(o))
         return a[0] if one else a
 

@@ -405,7 +405,7 @@ SEARCHED: dict[str, dict] = {
                     "--budget-steps 2900000 --sigma0 0.05 --tune-seeds 3000 64 --compare"),
     },
     # 1,484,800 env steps of CMA-ES from the family's defaults on seeds 3000-3063,
-    # the best 5 and CMA's mean re-scored on seeds 3064-3163: 1,583,200 env steps,
+    # the best 5 and CMA's mean re-scored on seeds 3000-3163: 1,583,200 env steps,
     # 9 min wall, 8 min CPU (2026-12-04, the 2-core AMD EPYC VM, one thread).
     "DiscReactor-v0": {
         "params": {
@@ -428,7 +428,7 @@ SEARCHED: dict[str, dict] = {
                     "--tune-seeds 3000 64 --compare"),
     },
     # 1,484,800 env steps of CMA-ES from the family's defaults on seeds 3000-3063,
-    # the best 5 and CMA's mean re-scored on seeds 3064-3163: 1,583,200 env steps,
+    # the best 5 and CMA's mean re-scored on seeds 3000-3163: 1,583,200 env steps,
     # 9 min wall, 8 min CPU (2026-12-04, the 2-core AMD EPYC VM, one thread).
     "DiscKinetics-v0": {
         "params": {
@@ -451,7 +451,7 @@ SEARCHED: dict[str, dict] = {
                     "--tune-seeds 3000 64 --compare"),
     },
     # 1,484,800 env steps of CMA-ES from the band thermostat on seeds 3000-3063,
-    # the best 5 and CMA's mean re-scored on seeds 3064-3163: 1,583,200 env steps,
+    # the best 5 and CMA's mean re-scored on seeds 3000-3163: 1,583,200 env steps,
     # 9 min wall, 9 min CPU (2026-12-04, the 2-core AMD EPYC VM, one thread).
     "DiscEconomic-v0": {
         "params": {
@@ -475,7 +475,7 @@ SEARCHED: dict[str, dict] = {
                     "--tune-seeds 3000 64 --compare"),
     },
     # 1,484,800 env steps of CMA-ES from the family's defaults on seeds 3000-3063,
-    # the best 5 and CMA's mean re-scored on seeds 3064-3163: 1,583,200 env steps,
+    # the best 5 and CMA's mean re-scored on seeds 3000-3163: 1,583,200 env steps,
     # 11 min wall, 9 min CPU (2026-12-04, the 2-core AMD EPYC VM, one thread).
     "DiscJacket-v0": {
         "params": {

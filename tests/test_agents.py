@@ -166,6 +166,10 @@ def test_several_runs_of_one_algorithm_get_a_row_of_their_mean(ppo_run, tmp_path
     assert evaluate.variant(info) == "ppo" == evaluate.variant(
         dict(info, hyperparams="/x/hyperparams"))
     assert evaluate.variant(dict(info, hyperparams="hyperparams/residual")) == "ppo, residual"
+    # a setting that changes what a run learns makes another variant; its seed does not
+    assert evaluate.variant(dict(info, train_integrator="event", seed=3, eval_episodes=10,
+                                 total_timesteps=1000)) == \
+        "ppo, total_timesteps=1000, train_integrator=event"
 
 
 def test_evaluation_does_not_depend_on_the_worker_count(ppo_run):
