@@ -354,13 +354,12 @@ def plot(norm: dict, agg: dict, path: Path) -> Path:
     ax.axhline(0.0, color="k", lw=0.5)
     ax.set_xticks(np.arange(len(groups)), groups, fontsize=8)
     ax.set_ylabel("normalised score (random 0, searched 1)")
-    ax.set_title("Across the tasks (dots: training runs). 95% bootstrap intervals: a "
+    ax.set_title("Across the tasks (dots: training runs)\n95% bootstrap intervals: a "
                  "learner's over its runs, a controller's over evaluation seeds", fontsize=8)
     pad = 0.03 * (max(shown) - min(shown))
     ax.set_ylim(min(shown) - pad, max(shown) + pad)
     ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0))
-    fig.tight_layout()
-    fig.savefig(path)
+    fig.savefig(path, bbox_inches="tight")  # (the legend beside the axes included)
     plt.close(fig)
     return path
 
