@@ -327,7 +327,7 @@ def plot(norm: dict, agg: dict, path: Path) -> Path:
     groups = [t.removesuffix("-v0") for t in tasks] + ["IQM over\nthe tasks"]
     width = 0.8 / len(keys)
     colors = plt.get_cmap("tab10")
-    fig, ax = plt.subplots(figsize=(max(8.0, 1.6 * len(groups) + 4), 4.2), dpi=110)
+    fig, ax = plt.subplots(figsize=(max(7.0, 1.4 * len(groups) + 2), 4.2), dpi=110)
     shown = [0.0]  # (every plotted value, for the axis: nothing clipped)
     for i, k in enumerate(keys):
         x0 = np.arange(len(groups)) - 0.4 + (i + 0.5) * width
@@ -358,8 +358,8 @@ def plot(norm: dict, agg: dict, path: Path) -> Path:
                  "learner's over its runs, a controller's over evaluation seeds", fontsize=8)
     pad = 0.03 * (max(shown) - min(shown))
     ax.set_ylim(min(shown) - pad, max(shown) + pad)
-    ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0))
-    fig.savefig(path, bbox_inches="tight")  # (the legend beside the axes included)
+    ax.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.16), ncol=2)
+    fig.savefig(path, bbox_inches="tight")  # (the legend below the axes included)
     plt.close(fig)
     return path
 

@@ -510,3 +510,25 @@ def test_the_measured_ladders_are_the_code_and_the_pages_show_them():
     variants = json.loads((DOCS / "data" / "ladder_variants_DiscReactor-v0.json").read_text())
     assert variants["variants_table"] in text
     assert variants["searched"]["params"] == SEARCHED["DiscReactor-v0"]["params"]
+
+
+def test_the_learners_table_is_its_data():
+    """docs/agents.md's table and budgets across the tasks are what agents/aggregate.py makes
+    of docs/data/learners.json (every score it read), with the searches' budgets of the code;
+    its planner and oracle are the shipped ladders' (normalised afresh here)."""
+    pytest.importorskip("tyro")
+    sys.path.insert(0, str(ROOT / "agents"))
+    import aggregate
+
+    data = json.loads((DOCS / "data" / "learners.json").read_text())
+    norm = data["normalised"]
+    assert norm["tasks"] and set(norm["tasks"]) == set(TASKS)
+    text = (DOCS / "agents.md").read_text()
+    assert aggregate.table(norm, aggregate.aggregate(norm)) in text
+    assert aggregate.budget_table(norm) in text
+    for env_id in TASKS:
+        lad = json.loads((DOCS / "data" / f"ladder_{env_id}.json").read_text())
+        for key in ("planner", "oracle"):
+            assert norm["policies"][key][env_id] == pytest.approx(
+                aggregate._scores(lad["policies"], key).tolist(), rel=0, abs=1e-12)
+    assert (DOCS / "img" / "learners_across_tasks.png").stat().st_size > 10_000
