@@ -20,7 +20,8 @@ normalised_scores``), on the same evaluation seeds.
 - A controller (best constant, the simple rule, the searched controller) has no training
   seed: it is a learner with one run per task, whose score is its mean over the evaluation
   seeds; its IQM is over the task means, its interval from resampling the evaluation seeds
-  within each task (so the searched controller is 1 and random 0 exactly).
+  within each task (``discgym.baselines.aggregate_task_means``; the searched controller is
+  1 and random 0 exactly).
 - With ``--ladder`` (the JSON files of ``benchmarks/ladder.py``; its
   ``ladder_variants_*.json`` are another kind), the planner and the oracle join as
   controllers do, each on its ladder's seeds and mapped with that ladder's random and
@@ -214,41 +215,22 @@ def label(key: str) -> str:
     return NAMES.get(head, head) + (f" ({', '.join(settings)})" if settings else "")
 
 
-def _task_means_iqm(xs: list, confidence: float = 0.95, n_resamples: int = 9999,
-                    random_state: int = 0) -> dict:
-    """The IQM of per-task means of per-seed scores ``xs`` (one array per task), with the
-    percentile interval from resampling the seeds within each task."""
-    from scipy import stats
-
-    xs = [np.asarray(x, dtype=np.float64) for x in xs]
-
-    def stat(*samples, axis=-1):
-        means = np.stack([np.mean(x, axis=axis) for x in samples], axis=-1)
-        return stats.trim_mean(means, 0.25, axis=-1)
-
-    value = float(stat(*xs))
-    if min(len(x) for x in xs) < 2:
-        return {"value": value, "low": None, "high": None, "method": None}
-    ci = stats.bootstrap(xs, stat, confidence_level=confidence, n_resamples=n_resamples,
-                         method="percentile", random_state=random_state,
-                         vectorized=True).confidence_interval
-    return {"value": value, "low": float(ci.low), "high": float(ci.high),
-            "method": "percentile over seeds within tasks"}
-
-
 def aggregate(norm: dict) -> dict:
     """Each policy's IQM over the tasks it was measured on, with its interval: a learner's
     over its runs (stratified bootstrap over runs; none, ``low`` and ``high`` None, with a
     single run per task), a controller's or reference's over its task means."""
     from scipy import stats
 
-    from discgym.baselines import aggregate_iqm
+    from discgym.baselines import aggregate_iqm, aggregate_task_means
 
     out = {}
     for k, v in norm["policies"].items():
         xs = list(v.values())
         if k not in learners(norm):
-            out[k] = {"tasks": list(v), **_task_means_iqm(xs)}
+            a = aggregate_task_means(xs).as_dict()
+            if np.isnan(a["low"]):  # (a task with one seed: no interval)
+                a.update(low=None, high=None, method=None)
+            out[k] = {"tasks": list(v), **a}
         elif min(len(x) for x in xs) > 1:
             out[k] = {"tasks": list(v), **aggregate_iqm(xs).as_dict()}
         else:

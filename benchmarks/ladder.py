@@ -34,8 +34,8 @@ change only when --plot-path names them).
 files this script wrote: one Markdown table with a row per task (each policy's mean return
 with its 95% interval, whether the ladder is ordered and every step separated by its paired
 interval, the planner's and the oracle's wall time per episode), then every policy's
-normalised IQM over the tasks (random 0, the searched controller 1) with its stratified
-bootstrap interval.
+normalised IQM over the tasks (random 0, the searched controller 1: the IQM of its task
+means) with the interval of resampling each task's seeds.
 """
 
 from __future__ import annotations
@@ -57,7 +57,7 @@ from discgym.baselines import (
     PLANNER_GATE,
     SEARCH_SEEDS,
     TASK_BASELINES,
-    aggregate_iqm,
+    aggregate_task_means,
     check_disjoint,
     constant_factory,
     iqm_ci,
@@ -311,9 +311,10 @@ def normalised(results: list) -> tuple[dict, list]:
 
 def aggregate_table(results: list) -> str:
     """Every policy's normalised score over the tasks (per task, random's mean 0 and the
-    searched controller's 1; each seed's return so mapped), its IQM over every task's seeds
-    with the stratified bootstrap interval (:func:`discgym.baselines.aggregate_iqm`), and
-    its lowest and highest task mean."""
+    searched controller's 1; each seed's return so mapped), the IQM of its task means with
+    the interval of resampling each task's seeds (:func:`discgym.baselines.
+    aggregate_task_means`, as agents/aggregate.py scores a controller), and its lowest and
+    highest task mean."""
     norm, left_out = normalised(results)
     note = ("" if not left_out else "\n\nLeft out (the searched controller not above "
             f"random: no scale): {', '.join(left_out)}.")
@@ -323,7 +324,7 @@ def aggregate_table(results: list) -> str:
     lines = [f"| policy | normalised IQM over {n} task(s) [95% CI] | task means, lowest - "
              "highest |", "|---|---|---|"]
     for k, label in zip(LADDER, SHORT):
-        agg = aggregate_iqm(norm[k])
+        agg = aggregate_task_means(norm[k])
         means = [round(float(np.mean(x)), 3) + 0.0 for x in norm[k]]  # (+ 0.0: no "-0.000")
         lines.append(f"| {label} | {agg.text()} | {min(means):.3f} - {max(means):.3f} |")
     return "\n".join(lines) + note
@@ -335,8 +336,8 @@ TICKS = ["random", "best\nconstant", "simple\nrule", "searched", "planner", "ora
 
 def plot(results: list, path: Path) -> Path:
     """A panel per task (each policy's mean with its 95% interval, a dot per seed) and, for
-    several tasks, one more: the normalised IQM over the tasks with its stratified
-    interval (:func:`aggregate_table`'s figures)."""
+    several tasks, one more: the normalised IQM over the tasks with its interval
+    (:func:`aggregate_table`'s figures)."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -361,13 +362,13 @@ def plot(results: list, path: Path) -> Path:
         ax.set_title(f"{res['env_id']} ({len(res['eval_seeds'])} seeds)")
     if both:
         ax = axes[0][-1]
-        agg = [aggregate_iqm(norm[k]) for k in LADDER]
+        agg = [aggregate_task_means(norm[k]) for k in LADDER]
         m = np.array([a.value for a in agg])
         ax.bar(x, m, yerr=[m - [a.low for a in agg], [a.high for a in agg] - m], capsize=4,
                color=COLORS)
         ax.axhline(1.0, color="tab:orange", lw=0.8, ls="--")
         ax.set_ylabel("normalised score (random 0, searched 1)")
-        ax.set_title(f"{len(norm['random'])} tasks: normalised IQM, stratified 95% CI")
+        ax.set_title(f"{len(norm['random'])} tasks: normalised IQM of task means, 95% CI")
     for ax in axes[0]:
         ax.set_xticks(x, TICKS, fontsize=8)
     fig.tight_layout()
@@ -427,7 +428,7 @@ def main(argv=None) -> int:
             results = [json.loads(f.read_text()) for f in a.table]
             print(summary_table(results))
             print("\nAcross the tasks (normalised per task: random 0, searched controller 1; "
-                  "IQM, stratified bootstrap):\n")
+                  "IQM of the task means, interval over seeds within tasks):\n")
             print(aggregate_table(results))
         except (OSError, ValueError, KeyError, TypeError, StopIteration) as e:
             p.error(f"--table: not a ladder's JSON ({type(e).__name__}: {e})")

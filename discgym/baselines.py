@@ -18,7 +18,8 @@ the searched controller (:meth:`TaskBaselines.planner`, :meth:`TaskBaselines.ora
 ``gymnasium.make`` env per seed (:func:`run_episodes`), and summarises the per-seed returns
 with bootstrap confidence intervals (:func:`mean_ci`, :func:`iqm_ci`,
 :func:`paired_difference`: ``scipy.stats.bootstrap``), and over tasks by
-:func:`aggregate_iqm` of :func:`normalised_scores`.
+:func:`aggregate_task_means` of :func:`normalised_scores` (:func:`aggregate_iqm` for
+learners, over their training runs).
 """
 
 from __future__ import annotations
@@ -60,6 +61,7 @@ __all__ = [
     "paired_difference",
     "normalised_scores",
     "aggregate_iqm",
+    "aggregate_task_means",
     "check_disjoint",
 ]
 
@@ -330,7 +332,8 @@ class Summary:
         return self.low > 0.0 or self.high < 0.0
 
     def text(self, digits: int = 3) -> str:
-        return f"{self.value:.{digits}f} [{self.low:.{digits}f}, {self.high:.{digits}f}]"
+        v, lo, hi = (round(x, digits) + 0.0 for x in (self.value, self.low, self.high))
+        return f"{v:.{digits}f} [{lo:.{digits}f}, {hi:.{digits}f}]"  # (+ 0.0: no "-0.000")
 
     def as_dict(self) -> dict:
         return {"value": self.value, "low": self.low, "high": self.high, "method": self.method}
@@ -431,6 +434,33 @@ def aggregate_iqm(scores_by_task, confidence: float = 0.95, n_resamples: int = 9
                           method="percentile", random_state=random_state, vectorized=True)
     ci = res.confidence_interval
     return Summary(value, float(ci.low), float(ci.high), "stratified percentile")
+
+
+def aggregate_task_means(scores_by_task, confidence: float = 0.95, n_resamples: int = 9999,
+                         random_state: int = 0) -> Summary:
+    """The interquartile mean over tasks of a policy without training seeds (a controller, a
+    planner): its mean normalised score on each task is its one "run" there, and the IQM is
+    taken over those task means (so the reference that defines the scale scores exactly 1),
+    as :func:`aggregate_iqm` takes it over runs. The interval is that of resampling each
+    task's seeds within the task (percentile). A task with one seed gives no interval
+    (``low`` and ``high`` NaN)."""
+    from scipy import stats
+
+    xs = [np.asarray(x, dtype=np.float64).ravel() for x in scores_by_task]
+    if not xs or any(x.size == 0 for x in xs):
+        raise ValueError("scores_by_task: need at least one task, each with scores")
+
+    def iqm_of_means(*samples, axis=-1):
+        means = np.stack([np.mean(x, axis=axis) for x in samples], axis=-1)
+        return stats.trim_mean(means, 0.25, axis=-1)
+
+    value = float(iqm_of_means(*xs))
+    if min(x.size for x in xs) < 2:
+        return Summary(value, float("nan"), float("nan"), "none (a task with one seed)")
+    ci = stats.bootstrap(xs, iqm_of_means, confidence_level=confidence,
+                         n_resamples=n_resamples, method="percentile",
+                         random_state=random_state, vectorized=True).confidence_interval
+    return Summary(value, float(ci.low), float(ci.high), "percentile over seeds within tasks")
 
 
 # ---------------------------------------------------------------- the per-task registry

@@ -14,6 +14,7 @@ from discgym.baselines import (
     SEARCH_SEEDS,
     TASK_BASELINES,
     aggregate_iqm,
+    aggregate_task_means,
     check_disjoint,
     constant_factory,
     iqm_ci,
@@ -397,3 +398,26 @@ def test_the_aggregate_iqm_is_a_stratified_bootstrap():
         normalised_scores([1.0], [2.0], [1.0])
     with pytest.raises(ValueError, match="scores_by_task"):
         aggregate_iqm([np.ones(3), []])
+
+
+def test_a_controller_aggregates_as_the_iqm_of_its_task_means():
+    """aggregate_task_means: the IQM over the tasks of each task's mean score (the
+    reference that sets the scale: 1 exactly, whatever its seeds' spread), its interval that
+    of resampling each task's seeds within the task (a hand-rolled check); no interval from
+    a task of one seed."""
+    from scipy.stats import trim_mean
+
+    rng = np.random.default_rng(4)
+    tasks = [rng.normal(m, 0.2, n) for m, n in ((0.5, 20), (0.9, 30), (1.2, 25), (2.0, 20))]
+    agg = aggregate_task_means(tasks)
+    assert agg.value == pytest.approx(trim_mean([t.mean() for t in tasks], 0.25))
+    boot = np.array([trim_mean([rng.choice(t, t.size).mean() for t in tasks], 0.25)
+                     for _ in range(4000)])
+    lo, hi = np.percentile(boot, [2.5, 97.5])
+    assert agg.low == pytest.approx(lo, abs=0.02) and agg.high == pytest.approx(hi, abs=0.02)
+    ref = [1.0 + t - t.mean() for t in tasks]  # (each task's mean exactly 1, seeds spread)
+    assert aggregate_task_means(ref).value == pytest.approx(1.0, abs=1e-12)
+    one = aggregate_task_means([np.ones(1), np.ones(3)])
+    assert one.value == 1.0 and np.isnan(one.low) and np.isnan(one.high)
+    with pytest.raises(ValueError, match="scores_by_task"):
+        aggregate_task_means([np.ones(3), []])
