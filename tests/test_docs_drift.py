@@ -532,3 +532,19 @@ def test_the_learners_table_is_its_data():
             assert norm["policies"][key][env_id] == pytest.approx(
                 aggregate._scores(lad["policies"], key).tolist(), rel=0, abs=1e-12)
     assert (DOCS / "img" / "learners_across_tasks.png").stat().st_size > 10_000
+
+
+def test_the_readme_quotes_the_learners_data():
+    """The README's headline quotes each learner's, the planner's and the oracle's IQM over
+    the tasks with its interval, as docs/data/learners.json gives them."""
+    pytest.importorskip("tyro")
+    sys.path.insert(0, str(ROOT / "agents"))
+    import aggregate
+
+    norm = json.loads((DOCS / "data" / "learners.json").read_text())["normalised"]
+    agg = aggregate.aggregate(norm)
+    readme = " ".join((ROOT / "README.md").read_text().split())
+    for key in aggregate.learners(norm) + ["planner", "oracle"]:
+        a = agg[key]
+        quoted = f"{a['value']:.3f} [{a['low']:.3f}, {a['high']:.3f}]"
+        assert quoted in readme, f"README: {aggregate.label(key)} should read {quoted}"
