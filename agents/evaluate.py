@@ -62,7 +62,7 @@ from argcheck import (  # noqa: E402
     usage,
     write_text_atomic,
 )
-from train_ppo import ALGOS, algo_class, vec_env_wrappers  # noqa: E402
+from train_ppo import ALGOS, algo_class, set_torch_threads, vec_env_wrappers  # noqa: E402
 
 LADDER = ("random", "best constant", "hand-written", "searched", "planner", "oracle")
 
@@ -202,7 +202,7 @@ def agent_factory(run: Path, checkpoint: str = "best", deterministic: bool = Tru
 
     import discgym  # noqa: F401  (registers the tasks)
 
-    torch.set_num_threads(1)
+    set_torch_threads(1)
     run = Path(run)
     info = run_info(run)
     hp_path = run / "hyperparams.json"

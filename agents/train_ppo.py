@@ -347,19 +347,31 @@ def algo_class(name: str):
     return getattr(stable_baselines3, name.upper())
 
 
+def set_torch_threads(n: int) -> None:
+    """torch's intra-op threads, set so that the vector env cannot undo it. numba's OpenMP
+    threading layer shares torch's libgomp and, when it starts its pool (at the env's first
+    parallel call), sets OpenMP's thread count back to every core; oneDNN's kernels (an
+    LSTM's) then run on two threads and leave a worker spinning beside a one-thread run.
+    Starting numba's pool first keeps ``n``."""
+    import numba
+    import torch
+
+    numba.get_num_threads()  # (starts numba's thread pool)
+    torch.set_num_threads(n)
+
+
 def train(args: Args) -> Path:
     """Train; returns the output folder (see the module docstring for its files). Refuses a
     bad argument (:class:`argcheck.UsageError`, a ``ValueError``) before writing anything;
     the folder appears, complete, when training ends (:func:`argcheck.staged_folder`)."""
     hp = check_args(args)
-    import torch
     from stable_baselines3.common.logger import configure
 
     final = args.folder()
     with staged_folder(final) as out:
         (out / "args.json").write_text(json.dumps(dataclasses.asdict(args), indent=2))
         (out / "hyperparams.json").write_text(json.dumps(hp, indent=2, default=repr))
-        torch.set_num_threads(args.torch_threads)
+        set_torch_threads(args.torch_threads)
         n_envs, steps = int(hp.pop("n_envs")), hp.pop("n_timesteps")
         normalize, policy = hp.pop("normalize", False), hp.pop("policy", None)
         wrappers = hp.pop("vec_env_wrapper", None)

@@ -35,12 +35,12 @@ ENVS, ROLLOUT, MINIBATCH, EPOCHS = 16, 128, 64, 10
 
 
 def bench_sb3(iterations: int) -> tuple[float, int]:
-    import torch
     from stable_baselines3 import PPO
+    from train_ppo import set_torch_threads
 
     from discgym.sb3 import DiscReactorSB3VecEnv
 
-    torch.set_num_threads(1)
+    set_torch_threads(1)
     venv = DiscReactorSB3VecEnv(num_envs=ENVS, threads=1)
     model = PPO("MlpPolicy", venv, n_steps=ROLLOUT, batch_size=MINIBATCH, n_epochs=EPOCHS,
                 learning_rate=3e-4, gamma=0.99, gae_lambda=0.95, seed=0, device="cpu",

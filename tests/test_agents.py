@@ -578,3 +578,45 @@ def test_expected_errors_are_one_line_and_bugs_keep_their_traceback(capsys):
     assert capsys.readouterr().err.strip().endswith("error: --n-envs: bad value")
     with pytest.raises(ZeroDivisionError):  # (a bug: not turned into a usage line)
         argcheck.run(lambda: 1 / 0)
+
+
+_THREADS_PROBE = """
+import sys
+sys.path.insert(0, {agents!r})
+import numba, numpy as np, torch
+from train_ppo import set_torch_threads
+if {helper}:
+    set_torch_threads(1)
+else:
+    torch.set_num_threads(1)
+torch.get_num_threads()  # (torch re-applies its count once per thread, at its first call)
+
+@numba.njit(parallel=True)
+def total(x):
+    s = 0.0
+    for i in numba.prange(x.size):
+        s += x[i]
+    return s
+
+total(np.ones(1000))  # (on all of numba's threads, as the env's own parallel kernels run)
+print(torch.get_num_threads(), numba.threading_layer())
+"""
+
+
+@pytest.mark.skipif((os.cpu_count() or 1) < 2, reason="one core: nothing to undo")
+def test_set_torch_threads_survives_numbas_thread_pool():
+    """numba's OpenMP layer, started after torch.set_num_threads(1), sets OpenMP's count
+    back to every core (an LSTM's oneDNN kernels then spin a second thread); the helper
+    starts numba's pool first. Each case in a fresh process: the pool starts once."""
+    agents = str(Path(__file__).resolve().parents[1] / "agents")
+
+    def probe(helper: bool) -> tuple[int, str]:
+        out = subprocess.run([sys.executable, "-c", _THREADS_PROBE.format(
+            agents=agents, helper=helper)], capture_output=True, text=True, check=True)
+        n, layer = out.stdout.split()
+        return int(n), layer
+
+    assert probe(helper=True)[0] == 1
+    plain, layer = probe(helper=False)
+    if layer == "omp":  # (the control: what the helper guards against happens here)
+        assert plain > 1
