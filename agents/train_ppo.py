@@ -101,9 +101,8 @@ class Args:
     (docs/performance.md)"""
     threads: Annotated[int | None, Range(1)] = None
     """numba threads of the vector env (None: all cores; at most numba's own count)"""
-    torch_threads: Annotated[int | None, Range(1)] = None
-    """torch intra-op threads (None: as many as the vector env's, for the updates between
-    its steps; 1 for runs side by side with ``--threads 1``)"""
+    torch_threads: Annotated[int, Range(1)] = 1
+    """torch intra-op threads (the small networks here gain nothing from more)"""
     eval_freq: Annotated[int, Range(0)] = 50_000
     """validate every this many env steps, summed over the reactors (0: no EvalCallback, no
     best checkpoint)"""
@@ -348,14 +347,6 @@ def algo_class(name: str):
     return getattr(stable_baselines3, name.upper())
 
 
-def _env_threads(threads: int | None) -> int:
-    """The vector env's numba threads for its ``threads`` argument."""
-    import numba
-
-    return numba.get_num_threads() if threads is None else \
-        min(threads, numba.config.NUMBA_NUM_THREADS)
-
-
 def set_torch_threads(n: int) -> None:
     """torch's intra-op threads, set so that the vector env cannot undo it. numba's OpenMP
     threading layer shares torch's libgomp and, when it starts its pool (at the env's first
@@ -380,7 +371,7 @@ def train(args: Args) -> Path:
     with staged_folder(final) as out:
         (out / "args.json").write_text(json.dumps(dataclasses.asdict(args), indent=2))
         (out / "hyperparams.json").write_text(json.dumps(hp, indent=2, default=repr))
-        set_torch_threads(args.torch_threads or _env_threads(args.threads))
+        set_torch_threads(args.torch_threads)
         n_envs, steps = int(hp.pop("n_envs")), hp.pop("n_timesteps")
         normalize, policy = hp.pop("normalize", False), hp.pop("policy", None)
         wrappers = hp.pop("vec_env_wrapper", None)
