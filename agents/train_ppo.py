@@ -349,10 +349,11 @@ def algo_class(name: str):
 
 def set_torch_threads(n: int) -> None:
     """torch's intra-op threads, set so that the vector env cannot undo it. numba's OpenMP
-    threading layer shares torch's libgomp and, when it starts its pool (at the env's first
-    parallel call), sets OpenMP's thread count back to every core; torch's updates then run
-    on every core, and between its parallel regions a worker spins beside a run that was
-    meant to take one. Starting numba's pool first keeps ``n``."""
+    threading layer shares torch's libgomp and, when it starts its pool (the first
+    ``numba.get_num_threads()`` or parallel call: a vector env's first reset), sets OpenMP's
+    thread count back to every core; torch's updates then run on every core, and between
+    its parallel regions a worker spins beside a run that was meant to take one. Starting
+    numba's pool first keeps ``n``."""
     import numba
     import torch
 
