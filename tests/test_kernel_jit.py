@@ -63,7 +63,9 @@ def _emit(get_meminfos, ty):
     import llvmlite.ir as llvmir
     from numba.core.registry import cpu_target
 
-    ctx = cpu_target.target_context
+    # (a context of its own: the global one caches its NRT context on first use, disabled,
+    # and every function compiled afterwards would inherit that)
+    ctx = cpu_target.target_context.subtarget(enable_nrt=True)
     module = llvmir.Module()
     fn = llvmir.Function(module, llvmir.FunctionType(llvmir.VoidType(),
                                                      [ctx.get_value_type(ty)]), "f")
