@@ -32,12 +32,7 @@ from discgym.kernels.structs import (
     FLOAT,
     FS_DISSIPATED,
     FS_WALL_MOMENTUM,
-    Bounds,
-    Counters,
-    Discs,
     RunConsts,
-    Tables,
-    fields,
 )
 
 N = 20000  # (from PARALLEL_MIN discs, 8 chunks from 8 CHUNK_MIN)
@@ -121,16 +116,6 @@ def test_a_long_call_takes_the_list_on_one_thread_and_the_scan_and_clusters_on_s
     _serial_vs_clusters(sim, 1, S.PAIR_MIN_STEPS)
 
 
-@numba.njit
-def _serial_advance(discs, n, n_steps, dt, bounds, tables, params, flags, rngs, cnt, step0,
-                    reorder_every, work):
-    # Simulation's call (kernels.step.advance_rngs) without ``clusters``: the serial phase
-    d, n, work = S.advance(Discs(*discs), n, n_steps, dt, Bounds(*bounds), Tables(*tables),
-                           params, flags, rngs[0], Counters(*cnt), 1, step0, reorder_every,
-                           work)
-    return fields(d), n, work
-
-
 def test_one_thread_above_the_pair_lists_range_takes_the_clusters():
     """Above PAIR_MAX_DISCS discs a simulation on one thread runs the clusters on it (one
     strip, one chunk): the serial phase's trajectory."""
@@ -145,7 +130,7 @@ def test_one_thread_above_the_pair_lists_range_takes_the_clusters():
     ref = sim.copy()
     sim.step(3)
     discs = (ref._pos, ref._vel, ref._species, ref._internal_energy, ref._ids, ref._idctr)
-    d, n, ref._work = _serial_advance(
+    d, n, ref._work = S.advance_serial_rngs(  # (the serial phase, without clusters)
         discs, ref._n, 3, ref.scene.dt, (ref._bounds_kind, ref._bounds_params, ref._walls),
         tuple(cs.tables), cs.params, cs.flags, ref._rngs,
         (ref._icnt, ref._fsum, ref._ch_count, ref._outflow), ref._steps, S.REORDER_EVERY,
@@ -155,6 +140,36 @@ def test_one_thread_above_the_pair_lists_range_takes_the_clusters():
     ref._steps += 3
     _same(ref, sim)
     assert sim.counters()["collisions"] > 0
+
+
+def test_a_simulation_below_the_threads_range_runs_the_serial_entry_the_same_bits():
+    """A stepped Simulation's call that would take neither the threads nor the clusters
+    runs advance_serial_rngs, which compiles neither: the trajectory of advance_rngs (the
+    entry every call took before), on one thread and on several."""
+    for threads in (1, 8):
+        sim = dg.Simulation("reactor", seed=5)
+        sim.threads = threads
+        assert S.serial_suffices(len(sim), threads)
+        ref = sim.copy()
+        for _ in range(3):
+            sim.step(7)
+        cs = ref._cs
+        for _ in range(3):
+            d, n, ref._work = S.advance_rngs(
+                (ref._pos, ref._vel, ref._species, ref._internal_energy, ref._ids,
+                 ref._idctr), ref._n, 7, ref.scene.dt,
+                (ref._bounds_kind, ref._bounds_params, ref._walls), tuple(cs.tables),
+                cs.params, cs.flags, ref._rngs, (ref._icnt, ref._fsum, ref._ch_count,
+                                                 ref._outflow),
+                threads if numba.get_num_threads() > 1 else 1, ref._steps, S.REORDER_EVERY,
+                ref._work)
+            ref._pos, ref._vel, ref._species, ref._internal_energy, ref._ids = d[:5]
+            ref._n = n
+            ref._steps += 7
+        _same(ref, sim)
+        assert sim.counters()["collisions"] > 0
+    assert not S.serial_suffices(S.PARALLEL_MIN, 2) and S.serial_suffices(S.PARALLEL_MIN, 1)
+    assert not S.serial_suffices(S.PAIR_MAX_DISCS + 1, 1)
 
 
 def test_scenes_whose_events_are_not_local_keep_the_serial_phase():

@@ -1273,6 +1273,30 @@ def advance_rngs(discs, n, n_steps, dt, bounds, tables, params, flags, rngs, cnt
     return fields(d), n, work
 
 
+@njit(cache=True)
+def advance_serial_rngs(discs, n, n_steps, dt, bounds, tables, params, flags, rngs, cnt,
+                        step0, reorder_every, work):
+    """:func:`advance_rngs` on the calling thread, without the event phase by clusters:
+    ``clusters`` omitted, so numba compiles neither (nor the parallel drift and scan), as
+    for the vector env's reactors, whose :func:`advance` this is (the same argument types:
+    one compiled version, shared through the cache). A ``Simulation`` calls it when
+    :func:`advance_rngs` would not take those paths (:func:`serial_suffices`), which is the
+    same trajectory bit for bit; its first step compiles half as much."""
+    d, n, work = advance(Discs(*discs), n, n_steps, dt, Bounds(*bounds), Tables(*tables),
+                         params, flags, rngs[0], Counters(*cnt), np.int64(1), step0,
+                         reorder_every, work)
+    return fields(d), n, work
+
+
+def serial_suffices(n: int, threads: int) -> bool:
+    """Whether :func:`advance` given ``clusters`` and ``threads`` work chunks would run a call
+    starting with ``n`` discs on the calling thread without clusters: below PARALLEL_MIN
+    discs on several threads, up to PAIR_MAX_DISCS on one. (Discs made during a call may
+    cross PARALLEL_MIN: :func:`advance_serial_rngs` then runs the rest of that call serially,
+    the same bits, the results not depending on the thread count.)"""
+    return n < PARALLEL_MIN if threads > 1 else n <= PAIR_MAX_DISCS
+
+
 @kernel
 def advance(discs, n, n_steps, dt, bounds, tables, params, flags, rng, cnt, threads, step0,
             reorder_every, work, clusters=None):
