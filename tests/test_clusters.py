@@ -116,6 +116,21 @@ def test_a_long_call_takes_the_list_on_one_thread_and_the_scan_and_clusters_on_s
     _serial_vs_clusters(sim, 1, S.PAIR_MIN_STEPS)
 
 
+def _run_entry(sim, entry, n_steps, *threads):
+    """Step ``sim`` by an entry point of kernels.step of our choice (``advance_serial_rngs``,
+    or ``advance_rngs`` given ``threads``), on its arrays as ``Simulation._run`` passes them;
+    the clocks are left alone."""
+    cs = sim._cs
+    d, sim._n, sim._work = entry(
+        (sim._pos, sim._vel, sim._species, sim._internal_energy, sim._ids, sim._idctr),
+        sim._n, n_steps, sim.scene.dt, (sim._bounds_kind, sim._bounds_params, sim._walls),
+        tuple(cs.tables), cs.params, cs.flags, sim._rngs,
+        (sim._icnt, sim._fsum, sim._ch_count, sim._outflow), *threads, sim._steps,
+        S.REORDER_EVERY, sim._work)
+    sim._pos, sim._vel, sim._species, sim._internal_energy, sim._ids = d[:5]
+    sim._steps += n_steps
+
+
 def test_one_thread_above_the_pair_lists_range_takes_the_clusters():
     """Above PAIR_MAX_DISCS discs a simulation on one thread runs the clusters on it (one
     strip, one chunk): the serial phase's trajectory."""
@@ -129,15 +144,7 @@ def test_one_thread_above_the_pair_lists_range_takes_the_clusters():
     # clusters.events on one strip made this test fail)
     ref = sim.copy()
     sim.step(3)
-    discs = (ref._pos, ref._vel, ref._species, ref._internal_energy, ref._ids, ref._idctr)
-    d, n, ref._work = S.advance_serial_rngs(  # (the serial phase, without clusters)
-        discs, ref._n, 3, ref.scene.dt, (ref._bounds_kind, ref._bounds_params, ref._walls),
-        tuple(cs.tables), cs.params, cs.flags, ref._rngs,
-        (ref._icnt, ref._fsum, ref._ch_count, ref._outflow), ref._steps, S.REORDER_EVERY,
-        ref._work)
-    ref._pos, ref._vel, ref._species, ref._internal_energy, ref._ids = d[:5]
-    ref._n = n
-    ref._steps += 3
+    _run_entry(ref, S.advance_serial_rngs, 3)  # (the serial phase, without clusters)
     _same(ref, sim)
     assert sim.counters()["collisions"] > 0
 
@@ -153,19 +160,8 @@ def test_a_simulation_below_the_threads_range_runs_the_serial_entry_the_same_bit
         ref = sim.copy()
         for _ in range(3):
             sim.step(7)
-        cs = ref._cs
-        for _ in range(3):
-            d, n, ref._work = S.advance_rngs(
-                (ref._pos, ref._vel, ref._species, ref._internal_energy, ref._ids,
-                 ref._idctr), ref._n, 7, ref.scene.dt,
-                (ref._bounds_kind, ref._bounds_params, ref._walls), tuple(cs.tables),
-                cs.params, cs.flags, ref._rngs, (ref._icnt, ref._fsum, ref._ch_count,
-                                                 ref._outflow),
-                threads if numba.get_num_threads() > 1 else 1, ref._steps, S.REORDER_EVERY,
-                ref._work)
-            ref._pos, ref._vel, ref._species, ref._internal_energy, ref._ids = d[:5]
-            ref._n = n
-            ref._steps += 7
+            _run_entry(ref, S.advance_rngs, 7,
+                       threads if numba.get_num_threads() > 1 else 1)
         _same(ref, sim)
         assert sim.counters()["collisions"] > 0
     assert not S.serial_suffices(S.PARALLEL_MIN, 2) and S.serial_suffices(S.PARALLEL_MIN, 1)
