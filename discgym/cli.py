@@ -392,6 +392,12 @@ def cmd_compile(args) -> int:
         import concurrent.futures as cf
         import multiprocessing
 
+        from .kernels import helper
+
+        # (the workers fill the CPUs and share their kernels through the cache's locks: no
+        # compile helper of their own)
+        os.environ[helper.ENV_VAR] = "0"
+
         # (spawned, not forked: a fresh interpreter each, whatever numba's threads have done)
         with cf.ProcessPoolExecutor(jobs, mp_context=multiprocessing.get_context("spawn")) \
                 as pool:

@@ -44,6 +44,7 @@ import numpy as np
 from gymnasium import spaces
 
 from .compiled import P_MAXDISP, P_RMIN, CompiledScene, compile_scene, kernel_bounds
+from .kernels import helper as compile_helper
 from .kernels.batch import (
     O_BLOCKED,
     O_ENERGY_HEAT,
@@ -1232,6 +1233,7 @@ class DiscReactorEnv(gym.Env):
         check_render_mode(render_mode, self.metadata["render_modes"])
         self.render_size = _whole(render_size, "render_size", 1, MAX_RENDER_SIZE)
         self.config = cfg = ReactorConfig.from_kwargs(self.defaults, **kwargs)
+        compile_helper.expect(f"env-{cfg.integrator}")
         self.render_mode = render_mode
         if render_mode == "human":
             _need_matplotlib()

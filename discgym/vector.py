@@ -63,6 +63,7 @@ from .env import (
     observe,
     with_config,
 )
+from .kernels import helper as compile_helper
 from .kernels import step as _step
 from .kernels.batch import (
     O_BLOCKED,
@@ -148,6 +149,7 @@ class DiscReactorVectorEnv(VectorEnv):
                                  f"{max_episode_steps}, as it is not given)") from None
         else:
             self.config = cfg = ReactorConfig.from_kwargs(self.defaults, **kwargs)
+        compile_helper.expect(f"env-{cfg.integrator}")
         _check_memory(R * (cfg.capacity * SLOT_BYTES_BATCH + 4096), "num_envs",
                       f"{R} reactors of capacity {cfg.capacity} discs")
         self.limit = cfg.episode_steps if max_episode_steps is None else \

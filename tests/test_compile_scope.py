@@ -15,8 +15,10 @@ import sys
 
 import pytest
 
+from discgym.kernels import helper
+
 CHILD = r"""
-import importlib, json, pkgutil, sys
+import importlib, json, pickle, pkgutil, sys
 import numpy as np
 from numba.core import event
 from numba.core.registry import CPUDispatcher
@@ -25,6 +27,7 @@ from discgym.kernels.jit import KernelDispatcher, LinkOnlyLibrary
 from discgym.vector import DiscReactorVectorEnv
 
 integrator = sys.argv[1]
+obs = None
 with event.install_recorder("numba:compile") as rec:
     if integrator == "simulation":  # a stepped Simulation, as `discgym run` makes it
         import discgym as dg
@@ -34,7 +37,12 @@ with event.install_recorder("numba:compile") as rec:
         venv = DiscReactorVectorEnv(num_envs=2, n_discs=80, episode_steps=5,
                                     integrator=integrator, threads=1)
         venv.reset(seed=0)
-        venv.step(np.zeros((2, 4), np.float32))
+        obs = venv.step(np.full((2, 4), 0.3, np.float32))[0].tolist()
+signatures = sorted({(f"{ev.data['dispatcher'].py_func.__module__}."
+                   f"{ev.data['dispatcher'].py_func.__qualname__}",
+                   pickle.dumps(tuple(ev.data["args"])).hex())
+                  for _, ev in rec.buffer if ev.is_start
+                  and isinstance(ev.data['dispatcher'], KernelDispatcher)})
 compiled = sorted({f"{ev.data['dispatcher'].py_func.__module__}."
                    f"{ev.data['dispatcher'].py_func.__qualname__}"
                    for _, ev in rec.buffer if ev.is_start
@@ -48,20 +56,25 @@ for info in pkgutil.iter_modules(kernels.__path__):
                 only = isinstance(cres.library, LinkOnlyLibrary) and cres.library.link_only
                 (linked if only else machine).append(
                     (f"{info.name}.{name}", isinstance(fn, KernelDispatcher)))
-print(json.dumps({"compiled": compiled, "linked": linked, "machine": machine}))
+print(json.dumps({"compiled": compiled, "linked": linked, "machine": machine,
+                  "signatures": signatures, "obs": obs}))
 """
 
 
-def _children(*integrators):
+def _children(*integrators, helper=()):
+    """Run CHILD for each integrator, each in a fresh cache, without a compile helper (for
+    those in ``helper``, under ``<integrator>+helper``: a second child with one)."""
     procs = {}
-    for integrator in integrators:
+    for integrator, with_helper in [(i, False) for i in integrators] + [(i, True)
+                                                                         for i in helper]:
         import tempfile
 
         cache = tempfile.mkdtemp(prefix="discgym-cache-")
-        env = dict(os.environ, NUMBA_CACHE_DIR=cache, DISCGYM_COMPILE_NOTICE="0")
-        procs[integrator] = subprocess.Popen([sys.executable, "-c", CHILD, integrator],
-                                             env=env, stdout=subprocess.PIPE,
-                                             stderr=subprocess.PIPE, text=True)
+        env = dict(os.environ, NUMBA_CACHE_DIR=cache, DISCGYM_COMPILE_NOTICE="0",
+                   DISCGYM_COMPILE_HELPER="1" if with_helper else "0")
+        procs[integrator + "+helper" * with_helper] = subprocess.Popen(
+            [sys.executable, "-c", CHILD, integrator], env=env, stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE, text=True)
     out = {}
     for integrator, p in procs.items():
         stdout, stderr = p.communicate(timeout=1800)
@@ -72,7 +85,7 @@ def _children(*integrators):
 
 @pytest.mark.slow
 def test_each_env_compiles_its_own_integrator_and_links_its_kernels():
-    got = _children("step", "event", "simulation")
+    got = _children("step", "event", "simulation", helper=["step"])
     stepped, exact, simulation = got["step"], got["event"], got["simulation"]
     # the stepped env: nothing of the exact integrator
     assert not [f for f in stepped["compiled"] if f.startswith("discgym.kernels.event_driven")]
@@ -92,3 +105,20 @@ def test_each_env_compiles_its_own_integrator_and_links_its_kernels():
         assert g["linked"] and all(is_kernel for _, is_kernel in g["linked"]), g["linked"]
         assert g["machine"] and not any(is_kernel for _, is_kernel in g["machine"]), \
             g["machine"]
+
+    # the compile helper's plans (kernels.helper) are kernels the envs compile, with those
+    # argument types: else re-record them (main(["record"]) of discgym.kernels.helper)
+    plans = helper.load_plans()
+    if plans:  # (recorded with this numba)
+        for plan, g in (("env-step", stepped), ("env-event", exact)):
+            compiled = {(q, a) for q, a in g["signatures"]}
+            stale = [q for q, a in plans[plan] if (q, a.hex()) not in compiled]
+            assert not stale, f"plan {plan}: not compiled so by the env: {stale}"
+    # with a helper: the same step, and the helper's first kernel (the last the env needs)
+    # compiled by the helper, not by the env's process
+    helped = got["step+helper"]
+    assert helped["obs"] == stepped["obs"]
+    if plans and helper.enabled():
+        first = plans["env-step"][-1][0]
+        assert first in stepped["compiled"] and first not in helped["compiled"]
+        assert len(helped["compiled"]) < len(stepped["compiled"])

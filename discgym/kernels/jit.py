@@ -58,13 +58,15 @@ import types
 
 import llvmlite.binding as ll
 import llvmlite.ir as llvmir
-from numba.core import cgutils, config
+from numba.core import cgutils, config, sigutils
 from numba.core.caching import CompileResultCacheImpl, FunctionCache
 from numba.core.codegen import JITCodeLibrary
 from numba.core.compiler import Compiler
 from numba.core.compiler_lock import require_global_compiler_lock
 from numba.core.registry import CPUDispatcher
 from numba.core.runtime.context import NRTContext
+
+from . import helper
 
 __all__ = ["kernel", "KernelDispatcher", "LinkOnlyLibrary", "python_twin"]
 
@@ -237,6 +239,13 @@ class KernelDispatcher(CPUDispatcher):
 
     def __call__(self, *args, **kwargs):
         return python_twin(self)(*args, **kwargs)
+
+    def compile(self, sig):
+        # (compiled or loaded under the lock of its cache index: kernels.helper)
+        if tuple(sigutils.normalize_signature(sig)[0]) in self.overloads:
+            return super().compile(sig)
+        with helper.compile_lock(self):
+            return super().compile(sig)
 
     def enable_caching(self):
         self._cache = _KernelCache(self.py_func)

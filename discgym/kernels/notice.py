@@ -2,9 +2,10 @@
 
 numba compiles a kernel the first time a process calls it with new argument types and
 caches the result on disk (``cache=True``); a later process loads it. Compiling from an
-empty cache takes minutes, and without a word the first ``env.step`` looks hung. So the
+empty cache takes tens of seconds, and without a word the first ``env.step`` looks hung. So the
 first compile of a discgym kernel in a process logs, once, a WARNING on the ``discgym``
-logger (shown on stderr by Python's default handler).
+logger (shown on stderr by Python's default handler). The same event starts the compile
+helper of the envs made before it (:mod:`.helper`).
 
 First use is detected from numba's ``numba:compile`` event, which numba fires only when it
 compiles (a function loaded from the cache fires none): nothing is logged when the cache
@@ -21,10 +22,12 @@ import os
 
 from numba.core import event
 
+from . import helper
+
 LOGGER = logging.getLogger("discgym")
 #: set to 0 (or "false", "no", "off") to silence the notice
 ENV_VAR = "DISCGYM_COMPILE_NOTICE"
-MESSAGE = ("compiling discgym's kernels for first use (minutes from an empty cache; "
+MESSAGE = ("compiling discgym's kernels for first use (tens of seconds from an empty cache; "
            "cached afterwards; `discgym compile` warms the cache ahead of time)")
 
 
@@ -35,10 +38,11 @@ class _FirstCompile(event.Listener):
         self.done = False
 
     def on_start(self, ev):
-        if self.done:
-            return
         f = getattr(ev.data.get("dispatcher"), "py_func", None)
         if f is None or not getattr(f, "__module__", "").startswith("discgym"):
+            return
+        helper.on_compile()
+        if self.done:
             return
         # (stays registered: removing a listener while numba broadcasts to the list would
         # make it skip the next one)

@@ -1,0 +1,314 @@
+"""A second process compiling part of a first compile.
+
+numba compiles on one thread, in one process: an env's first step from an empty cache
+compiles some 140 functions one after the other. Most of them are kernels (linked only,
+:mod:`.jit`), which numba types, lowers and keeps in its cache as bitcode, ready for the
+entry points to link. A kernel compiled by another process is loaded from the cache, so
+two processes can share the kernels of a first compile.
+
+**Plans.** Which kernels, with which argument types, an env's first step compiles is
+recorded: :func:`record` (``main(["record"])``) writes ``plans.pkl`` beside this module,
+and ``tests/test_compile_scope.py`` fails when a plan no longer matches what the envs
+compile. A plan is the later part of that compile (:data:`SHARE` of its kernels' time, in
+the order compiled): the kernels of the env's step after its controls, and the later
+phases of the integrator (:func:`make_plan`). Plans are used only with the numba they were
+recorded with.
+
+**The helper.** An env declares the plan of its integrator when it is made
+(:func:`expect`). When the process then compiles a discgym function (the cache lacks it)
+and may run on two CPUs or more, it starts a helper process (:func:`run`) that compiles
+the plan's kernels from the last to the first while this process compiles from the
+first: the two meet near the middle. One helper per process and plan; a helper that finds
+another at work on the same cache and plan exits. ``DISCGYM_COMPILE_HELPER=0`` starts none.
+
+**Locks.** Two processes must neither compile one kernel twice nor write one function's
+cache index at once (numba rewrites a function's index at each save; two writers can lose
+an entry, or point one at the other's code). So a kernel is compiled, or loaded, under a
+lock of its function's cache index (``fcntl.flock`` on ``<index>.lock`` beside numba's
+``.nbi``): a process reaching a kernel that another is compiling waits, then loads it. Every
+process compiling discgym's kernels takes these locks, so the workers of a vector env or of
+``discgym compile`` that start on an empty cache share their compile. A process waits only
+for a kernel below the one it holds, so two never wait for each other; a lock is released
+when its process ends, whatever the way.
+
+The code is the same: a kernel loaded from the cache is what its process would have
+compiled (numba keys its cache by the argument types and the source file's stamp).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import pickle
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+try:
+    import fcntl
+except ImportError:  # (not POSIX: no locks and no helper; each process compiles its own)
+    fcntl = None
+
+#: Set to 0 (or "false", "no", "off") to start no helper process.
+ENV_VAR = "DISCGYM_COMPILE_HELPER"
+#: The recorded plans: ``{"numba": version, "plans": {name: [(qualname, args pickle)]}}``.
+PLANS_FILE = Path(__file__).with_name("plans.pkl")
+#: What each plan's recording runs: ``(env id, integrator)`` of a single env's reset and step.
+RECORDED = {"env-step": ("DiscReactor-v0", "step"), "env-event": ("DiscReactor-v0", "event")}
+#: The helper's share of a plan's recorded compile (its process also starts later).
+SHARE = 0.7
+#: The longest a process waits for another's kernel before compiling it itself (seconds).
+LOCK_TIMEOUT = 600.0
+
+#: The helper's command (``-m`` would run this module a second time: the package imports it).
+_MAIN = "import sys; from discgym.kernels.helper import main; sys.exit(main())"
+
+_expected: list[str] = []
+_helpers: list = []  # (the helpers started: kept, not collected while they run)
+_started: set[str] = set()
+_held: set[int] = set()  # (the kernels this process holds the lock of: ids of dispatchers)
+
+
+def enabled() -> bool:
+    """Whether this process may start a helper: not one itself, ``DISCGYM_COMPILE_HELPER``
+    not off, POSIX and at least two CPUs it may run on."""
+    if fcntl is None or os.environ.get(ENV_VAR, "1").strip().lower() in (
+            "0", "false", "no", "off"):
+        return False
+    try:
+        cpus = len(os.sched_getaffinity(0))
+    except AttributeError:
+        cpus = os.cpu_count() or 1
+    return cpus >= 2
+
+
+def expect(plan: str) -> None:
+    """Declare that this process is about to compile (or load) ``plan``'s kernels: if it
+    compiles any discgym function, a helper is started for the plan (module docstring)."""
+    if plan not in _expected:
+        _expected.append(plan)
+
+
+def on_compile() -> None:
+    """Called when this process starts compiling a discgym function: start the helpers of
+    the expected plans not started yet."""
+    if len(_started) == len(_expected) or not enabled():
+        return
+    for plan in _expected:
+        if plan not in _started:
+            _started.add(plan)
+            _start(plan)
+
+
+def _start(plan: str) -> subprocess.Popen | None:
+    if plan not in load_plans():
+        return None
+    import discgym
+
+    root = str(Path(discgym.__file__).resolve().parent.parent)
+    env = dict(os.environ, **{ENV_VAR: "0"})  # (a helper starts no helper)
+    env["PYTHONPATH"] = os.pathsep.join([root] + [p for p in [env.get("PYTHONPATH")] if p])
+    p = subprocess.Popen(
+        [sys.executable, "-c", _MAIN, "run", plan, str(Path(discgym.__file__).resolve())],
+        env=env, stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL, start_new_session=True)
+    _helpers.append(p)
+    return p
+
+
+def load_plans() -> dict:
+    """The recorded plans usable with this numba (``{}`` if none are)."""
+    import numba
+
+    try:
+        data = pickle.loads(PLANS_FILE.read_bytes())
+    except (OSError, pickle.PickleError, EOFError):
+        return {}
+    return data.get("plans", {}) if data.get("numba") == numba.__version__ else {}
+
+
+def _dispatcher(qualname: str):
+    import importlib
+
+    module, _, name = qualname.rpartition(".")
+    return getattr(importlib.import_module(module), name)
+
+
+def run(plan: str) -> int:
+    """Compile ``plan``'s kernels, from the last to the first (the helper process). Exits
+    at once if another helper holds the plan's lock on this cache."""
+    kernels = load_plans().get(plan)
+    if not kernels or fcntl is None:
+        return 0
+    first = _dispatcher(kernels[0][0])
+    path = _lock_path(first)
+    if path is None:
+        return 0
+    fd = os.open(path.with_name(f"discgym-helper-{plan}.lock"), os.O_RDWR | os.O_CREAT, 0o666)
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except BlockingIOError:
+        return 0
+    for qualname, args in reversed(kernels):
+        try:
+            _dispatcher(qualname).compile(pickle.loads(args))
+        except Exception:  # (a stale plan: the process that needs the kernel compiles it)
+            continue
+    os.close(fd)
+    return 0
+
+
+def _lock_path(disp) -> Path | None:
+    """The lock file of ``disp``'s cache index, or None (no cache)."""
+    cache = getattr(disp, "_cache", None)
+    index = getattr(getattr(cache, "_cache_file", None), "_index_name", None)
+    if index is None:
+        return None
+    return Path(cache._cache_path) / f"{index}.lock"
+
+
+@contextlib.contextmanager
+def compile_lock(disp):
+    """Within: this process holds the lock of ``disp``'s cache index (module docstring),
+    waiting for another process that holds it (at most :data:`LOCK_TIMEOUT`); nothing where
+    there are no locks or the function has no cache."""
+    path = None if fcntl is None or id(disp) in _held else _lock_path(disp)
+    if path is None:
+        yield
+        return
+    try:
+        fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o666)
+    except OSError:
+        yield
+        return
+    try:
+        deadline = time.monotonic() + LOCK_TIMEOUT
+        while True:
+            try:
+                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+                break
+            except BlockingIOError:
+                if time.monotonic() > deadline:
+                    break
+                time.sleep(0.005)
+        _held.add(id(disp))
+        try:
+            yield
+        finally:
+            _held.discard(id(disp))
+    finally:
+        os.close(fd)  # (releases the lock)
+
+
+# -- recording the plans ------------------------------------------------------------------
+
+def record_compile(env_id: str, integrator: str) -> list[dict]:
+    """In this process (empty cache, no helper): reset and step ``env_id``'s single env on
+    ``integrator``; every discgym kernel compiled, in the order numba began them, as dicts
+    of ``qualname``, ``args`` (numba types), ``depth`` (of the compile stack), ``seconds``
+    (inclusive)."""
+    import gymnasium
+    from numba.core import event
+
+    import discgym  # noqa: F401  (registers the envs)
+    from discgym.kernels.jit import KernelDispatcher
+
+    out, stack = [], []
+    with event.install_recorder("numba:compile") as rec:
+        env = gymnasium.make(env_id, integrator=integrator)
+        env.reset(seed=0)
+        env.step(env.action_space.sample())
+        env.close()
+    for ts, ev in rec.buffer:
+        if ev.is_start:
+            d = ev.data.get("dispatcher")
+            f = getattr(d, "py_func", None)
+            item = {"qualname": f"{f.__module__}.{f.__qualname__}" if f else "?",
+                    "args": tuple(ev.data.get("args") or ()), "depth": len(stack),
+                    "kernel": isinstance(d, KernelDispatcher), "start": ts, "children": []}
+            if stack:
+                stack[-1]["children"].append(item)
+            stack.append(item)
+            out.append(item)
+        else:
+            item = stack.pop()
+            item["seconds"] = ts - item["start"]
+    return out
+
+
+def make_plan(compiled: list[dict], share: float = SHARE) -> list[tuple[str, bytes]]:
+    """A helper's half of a recorded compile: the units of work (each kernel an entry point
+    calls; a kernel of more than a quarter of the whole split into the kernels it calls, its
+    own lowering left to the process that needs it), in the order compiled, and the plan the
+    last of them that add up to ``share`` of their seconds."""
+    entries = [c for c in compiled if c["depth"] == 0]
+    units: list[dict] = []
+    total = sum(c["seconds"] for c in entries)
+
+    def add(item):
+        if not item["kernel"]:
+            for child in item["children"]:
+                add(child)
+        elif item["seconds"] > total / 4 and item["children"]:
+            for child in item["children"]:
+                add(child)
+        else:
+            units.append(item)
+
+    for e in entries:
+        for child in e["children"]:
+            add(child)
+    work = sum(u["seconds"] for u in units)
+    plan, got = [], 0.0
+    for u in reversed(units):
+        if got >= share * work:
+            break
+        got += u["seconds"]
+        plan.append((u["qualname"], pickle.dumps(u["args"])))
+    return plan[::-1]
+
+
+def record(names=None) -> dict:
+    """Record the plans (each in a child process with an empty cache) and write
+    :data:`PLANS_FILE`."""
+    import tempfile
+
+    import numba
+
+    plans = load_plans() if names else {}
+    for name in names or RECORDED:
+        env_id, integrator = RECORDED[name]
+        with tempfile.TemporaryDirectory(prefix="discgym-plan-") as cache:
+            out = Path(cache) / "plan.pkl"
+            env = dict(os.environ, NUMBA_CACHE_DIR=cache, DISCGYM_COMPILE_NOTICE="0",
+                       **{ENV_VAR: "0"})
+            subprocess.run([sys.executable, "-c", _MAIN, "record-one", env_id, integrator,
+                            str(out)], env=env, check=True)
+            plans[name] = pickle.loads(out.read_bytes())
+    PLANS_FILE.write_bytes(pickle.dumps({"numba": numba.__version__, "plans": plans}))
+    return plans
+
+
+def main(argv=None) -> int:
+    argv = sys.argv[1:] if argv is None else argv
+    if argv[:1] == ["run"] and len(argv) == 3:
+        import discgym
+
+        if str(Path(discgym.__file__).resolve()) != argv[2]:
+            return 0  # (another discgym than the process that started it: not its cache)
+        return run(argv[1])
+    if argv[:1] == ["record-one"] and len(argv) == 4:
+        plan = make_plan(record_compile(argv[1], argv[2]))
+        Path(argv[3]).write_bytes(pickle.dumps(plan))
+        return 0
+    if argv[:1] == ["record"]:
+        for name, plan in record(argv[1:] or None).items():
+            print(f"{name}: {len(plan)} kernels: {', '.join(q for q, _ in plan)}")
+        return 0
+    print("usage: main(['record', PLAN ...])", file=sys.stderr)
+    return 2
+
+
+if __name__ == "__main__":
+    sys.exit(main())

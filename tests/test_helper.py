@@ -1,0 +1,105 @@
+"""The compile helper (discgym.kernels.helper): the plans, the choice of a plan from a
+recorded compile, when a helper is started, and the locks that make two processes share a
+compile. (That a helper shortens a first compile and leaves the step the same, and that
+the plans match what the envs compile: tests/test_compile_scope.py.)"""
+
+import os
+import pickle
+import subprocess
+import sys
+
+import numba
+import pytest
+
+from discgym.kernels import helper
+from discgym.kernels.jit import KernelDispatcher
+
+
+def test_plans_are_kernels_of_this_numba_in_compile_order():
+    plans = helper.load_plans()
+    if not plans:
+        pytest.skip(f"the plans were recorded with another numba than {numba.__version__}")
+    assert set(plans) == set(helper.RECORDED)
+    for name, plan in plans.items():
+        assert plan, name
+        for qualname, args in plan:
+            assert isinstance(helper._dispatcher(qualname), KernelDispatcher), qualname
+            assert isinstance(pickle.loads(args), tuple)
+    # the last kernel an env's step compiles is the helper's first
+    assert plans["env-step"][-1][0] == "discgym.kernels.batch._book"
+
+
+def _item(name, seconds, children=(), kernel=True, depth=1):
+    return {"qualname": name, "args": (name,), "seconds": seconds, "kernel": kernel,
+            "depth": depth, "children": list(children)}
+
+
+def test_make_plan_takes_the_later_share_splitting_a_large_kernel():
+    leaves = [_item(f"adv.c{i}", 1.0, depth=2) for i in range(6)]
+    entry = _item("entry", 12.0, [_item("a", 1.0), _item("adv", 7.0, leaves),
+                                  _item("b", 1.0)], kernel=False, depth=0)
+    reset = _item("reset", 3.0, [_item("r", 3.0)], kernel=False, depth=0)
+    flat = [reset, *reset["children"], entry, *entry["children"], *leaves]
+    # units in compile order: r 3, a 1, c0..c5 1 each, b 1 (adv is over a quarter: split);
+    # 11 s of units, the later 0.7 of them: b, c5 ... c0 (7 s), then a (8 s >= 7.7)
+    plan = helper.make_plan(flat, share=0.7)
+    assert [q for q, _ in plan] == ["a"] + [f"adv.c{i}" for i in range(6)] + ["b"]
+    assert pickle.loads(plan[0][1]) == ("a",)
+    assert [q for q, _ in helper.make_plan(flat, share=0.2)] == ["adv.c4", "adv.c5", "b"]
+
+
+def test_a_helper_starts_once_per_expected_plan(monkeypatch):
+    started = []
+    monkeypatch.setattr(helper, "_expected", [])
+    monkeypatch.setattr(helper, "_started", set())
+    monkeypatch.setattr(helper, "_start", started.append)
+    monkeypatch.setattr(helper, "enabled", lambda: True)
+    helper.on_compile()
+    assert started == []  # (nothing expected)
+    helper.expect("env-step")
+    helper.expect("env-step")
+    helper.on_compile()
+    helper.on_compile()
+    helper.expect("env-event")
+    helper.on_compile()
+    assert started == ["env-step", "env-event"]
+
+
+@pytest.mark.parametrize("value, on", [("0", False), ("off", False), ("no", False),
+                                       ("1", True)])
+def test_the_environment_variable_turns_the_helper_off(monkeypatch, value, on):
+    monkeypatch.setenv(helper.ENV_VAR, value)
+    cpus = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else 1
+    assert helper.enabled() == (on and cpus >= 2 and helper.fcntl is not None)
+
+
+HOLDER = r"""
+import fcntl, os, sys, time
+fd = os.open(sys.argv[1], os.O_RDWR | os.O_CREAT, 0o666)
+fcntl.flock(fd, fcntl.LOCK_EX)
+print("locked", flush=True)
+time.sleep(1.0)
+open(sys.argv[2], "w").close()  # (written before the lock is released)
+os.close(fd)
+"""
+
+
+@pytest.mark.skipif(helper.fcntl is None, reason="no fcntl locks here")
+def test_a_process_waits_for_the_kernel_another_holds(tmp_path):
+    from discgym.kernels.batch import _book as kernel
+
+    path = helper._lock_path(kernel)
+    assert path is not None and path.name.endswith(".nbi.lock")
+    path.parent.mkdir(parents=True, exist_ok=True)
+    released = tmp_path / "released"
+    p = subprocess.Popen([sys.executable, "-c", HOLDER, str(path), str(released)],
+                         stdout=subprocess.PIPE, text=True)
+    try:
+        assert p.stdout.readline().strip() == "locked"
+        with helper.compile_lock(kernel):
+            assert released.exists()  # (entered only once the other process let go)
+            with helper.compile_lock(kernel):  # (its own lock again: no wait on itself)
+                pass
+    finally:
+        p.wait(timeout=60)
+    assert p.returncode == 0
