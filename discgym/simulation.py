@@ -406,12 +406,13 @@ class Simulation:
             if _step.serial_suffices(self._n, threads):  # (compiles no parallel code)
                 discs, n, self._work = _step.advance_serial_rngs(
                     discs, self._n, n_steps, dt, bounds, tables, cs.params, cs.flags,
-                    self._rngs, counters, self._steps, _step.REORDER_EVERY, self._work)
+                    self._rngs, counters, self._steps, _step.REORDER_EVERY, self._work,
+                    _step.lists_for(n_steps))
             else:
                 discs, n, self._work = _step.advance_rngs(
                     discs, self._n, n_steps, dt, bounds, tables, cs.params, cs.flags,
                     self._rngs, counters, threads, self._steps, _step.REORDER_EVERY,
-                    self._work)
+                    self._work, _step.lists_for(n_steps))
         self._pos, self._vel, self._species, self._internal_energy, self._ids = discs[:5]
         self._n = n
         self._steps += n_steps

@@ -126,7 +126,7 @@ def _run_entry(sim, entry, n_steps, *threads):
         sim._n, n_steps, sim.scene.dt, (sim._bounds_kind, sim._bounds_params, sim._walls),
         tuple(cs.tables), cs.params, cs.flags, sim._rngs,
         (sim._icnt, sim._fsum, sim._ch_count, sim._outflow), *threads, sim._steps,
-        S.REORDER_EVERY, sim._work)
+        S.REORDER_EVERY, sim._work, S.lists_for(n_steps))
     sim._pos, sim._vel, sim._species, sim._internal_energy, sim._ids = d[:5]
     sim._steps += n_steps
 

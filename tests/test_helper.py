@@ -88,17 +88,20 @@ os.close(fd)
 def test_a_process_waits_for_the_kernel_another_holds(tmp_path):
     from discgym.kernels.batch import _book as kernel
 
-    path = helper._lock_path(kernel)
-    assert path is not None and path.name.endswith(".nbi.lock")
+    sig = helper.load_plans().get("env-step", [(None, pickle.dumps(("a type",)))])[-1][1]
+    sig = pickle.loads(sig)
+    path = helper._lock_path(kernel._cache, sig)
+    assert path is not None and path.name.endswith(".lock") and ".nbi." in path.name
+    assert helper._lock_path(kernel._cache, sig[:-1]) != path  # (a lock per version)
     path.parent.mkdir(parents=True, exist_ok=True)
     released = tmp_path / "released"
     p = subprocess.Popen([sys.executable, "-c", HOLDER, str(path), str(released)],
                          stdout=subprocess.PIPE, text=True)
     try:
         assert p.stdout.readline().strip() == "locked"
-        with helper.compile_lock(kernel):
+        with helper.compile_lock(kernel, sig):
             assert released.exists()  # (entered only once the other process let go)
-            with helper.compile_lock(kernel):  # (its own lock again: no wait on itself)
+            with helper.compile_lock(kernel, sig):  # (its own lock again: no wait on itself)
                 pass
     finally:
         p.wait(timeout=60)

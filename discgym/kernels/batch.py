@@ -42,7 +42,7 @@ from .controls import RESIZED, heat, inject, resize
 from .event_driven import CELLS_PER_DISC, N_STATS, finish_capped, run_exact
 from .event_structs import Counters as EventCounters
 from .jit import kernel
-from .step import FS_WALL_HEAT, advance, empty_work
+from .step import FS_WALL_HEAT, advance, empty_work, lists_for
 from .structs import (
     BOX,
     COUNT,
@@ -73,6 +73,7 @@ O_STATUS, O_BLOCKED, O_INVALID = range(3)  # then injected (F), then refused (F)
 
 
 _INTEGRATOR = ReactorConsts._fields.index("integrator")
+_STEPS = ReactorConsts._fields.index("steps_per_action")
 _IOUT = Episodes._fields.index("iout")
 
 
@@ -88,9 +89,12 @@ def env_step(rx, ep, tables, params, flags, consts, rngs, active, act):
     environment and ``stepped=None`` for an exact one, and numba prunes the integrator given
     None and never compiles it (see :func:`reactor_step`). The time-stepped integrator that
     finishes an exact run which reached its event bound is a call of its own
-    (:func:`_finish_capped`, compiled when a run first needs it)."""
+    (:func:`_finish_capped`, compiled when a run first needs it). So is whether a step may
+    keep a pair list (``lists``: ``steps_per_action`` of PAIR_MIN_STEPS or more), and numba
+    compiles no pair-list code for an env of fewer steps per action."""
     exact, stepped = _integrators(consts)
-    _env_step(rx, ep, tables, params, flags, consts, rngs, active, act, exact, stepped)
+    _env_step(rx, ep, tables, params, flags, consts, rngs, active, act, exact, stepped,
+              lists_for(consts[_STEPS]))
     if exact:
         _finish_capped_rows(rx, ep, tables, params, flags, consts, rngs, active)
 
@@ -103,7 +107,7 @@ def env_step_parallel(rx, ep, tables, params, flags, consts, rngs, active, act, 
     plain tuples, and the integrator is chosen, as for :func:`env_step`."""
     exact, stepped = _integrators(consts)
     _env_step_parallel(rx, ep, tables, params, flags, consts, rngs, active, act, order, starts,
-                       exact, stepped)
+                       exact, stepped, lists_for(consts[_STEPS]))
     if exact:
         _finish_capped_rows(rx, ep, tables, params, flags, consts, rngs, active)
 
@@ -143,31 +147,32 @@ def _finish_capped(rx, ep, tables, params, flags, consts, rngs, capped):
 
 
 @njit(cache=True)
-def _env_step(rx, ep, tables, params, flags, consts, rngs, active, act, exact, stepped):
+def _env_step(rx, ep, tables, params, flags, consts, rngs, active, act, exact, stepped, lists):
     rx, ep, tables, consts = _structs(rx, ep, tables, consts)
     for r in range(rx.pos.shape[0]):
         if active[r]:
-            reactor_step(r, rx, ep, tables, params, flags, consts, rngs, act, exact, stepped)
+            reactor_step(r, rx, ep, tables, params, flags, consts, rngs, act, exact, stepped,
+                         lists)
 
 
 @njit(cache=True)
 def _env_step_parallel(rx, ep, tables, params, flags, consts, rngs, active, act, order, starts,
-                       exact, stepped):
+                       exact, stepped, lists):
     rx, ep, tables, consts = _structs(rx, ep, tables, consts)
     _in_parallel(rx, ep, tables, params, flags, consts, rngs, active, act, order, starts, exact,
-                 stepped)
+                 stepped, lists)
 
 
 @kernel(parallel=True)
 def _in_parallel(rx, ep, tables, params, flags, consts, rngs, active, act, order, starts, exact,
-                 stepped):
+                 stepped, lists):
     # (apart from _env_step_parallel: numba's parfor lowering fails on the unpacked structs)
     for t in prange(starts.shape[0] - 1):
         for q in range(starts[t], starts[t + 1]):
             r = order[q]
             if active[r]:
                 _reactor_step(r, rx, ep, tables, params, flags, consts, rngs, act, exact,
-                              stepped)
+                              stepped, lists)
 
 
 @njit(cache=True, inline="always")
@@ -224,7 +229,7 @@ def balance(cost, active, T, order, starts):
 
 
 @njit(cache=True, inline="always")
-def reactor_step(r, rx, ep, tables, params, flags, consts, rngs, act, exact, stepped):
+def reactor_step(r, rx, ep, tables, params, flags, consts, rngs, act, exact, stepped, lists):
     """Apply the action ``act[r]`` to reactor r (heat, then the wall, then injection), advance
     it ``consts.steps_per_action`` steps of ``consts.dt`` (``exact`` not None: one exact
     event-driven run of that time; ``stepped`` not None: the time-stepped integrator), count
@@ -232,7 +237,10 @@ def reactor_step(r, rx, ep, tables, params, flags, consts, rngs, act, exact, ste
     integrator at compile time (:func:`env_step` passes ``(None, True)`` for
     ``consts.integrator`` = ``STEPPED``, ``(True, None)`` for ``EVENT``). An exact run that
     reaches its event bound leaves the rest of the step to :func:`_finish_capped` (status
-    :data:`CAPPED`, ``ep.pending[r]``).
+    :data:`CAPPED`, ``ep.pending[r]``). ``lists``: the time-stepped integrator's
+    (:func:`~discgym.kernels.step.advance`; :func:`env_step` passes
+    :func:`~discgym.kernels.step.lists_for` the steps per action: None, no pair-list code
+    compiled, below PAIR_MIN_STEPS).
 
     ``rx`` the batch's :class:`~discgym.kernels.structs.Reactors` (rows r), ``ep`` its
     :class:`~discgym.kernels.structs.Episodes` (``ep.temperature`` and ``ep.kinetic``, those
@@ -305,7 +313,7 @@ def reactor_step(r, rx, ep, tables, params, flags, consts, rngs, act, exact, ste
                                tables, params, flags, rngs[r],
                                Counters(rx.icnt[r], rx.fsum[r], ch_count, rx.outflow[r]),
                                np.int64(1), rx.ksteps[r], consts.reorder_every,
-                               empty_work())
+                               empty_work(), lists=lists)
     _book(r, after.pos.shape[0] != cap, m, rx, ep, tables.sp_mass, consts, wall_heat0)
 
 

@@ -1119,12 +1119,14 @@ def finish_capped(state, n, n_steps, dt, rest, bounds, tables, params, flags, rn
     # the batch's call (kernels.batch.reactor_step), so that numba compiles advance once
     zero = np.int64(0)
     one = np.int64(1)
+    # (lists None: no pair list, as in a stepped env's step, whose advance this is; a rare
+    # rescue, whose broad phase scans each substep)
     if whole > 0:
         state, n, _w = advance(state, n, whole, dt, bounds, tables, params, flags, rng, cnt,
-                               one, zero, zero, empty_work())
+                               one, zero, zero, empty_work(), lists=None)
     if rest - whole * dt > 0.0:
         state, n, _w = advance(state, n, one, rest - whole * dt, bounds, tables, params,
-                               flags, rng, cnt, one, zero, zero, empty_work())
+                               flags, rng, cnt, one, zero, zero, empty_work(), lists=None)
     return state, n
 
 

@@ -10,26 +10,30 @@ two processes can share the kernels of a first compile.
 recorded: :func:`record` (``main(["record"])``) writes ``plans.pkl`` beside this module,
 and ``tests/test_compile_scope.py`` fails when a plan no longer matches what the envs
 compile. A plan is the later part of that compile (:data:`SHARE` of its kernels' time, in
-the order compiled): the kernels of the env's step after its controls, and the later
-phases of the integrator (:func:`make_plan`). Plans are used only with the numba they were
+the order compiled): the later phases of the integrator and the step's bookkeeping
+(:func:`make_plan`). Plans are used only with the numba they were
 recorded with.
 
 **The helper.** An env declares the plan of its integrator when it is made
 (:func:`expect`). When the process then compiles a discgym function (the cache lacks it)
 and may run on two CPUs or more, it starts a helper process (:func:`run`) that compiles
-the plan's kernels from the last to the first while this process compiles from the
-first: the two meet near the middle. One helper per process and plan; a helper that finds
-another at work on the same cache and plan exits. ``DISCGYM_COMPILE_HELPER=0`` starts none.
+the plan's kernels in the order the env will need them, while the env's process compiles
+what comes before them (its reset, the controls, the integrator's first phases); when it
+reaches the plan, it loads what the helper has compiled, and waits for a kernel the helper
+is still compiling. One helper per process and plan; a helper that finds another at work
+on the same cache and plan exits. ``DISCGYM_COMPILE_HELPER=0`` starts none.
 
-**Locks.** Two processes must neither compile one kernel twice nor write one function's
-cache index at once (numba rewrites a function's index at each save; two writers can lose
-an entry, or point one at the other's code). So a kernel is compiled, or loaded, under a
-lock of its function's cache index (``fcntl.flock`` on ``<index>.lock`` beside numba's
-``.nbi``): a process reaching a kernel that another is compiling waits, then loads it. Every
-process compiling discgym's kernels takes these locks, so the workers of a vector env or of
-``discgym compile`` that start on an empty cache share their compile. A process waits only
-for a kernel below the one it holds, so two never wait for each other; a lock is released
-when its process ends, whatever the way.
+**Locks.** Two processes must not compile one kernel twice, and must not write one
+function's cache index at once (numba rewrites a function's index at each save: two
+writers can lose an entry, or point one at the other's code). So a kernel's version is
+compiled, or loaded, under a lock of its own (``fcntl.flock`` on a ``.lock`` file beside
+numba's ``.nbi`` index, named by the index and the argument types), and saved under the
+lock of its function's index. A process reaching a kernel that another is compiling waits,
+then loads it. Every process compiling discgym's kernels takes these locks, so the workers
+of a vector env or of ``discgym compile`` that start on an empty cache share their
+compile. A process waits only for a version below the one it holds, and holds an index's
+lock only to write it, so two never wait for each other; a lock is released when its
+process ends, whatever the way.
 
 The code is the same: a kernel loaded from the cache is what its process would have
 compiled (numba keys its cache by the argument types and the source file's stamp).
@@ -38,6 +42,7 @@ compiled (numba keys its cache by the argument types and the source file's stamp
 from __future__ import annotations
 
 import contextlib
+import hashlib
 import os
 import pickle
 import subprocess
@@ -56,8 +61,10 @@ ENV_VAR = "DISCGYM_COMPILE_HELPER"
 PLANS_FILE = Path(__file__).with_name("plans.pkl")
 #: What each plan's recording runs: ``(env id, integrator)`` of a single env's reset and step.
 RECORDED = {"env-step": ("DiscReactor-v0", "step"), "env-event": ("DiscReactor-v0", "event")}
-#: The helper's share of a plan's recorded compile (its process also starts later).
-SHARE = 0.7
+#: The helper's share of the kernels' time of a recorded compile (the env's process has the
+#: entry points to compile after the kernels; 0.5, 0.6 and 0.7 gave the same first step of
+#: DiscReactor-v0 from an empty cache within a 2-core VM's drift).
+SHARE = 0.6
 #: The longest a process waits for another's kernel before compiling it itself (seconds).
 LOCK_TIMEOUT = 600.0
 
@@ -67,7 +74,7 @@ _MAIN = "import sys; from discgym.kernels.helper import main; sys.exit(main())"
 _expected: list[str] = []
 _helpers: list = []  # (the helpers started: kept, not collected while they run)
 _started: set[str] = set()
-_held: set[int] = set()  # (the kernels this process holds the lock of: ids of dispatchers)
+_held: set = set()  # (the locks this process holds: their keys)
 
 
 def enabled() -> bool:
@@ -136,13 +143,12 @@ def _dispatcher(qualname: str):
 
 
 def run(plan: str) -> int:
-    """Compile ``plan``'s kernels, from the last to the first (the helper process). Exits
-    at once if another helper holds the plan's lock on this cache."""
+    """Compile ``plan``'s kernels, in order (the helper process). Exits at once if another
+    helper holds the plan's lock on this cache."""
     kernels = load_plans().get(plan)
     if not kernels or fcntl is None:
         return 0
-    first = _dispatcher(kernels[0][0])
-    path = _lock_path(first)
+    path = _lock_path(getattr(_dispatcher(kernels[0][0]), "_cache", None))
     if path is None:
         return 0
     fd = os.open(path.with_name(f"discgym-helper-{plan}.lock"), os.O_RDWR | os.O_CREAT, 0o666)
@@ -150,7 +156,7 @@ def run(plan: str) -> int:
         fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
     except BlockingIOError:
         return 0
-    for qualname, args in reversed(kernels):
+    for qualname, args in kernels:
         try:
             _dispatcher(qualname).compile(pickle.loads(args))
         except Exception:  # (a stale plan: the process that needs the kernel compiles it)
@@ -159,22 +165,24 @@ def run(plan: str) -> int:
     return 0
 
 
-def _lock_path(disp) -> Path | None:
-    """The lock file of ``disp``'s cache index, or None (no cache)."""
-    cache = getattr(disp, "_cache", None)
+def _lock_path(cache, sig=None) -> Path | None:
+    """The lock file of a function's cache index (``cache``: its numba cache), or of one of
+    its versions (``sig``: the argument types); None without a cache."""
     index = getattr(getattr(cache, "_cache_file", None), "_index_name", None)
     if index is None:
         return None
+    if sig is not None:
+        digest = hashlib.sha256(repr(tuple(sig)).encode()).hexdigest()[:16]
+        index = f"{index}.{digest}"
     return Path(cache._cache_path) / f"{index}.lock"
 
 
 @contextlib.contextmanager
-def compile_lock(disp):
-    """Within: this process holds the lock of ``disp``'s cache index (module docstring),
-    waiting for another process that holds it (at most :data:`LOCK_TIMEOUT`); nothing where
-    there are no locks or the function has no cache."""
-    path = None if fcntl is None or id(disp) in _held else _lock_path(disp)
-    if path is None:
+def _flock(path: Path | None, key):
+    """Within: this process holds the lock of ``path``, waiting for another process that
+    holds it (at most :data:`LOCK_TIMEOUT`); nothing if ``path`` is None, if this process
+    holds it already (``key``) or if the file cannot be opened."""
+    if path is None or key in _held:
         yield
         return
     try:
@@ -192,13 +200,29 @@ def compile_lock(disp):
                 if time.monotonic() > deadline:
                     break
                 time.sleep(0.005)
-        _held.add(id(disp))
+        _held.add(key)
         try:
             yield
         finally:
-            _held.discard(id(disp))
+            _held.discard(key)
     finally:
         os.close(fd)  # (releases the lock)
+
+
+def compile_lock(disp, sig):
+    """Within: this process holds the lock of ``disp``'s version for the argument types
+    ``sig`` (module docstring), after waiting for another process that holds it."""
+    if fcntl is None:
+        return contextlib.nullcontext()
+    return _flock(_lock_path(getattr(disp, "_cache", None), sig), (id(disp), tuple(sig)))
+
+
+def index_lock(cache):
+    """Within: this process holds the lock of the cache index of ``cache`` (a function's
+    numba cache): while it saves a version there."""
+    if fcntl is None:
+        return contextlib.nullcontext()
+    return _flock(_lock_path(cache), id(cache))
 
 
 # -- recording the plans ------------------------------------------------------------------

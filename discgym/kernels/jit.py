@@ -228,9 +228,14 @@ class _KernelCacheImpl(CompileResultCacheImpl):
 
 
 class _KernelCache(FunctionCache):
-    """numba's function cache, storing and loading a kernel as a linked-only library."""
+    """numba's function cache, storing and loading a kernel as a linked-only library; a
+    version is saved under the lock of the function's index (kernels.helper)."""
 
     _impl_class = _KernelCacheImpl
+
+    def save_overload(self, sig, data):
+        with helper.index_lock(self):
+            return super().save_overload(sig, data)
 
 
 class KernelDispatcher(CPUDispatcher):
@@ -241,10 +246,11 @@ class KernelDispatcher(CPUDispatcher):
         return python_twin(self)(*args, **kwargs)
 
     def compile(self, sig):
-        # (compiled or loaded under the lock of its cache index: kernels.helper)
-        if tuple(sigutils.normalize_signature(sig)[0]) in self.overloads:
+        # (compiled or loaded under a lock shared with other processes: kernels.helper)
+        args = tuple(sigutils.normalize_signature(sig)[0])
+        if args in self.overloads:
             return super().compile(sig)
-        with helper.compile_lock(self):
+        with helper.compile_lock(self, args):
             return super().compile(sig)
 
     def enable_caching(self):

@@ -567,7 +567,8 @@ def _pl_permute(n, perm, pl, inv, fs):
 def _queue_initial(n, collide, sp_radius, pos, vel, species, sc, grid, H, icnt, pl, listed):
     """Queue every wall contact and every overlapping pair of the substep: the pairs the
     broad phase found (``sc.ov_n``, ``sc.ov_b``: small discs; by sorted position from the
-    scan, half stencil, or by disc from the pair list ``pl`` if ``listed``) and those of the
+    scan, half stencil, or by disc from the pair list ``pl`` if ``listed``; ``pl`` None: no
+    pair lists, pruned by numba) and those of the
     big discs (found here: each big disc against the cells within its radius + rcell and the
     big discs after it). ``sc``: the :class:`~.structs.Scratch`."""
     tlast, stamp, wall_t, wflag = sc.tlast, sc.stamp, sc.wall_t, sc.wflag
@@ -587,9 +588,12 @@ def _queue_initial(n, collide, sp_radius, pos, vel, species, sc, grid, H, icnt, 
             need += 1
         icnt[IC_PUSHED_INSIDE] += wflag[i]
     if collide:
-        if listed:
-            need += pl.count[1]
-        else:
+        scanned = True
+        if pl is not None:  # (pruned by numba when None: advance's lists)
+            if listed:
+                need += pl.count[1]
+                scanned = False
+        if scanned:
             for p in range(sc.nlist[1]):
                 need += ov_n[ol[p]]
         for a in range(cell_start[nbc], cell_start[nbc + 1]):
@@ -602,12 +606,15 @@ def _queue_initial(n, collide, sp_radius, pos, vel, species, sc, grid, H, icnt, 
             size = push(H, size, wall_t[i], i, -1, stamp[i], 0)
     if not collide:
         return H, size
-    if listed:
-        ovi, ovj = pl.ovi, pl.ovj
-        for q in range(pl.count[1]):
-            size = _try_pair(ovi[q], ovj[q], sp_radius, pos, vel, species, tlast, stamp, H, size,
-                             icnt)
-    else:
+    scanned = True
+    if pl is not None:
+        if listed:
+            ovi, ovj = pl.ovi, pl.ovj
+            for q in range(pl.count[1]):
+                size = _try_pair(ovi[q], ovj[q], sp_radius, pos, vel, species, tlast, stamp, H,
+                                 size, icnt)
+            scanned = False
+    if scanned:
         # (an int32 and a bool, not literals: the types of kernels.clusters' call, so that
         # numba compiles queue_scan once)
         size = queue_scan(np.int32(0), cell_start[nbc], sp_radius, pos, vel, species, sc, grid,
@@ -1258,34 +1265,43 @@ def _carve(work, ws, nstart):
 
 @njit(cache=True)
 def advance_rngs(discs, n, n_steps, dt, bounds, tables, params, flags, rngs, cnt, threads,
-                 step0, reorder_every, work):
+                 step0, reorder_every, work, lists):
     """:func:`advance` called from Python: the structs ``discs``, ``bounds``, ``tables``, ``cnt``
     passed as plain tuples of their fields, the generator as ``rngs[0]``, a
     ``numba.typed.List``. Both are for the cost of the call: numba types a plain tuple of
     arrays in C but a NamedTuple field by field in Python (about 0.5 us per field), and it
     rebuilds the ctypes interface of an ``np.random.Generator`` argument every time (a typed
     list holding the same generator, same state, is an order of magnitude cheaper); a
-    Simulation makes many short calls. Returns :func:`advance`'s ``(discs, n, work)`` with
-    ``discs`` a plain tuple too (boxing a NamedTuple unpickles its class at every return)."""
+    Simulation makes many short calls. ``lists``: :func:`lists_for` the call. Returns
+    :func:`advance`'s ``(discs, n, work)`` with ``discs`` a plain tuple too (boxing a
+    NamedTuple unpickles its class at every return)."""
     d, n, work = advance(Discs(*discs), n, n_steps, dt, Bounds(*bounds), Tables(*tables),
                          params, flags, rngs[0], Counters(*cnt), threads, step0,
-                         reorder_every, work, np.bool_(True))  # (bool, not a literal)
+                         reorder_every, work, np.bool_(True), lists)  # (bool, not a literal)
     return fields(d), n, work
 
 
 @njit(cache=True)
 def advance_serial_rngs(discs, n, n_steps, dt, bounds, tables, params, flags, rngs, cnt,
-                        step0, reorder_every, work):
+                        step0, reorder_every, work, lists):
     """:func:`advance_rngs` on the calling thread, without the event phase by clusters:
     ``clusters`` omitted, so numba compiles neither (nor the parallel drift and scan), as
     for the vector env's reactors, whose :func:`advance` this is (the same argument types:
-    one compiled version, shared through the cache). A ``Simulation`` calls it when
+    one compiled version, shared through the cache, for ``lists`` None: :func:`lists_for`
+    a call of fewer than PAIR_MIN_STEPS steps). A ``Simulation`` calls it when
     :func:`advance_rngs` would not take those paths (:func:`serial_suffices`), which is the
     same trajectory bit for bit; its first step compiles half as much."""
     d, n, work = advance(Discs(*discs), n, n_steps, dt, Bounds(*bounds), Tables(*tables),
                          params, flags, rngs[0], Counters(*cnt), np.int64(1), step0,
-                         reorder_every, work)
+                         reorder_every, work, lists=lists)
     return fields(d), n, work
+
+
+def lists_for(n_steps: int):
+    """:func:`advance`'s ``lists`` for a call of ``n_steps`` steps: True where the call may
+    keep a pair list (PAIR_MIN_STEPS steps or more), else None (no pair-list code compiled:
+    the same trajectory)."""
+    return np.bool_(True) if n_steps >= PAIR_MIN_STEPS else None
 
 
 def serial_suffices(n: int, threads: int) -> bool:
@@ -1299,7 +1315,7 @@ def serial_suffices(n: int, threads: int) -> bool:
 
 @kernel
 def advance(discs, n, n_steps, dt, bounds, tables, params, flags, rng, cnt, threads, step0,
-            reorder_every, work, clusters=None):
+            reorder_every, work, clusters=None, lists=None):
     """Advance ``n_steps`` steps of length ``dt``.
 
     ``discs``: the state (a :class:`~.structs.Discs`, capacity C >= n; discs are [0, n)),
@@ -1326,6 +1342,13 @@ def advance(discs, n, n_steps, dt, bounds, tables, params, flags, rng, cnt, thre
     integrator's fallback) omit it, numba prunes that code at compile time (it compiles
     only the owner array's one-line constructor), and the parallel drift and scan too:
     everything runs on the calling thread.
+
+    ``lists``: given (True), a call of PAIR_MIN_STEPS steps or more keeps a pair list across
+    its substeps (where the broad phase allows: see below). None (or omitted), as a caller
+    whose calls are all shorter passes it (an env of fewer steps per action, a
+    ``Simulation``'s short calls, the exact integrator's fallback), numba prunes the pair
+    list's code at compile time: the same trajectory, the list being no more than a faster
+    broad phase of long calls.
 
     Returns ``(discs, n, work)``: new (larger) state arrays when a decomposition needed more
     capacity, else the ones passed in; the scratch buffers used.
@@ -1360,8 +1383,12 @@ def advance(discs, n, n_steps, dt, bounds, tables, params, flags, rng, cnt, thre
     # serial list: docs/performance.md, "The event phase by clusters")
     threads = min(threads, max(n // CHUNK_MIN, 1))
     on_threads = threads > 1 and n >= PARALLEL_MIN
-    listed = collide and n_steps >= PAIR_MIN_STEPS and n <= PAIR_MAX_DISCS and not on_threads
-    pl = new_pairlist(ws if listed else 0, PAIR_CAP * ws if listed else 0)
+    if lists is not None:  # (pruned by numba when None: no pair-list code compiled)
+        listed = collide and n_steps >= PAIR_MIN_STEPS and n <= PAIR_MAX_DISCS and not on_threads
+        pl = new_pairlist(ws if listed else 0, PAIR_CAP * ws if listed else 0)
+    else:
+        listed = False
+        pl = None
     big = sp_radius.max() > rcell  # (discs not in the list: see PairList)
     full = True  # (the list is built at the first substep, and after a reordering)
     # the event phase by clusters (kernels.clusters) where the scene's events are local
@@ -1373,8 +1400,9 @@ def advance(discs, n, n_steps, dt, bounds, tables, params, flags, rng, cnt, thre
     for s in range(n_steps):
         if reorder_every > 0 and n >= REORDER_MIN and (step0 + s) % reorder_every == 0:
             _reorder(n, pos, vel, species, internal_energy, ids, rgrid, work)
-            if listed:  # (perm and free scratch: see _reorder)
-                _pl_permute(n, work[1][n:2 * n], pl, work[1][0:n], work[0])
+            if lists is not None:
+                if listed:  # (perm and free scratch: see _reorder)
+                    _pl_permute(n, work[1][n:2 * n], pl, work[1][0:n], work[0])
         # first-order reactions run only if some disc has a first-order channel: a scene
         # whose first-order species are absent pays this lookup, not a pass per substep
         uni_live = False
@@ -1451,13 +1479,16 @@ def advance(discs, n, n_steps, dt, bounds, tables, params, flags, rng, cnt, thre
                     ws = pos.shape[0]  # the next step's reordering
                     work = _fit_work(work, ws, nstart)
                     sc = _carve(work, ws, nstart)
+                    if lists is not None:
+                        if listed:
+                            pl = _pl_resize(pl, ws, pl.pi.shape[0])
+                if lists is not None:
                     if listed:
-                        pl = _pl_resize(pl, ws, pl.pi.shape[0])
-                if listed:
-                    pl.listed[n_before:n] = 0  # fragments: listed at the next substep
+                        pl.listed[n_before:n] = 0  # fragments: listed at the next substep
             if n_dead:
-                if listed:
-                    _pl_compact(n, species, pl, pl.todo)
+                if lists is not None:
+                    if listed:
+                        _pl_compact(n, species, pl, pl.todo)
                 n = _compact(n, pos, vel, species, internal_energy, ids)
             sub += 1
             # Energy released in this substep may have made a disc faster than the remaining
@@ -1514,7 +1545,8 @@ def _drift_and_bin(threads, n, h, pos, vel, species, sp_radius, bounds_kind, bou
     scan (in parallel over ``threads`` chunks from PARALLEL_MIN discs, as the drift);
     resets the per-disc event counts.
     Returns the pair list (a new one if it had to grow). ``threads`` None: a single-threaded
-    caller; numba prunes the parallel drift and scan and never compiles them."""
+    caller; numba prunes the parallel drift and scan and never compiles them. ``pl`` None:
+    a caller without pair lists (:func:`advance`'s ``lists``); numba prunes them."""
     sc.nlist[1] = 0  # (no scan: no overlapping discs listed)
     par = False
     if threads is not None:
@@ -1532,8 +1564,9 @@ def _drift_and_bin(threads, n, h, pos, vel, species, sp_radius, bounds_kind, bou
         ncy = int(grid[5])
         cell_start, cell_items = sc.cell_start, sc.cell_items
         _sort(n, sc.cell_of, cell_start, cell_items)
-        if listed:
-            return _pl_broad(n, pos, species, sp_radius, grid, sc, pl, full, big)
+        if pl is not None:  # (pruned by numba when None: advance's lists)
+            if listed:
+                return _pl_broad(n, pos, species, sp_radius, grid, sc, pl, full, big)
         if threads is not None:
             if par:
                 sc.nlist[1] = _broad_parallel(threads, n, ncy, grid, cell_start, cell_items,
