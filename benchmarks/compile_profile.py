@@ -8,9 +8,15 @@ its inclusive time, from numba's ``numba:compile`` events. The own time of a fun
 calls others is mostly LLVM optimising and generating code for everything it links in, so
 deep call chains pay for their leaves again at every level.
 
+The env's compile helper (a second process compiling part of a first compile, see
+``discgym/kernels/helper.py``) is off, so that one process compiles everything; ``--helper``
+lets it run, and the times are then those of the env's process, the table without what the
+helper compiled.
+
     python benchmarks/compile_profile.py                       # the flagship's env
     python benchmarks/compile_profile.py --env DiscReactor-v0 --integrator step --num-envs 1
     python benchmarks/compile_profile.py --simulation reactor --integrator step
+    python benchmarks/compile_profile.py --env DiscReactor-v0 --num-envs 1 --helper
 """
 
 from __future__ import annotations
@@ -91,11 +97,15 @@ def main(argv=None) -> int:
     p.add_argument("--top", type=int, default=15)
     p.add_argument("--literal-args", action="store_true",
                    help="print the argument types of the literal versions")
+    p.add_argument("--helper", action="store_true",
+                   help="let the env start its compile helper (kernels.helper): the times are "
+                        "then this process's, the table without what the helper compiled")
     p.add_argument("--child", action="store_true", help=argparse.SUPPRESS)
     a = p.parse_args(argv)
     if not a.child:  # run in a child whose numba cache is empty, whatever this one's holds
         with tempfile.TemporaryDirectory() as cache:
-            env = dict(os.environ, NUMBA_CACHE_DIR=cache)
+            env = dict(os.environ, NUMBA_CACHE_DIR=cache,
+                       DISCGYM_COMPILE_HELPER="1" if a.helper else "0")
             args = sys.argv[1:] if argv is None else list(argv)
             return subprocess.call([sys.executable, __file__, "--child", *args], env=env)
     r = profile(a.env, a.integrator or None, a.num_envs, a.simulation)

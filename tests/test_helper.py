@@ -22,9 +22,9 @@ def test_plans_are_kernels_of_this_numba_in_compile_order():
     assert set(plans) == set(helper.RECORDED)
     for name, plan in plans.items():
         assert plan, name
-        for qualname, args in plan:
+        for qualname, args, seconds in plan:
             assert isinstance(helper._dispatcher(qualname), KernelDispatcher), qualname
-            assert isinstance(pickle.loads(args), tuple)
+            assert isinstance(pickle.loads(args), tuple) and seconds >= 0
     # the last kernel an env's step compiles is the helper's first
     assert plans["env-step"][-1][0] == "discgym.kernels.batch._book"
 
@@ -43,9 +43,34 @@ def test_make_plan_takes_the_later_share_splitting_a_large_kernel():
     # units in compile order: r 3, a 1, c0..c5 1 each, b 1 (adv is over a quarter: split);
     # 11 s of units, the later 0.7 of them: b, c5 ... c0 (7 s), then a (8 s >= 7.7)
     plan = helper.make_plan(flat, share=0.7)
-    assert [q for q, _ in plan] == ["a"] + [f"adv.c{i}" for i in range(6)] + ["b"]
-    assert pickle.loads(plan[0][1]) == ("a",)
-    assert [q for q, _ in helper.make_plan(flat, share=0.2)] == ["adv.c4", "adv.c5", "b"]
+    assert [q for q, _, _ in plan] == ["a"] + [f"adv.c{i}" for i in range(6)] + ["b"]
+    assert pickle.loads(plan[0][1]) == ("a",) and plan[0][2] == 1.0
+    assert [q for q, _, _ in helper.make_plan(flat, share=0.2)] == ["adv.c4", "adv.c5", "b"]
+
+
+def test_the_helper_compiles_the_longest_kernel_first_then_from_the_last_back(
+        monkeypatch, tmp_path):
+    from types import SimpleNamespace
+
+    order = []
+
+    class Fake:
+        _cache = SimpleNamespace(_cache_path=str(tmp_path),
+                                 _cache_file=SimpleNamespace(_index_name="f.nbi"))
+
+        def __init__(self, name):
+            self.name = name
+
+        def compile(self, sig):
+            order.append((self.name, sig))
+
+    plan = [(name, pickle.dumps((name,)), seconds)
+            for name, seconds in [("a", 1.0), ("b", 5.0), ("c", 0.5), ("d", 2.0)]]
+    monkeypatch.setattr(helper, "load_plans", lambda: {"p": plan})
+    monkeypatch.setattr(helper, "_dispatcher", Fake)
+    assert helper.run("p") == 0
+    assert order == [("b", ("b",)), ("d", ("d",)), ("c", ("c",)), ("a", ("a",))]
+    assert (tmp_path / "discgym-helper-p.lock").exists()
 
 
 def test_a_helper_starts_once_per_expected_plan(monkeypatch):
@@ -88,7 +113,7 @@ os.close(fd)
 def test_a_process_waits_for_the_kernel_another_holds(tmp_path):
     from discgym.kernels.batch import _book as kernel
 
-    sig = helper.load_plans().get("env-step", [(None, pickle.dumps(("a type",)))])[-1][1]
+    sig = helper.load_plans().get("env-step", [(None, pickle.dumps(("a type",)), 0.0)])[-1][1]
     sig = pickle.loads(sig)
     path = helper._lock_path(kernel._cache, sig)
     assert path is not None and path.name.endswith(".lock") and ".nbi." in path.name

@@ -9,19 +9,19 @@ two processes can share the kernels of a first compile.
 **Plans.** Which kernels, with which argument types, an env's first step compiles is
 recorded: :func:`record` (``main(["record"])``) writes ``plans.pkl`` beside this module,
 and ``tests/test_compile_scope.py`` fails when a plan no longer matches what the envs
-compile. A plan is the later part of that compile (:data:`SHARE` of its kernels' time, in
-the order compiled): the later phases of the integrator and the step's bookkeeping
-(:func:`make_plan`). Plans are used only with the numba they were
+compile. A plan is the later :data:`SHARE` of that compile's kernel time, in the order
+compiled (:func:`make_plan`): about what follows the reset's kernels, the step's controls,
+the integrator's phases and the step's bookkeeping. Plans are used only with the numba they were
 recorded with.
 
 **The helper.** An env declares the plan of its integrator when it is made
 (:func:`expect`). When the process then compiles a discgym function (the cache lacks it)
 and may run on two CPUs or more, it starts a helper process (:func:`run`) that compiles
-the plan's kernels in the order the env will need them, while the env's process compiles
-what comes before them (its reset, the controls, the integrator's first phases); when it
-reaches the plan, it loads what the helper has compiled, and waits for a kernel the helper
-is still compiling. One helper per process and plan; a helper that finds another at work
-on the same cache and plan exits. ``DISCGYM_COMPILE_HELPER=0`` starts none.
+the plan's longest kernel, then the others from the last back, while the env's process
+compiles its reset's kernels, then the plan from the first: each loads what the other has
+compiled, and waits for a kernel the other is compiling. One helper per process and plan;
+a helper that finds another at work on the same cache and plan exits.
+``DISCGYM_COMPILE_HELPER=0`` starts none.
 
 **Locks.** Two processes must not compile one kernel twice, and must not write one
 function's cache index at once (numba rewrites a function's index at each save: two
@@ -57,14 +57,14 @@ except ImportError:  # (not POSIX: no locks and no helper; each process compiles
 
 #: Set to 0 (or "false", "no", "off") to start no helper process.
 ENV_VAR = "DISCGYM_COMPILE_HELPER"
-#: The recorded plans: ``{"numba": version, "plans": {name: [(qualname, args pickle)]}}``.
+#: The recorded plans: ``{"numba": version, "plans": {name: [(qualname, args pickle,
+#: seconds)]}}``.
 PLANS_FILE = Path(__file__).with_name("plans.pkl")
 #: What each plan's recording runs: ``(env id, integrator)`` of a single env's reset and step.
 RECORDED = {"env-step": ("DiscReactor-v0", "step"), "env-event": ("DiscReactor-v0", "event")}
-#: The helper's share of the kernels' time of a recorded compile (the env's process has the
-#: entry points to compile after the kernels; 0.5, 0.6 and 0.7 gave the same first step of
-#: DiscReactor-v0 from an empty cache within a 2-core VM's drift).
-SHARE = 0.6
+#: The share of a recorded compile's kernel time a plan covers (what comes after the
+#: reset's kernels: the helper and the env's process share it as they meet).
+SHARE = 0.85
 #: The longest a process waits for another's kernel before compiling it itself (seconds).
 LOCK_TIMEOUT = 600.0
 
@@ -143,8 +143,13 @@ def _dispatcher(qualname: str):
 
 
 def run(plan: str) -> int:
-    """Compile ``plan``'s kernels, in order (the helper process). Exits at once if another
-    helper holds the plan's lock on this cache."""
+    """Compile ``plan``'s kernels (the helper process): the longest first, then the others
+    from the last back, toward the env's process, which compiles them from the first; they
+    meet where they meet, and a kernel the other has compiled is loaded. (The env's process
+    reaches the longest only after its reset, its controls and the first phases; begun
+    there, the meeting falls among short kernels, and the env's process waits little for
+    one the helper is still compiling.) Exits at once if another helper holds the plan's
+    lock on this cache."""
     kernels = load_plans().get(plan)
     if not kernels or fcntl is None:
         return 0
@@ -156,7 +161,9 @@ def run(plan: str) -> int:
         fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
     except BlockingIOError:
         return 0
-    for qualname, args in kernels:
+    longest = max(range(len(kernels)), key=lambda i: kernels[i][2])
+    order = [longest] + [i for i in reversed(range(len(kernels))) if i != longest]
+    for qualname, args, _seconds in (kernels[i] for i in order):
         try:
             _dispatcher(qualname).compile(pickle.loads(args))
         except Exception:  # (a stale plan: the process that needs the kernel compiles it)
@@ -261,11 +268,12 @@ def record_compile(env_id: str, integrator: str) -> list[dict]:
     return out
 
 
-def make_plan(compiled: list[dict], share: float = SHARE) -> list[tuple[str, bytes]]:
-    """A helper's half of a recorded compile: the units of work (each kernel an entry point
+def make_plan(compiled: list[dict], share: float = SHARE) -> list[tuple[str, bytes, float]]:
+    """The plan of a recorded compile: the units of work (each kernel an entry point
     calls; a kernel of more than a quarter of the whole split into the kernels it calls, its
-    own lowering left to the process that needs it), in the order compiled, and the plan the
-    last of them that add up to ``share`` of their seconds."""
+    own lowering left to the process that needs it), in the order compiled; the plan is the
+    last of them that add up to ``share`` of their seconds, as ``(qualname, pickled argument
+    types, seconds)``."""
     entries = [c for c in compiled if c["depth"] == 0]
     units: list[dict] = []
     total = sum(c["seconds"] for c in entries)
@@ -289,7 +297,7 @@ def make_plan(compiled: list[dict], share: float = SHARE) -> list[tuple[str, byt
         if got >= share * work:
             break
         got += u["seconds"]
-        plan.append((u["qualname"], pickle.dumps(u["args"])))
+        plan.append((u["qualname"], pickle.dumps(u["args"]), round(u["seconds"], 3)))
     return plan[::-1]
 
 
@@ -328,7 +336,7 @@ def main(argv=None) -> int:
         return 0
     if argv[:1] == ["record"]:
         for name, plan in record(argv[1:] or None).items():
-            print(f"{name}: {len(plan)} kernels: {', '.join(q for q, _ in plan)}")
+            print(f"{name}: {len(plan)} kernels: {', '.join(q for q, _, _ in plan)}")
         return 0
     print("usage: main(['record', PLAN ...])", file=sys.stderr)
     return 2
