@@ -2,7 +2,8 @@
 # The wheel alone: build discgym's wheel, install it (not editable) in a fresh venv and, from
 # outside the source tree (so the checkout cannot be imported instead), check that the package
 # imported is the installed one, that every registered discgym task makes (single and native
-# vector env), that every scene TOML of the tree is shipped and loads, and that the CLI runs.
+# vector env), that every scene TOML of the tree is shipped and loads, that the compile
+# helper's plans are shipped, and that the CLI runs.
 # Cheap (about a minute, mostly pip): gymnasium.make compiles nothing and a native vector
 # env's construction a few small functions (~2 s); the kernels compile at the first reset
 # (~20 s), which this leaves to the test suite. Usage: bash .ci/wheel_check.sh (from anywhere)
@@ -53,6 +54,13 @@ in_tree = sorted(p.stem for p in (root / "discgym" / "scenes").glob("*.toml"))
 assert shipped == in_tree, f"scenes shipped {shipped}, in the tree {in_tree}"
 for name in shipped:
     discgym.scenes.load(name)
+
+# the compile helper's plans are shipped (for the numba they were recorded with)
+from discgym.kernels import helper  # noqa: E402
+
+assert helper.PLANS_FILE.is_file(), f"no {helper.PLANS_FILE}"
+assert helper.load_plans() or __import__("numba").__version__ != \
+    __import__("pickle").loads(helper.PLANS_FILE.read_bytes())["numba"], "plans unreadable"
 
 print(f"discgym {discgym.__version__} from {where.parent}: made {', '.join(ids)}; "
       f"{len(shipped)} scenes")
