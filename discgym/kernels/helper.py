@@ -77,11 +77,15 @@ _started: set[str] = set()
 _held: set = set()  # (the locks this process holds: their keys)
 
 
+def switched_off(name: str) -> bool:
+    """Whether the environment variable ``name`` is 0, "false", "no" or "off"."""
+    return os.environ.get(name, "1").strip().lower() in ("0", "false", "no", "off")
+
+
 def enabled() -> bool:
-    """Whether this process may start a helper: not one itself, ``DISCGYM_COMPILE_HELPER``
-    not off, POSIX and at least two CPUs it may run on."""
-    if fcntl is None or os.environ.get(ENV_VAR, "1").strip().lower() in (
-            "0", "false", "no", "off"):
+    """Whether this process may start a helper: ``DISCGYM_COMPILE_HELPER`` not off (a
+    helper's own environment has it off), POSIX and at least two CPUs it may run on."""
+    if fcntl is None or switched_off(ENV_VAR):
         return False
     try:
         cpus = len(os.sched_getaffinity(0))

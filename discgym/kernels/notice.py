@@ -18,7 +18,6 @@ ahead of time (docs/cli.md).
 from __future__ import annotations
 
 import logging
-import os
 
 from numba.core import event
 
@@ -47,7 +46,7 @@ class _FirstCompile(event.Listener):
         # (stays registered: removing a listener while numba broadcasts to the list would
         # make it skip the next one)
         self.done = True
-        if os.environ.get(ENV_VAR, "1").strip().lower() not in ("0", "false", "no", "off"):
+        if not helper.switched_off(ENV_VAR):
             LOGGER.warning(MESSAGE)
 
     def on_end(self, ev):
