@@ -74,7 +74,8 @@ class HeuristicPolicy:
     ``wall`` (-1: the smallest reactor) and the injection actions to ``inject`` (one value
     per feed species, or one for all).
 
-    Works on one observation (D,) or a batch (R, D); reads the slots by name, so give it the
+    Works on one observation (D,) or a batch (R, D) (refusing others as the controllers of
+    :mod:`discgym.controllers` do); reads the slots by name, so give it the
     ``observation_names`` of the env (default: those of the default env) and the env's
     ``heat_rate`` if it is not the default. At ``heat_rate`` = 1 (which the env accepts) no
     heat action changes kT, and the heat action is 0.
@@ -86,6 +87,7 @@ class HeuristicPolicy:
         if observation_names is None:
             observation_names = _default_config().obs_names
         names = list(observation_names)
+        self.names = names
         self.frac = [k for k, nm in enumerate(names) if nm.startswith("fraction_")]
         self.kT = [k for k, nm in enumerate(names) if nm.startswith("kT_")]
         self.i_yield = names.index("yield")
@@ -104,9 +106,8 @@ class HeuristicPolicy:
         self.log_rate = math.log(rate)
 
     def __call__(self, obs: np.ndarray) -> np.ndarray:
-        o = np.asarray(obs, dtype=FLOAT)
-        one = o.ndim == 1
-        o = np.atleast_2d(o)
+        one = np.ndim(obs) == 1
+        o = check_observation(obs, self.names, batch=True)
         T = (o[:, self.frac] * o[:, self.kT]).sum(axis=1)
         late = (o[:, self.i_yield] >= self.switch_yield) | \
             (o[:, self.i_time] <= 1.0 - self.switch_time)
@@ -614,8 +615,9 @@ class TaskBaselines:
         an observation shows, but not the injections and reverse reactions to come: the
         fair upper reference of a policy that sees the state but not the noise. The
         oracle's margin over it is the value of foreseeing the random draws."""
-        from .oracle import RolloutOracle
+        from .oracle import RolloutOracle, noise_seeds
 
+        noise_seeds(noise)  # (refused here, not at the first episode)
         k = self.oracle_replan_every if replan_every is None else replan_every
 
         def factory(env):
@@ -654,6 +656,7 @@ from .controllers import (  # noqa: E402  (the suite's controllers; no import ci
     AdaptiveThermostat,
     BandThermostat,
     JacketThermostat,
+    check_observation,
     flow_thermostat,
 )
 

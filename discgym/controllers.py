@@ -6,6 +6,15 @@ observation and its slot names), never the physics. A controller is built for an
 observation (D,) to an action (A,); some keep state across an episode (:meth:`reset` starts
 a new one; a copy with ``copy.deepcopy`` continues identically). Their returns, beside
 random, the best constant action and the oracle, are in ``docs/tasks.md``.
+
+Every controller family (these, :class:`~discgym.searched.ScheduleController`,
+:class:`SetpointActions`) refuses an observation it cannot act on, with a ``ValueError``
+before it changes any state of its own: one of another shape than the env's (D,) (a batch
+(R, D) where the controller takes one), naming the shape it expects, and one with a NaN or
+infinite slot, naming the slot. An env never emits either (its observations are finite
+float32 within their bounds); such an observation is a caller's bug, and an action computed
+from it would be NaN or arbitrary. An observation of another task with the same number of
+slots cannot be told apart by its shape: build the controller for the env it acts on.
 """
 
 from __future__ import annotations
@@ -14,11 +23,34 @@ import math
 
 import numpy as np
 
-from .env import FLOAT_NORMAL_MIN
+from .env import ENV_ID, FLOAT_NORMAL_MIN
+from .tasks import TASKS, task_id
 
 __all__ = ["Thermostat", "AdaptiveThermostat", "BandThermostat",
            "JacketThermostat", "FlowThermostat", "flow_thermostat", "controller_for",
-           "SetpointActions"]
+           "CONTROLLERS", "SetpointActions", "check_observation"]
+
+
+def check_observation(obs, names, batch: bool = False) -> np.ndarray:
+    """``obs`` as float64, of shape (D,) (or with ``batch`` (R, D), a (D,) observation then
+    one row) for the slot ``names`` (D), after the module's refusals: ``ValueError`` naming
+    the shape expected or the first slot that is not finite."""
+    o = np.asarray(obs, dtype=np.float64)
+    D = len(names)
+    if batch and o.ndim == 1:
+        o = o[None]
+    if o.shape[-1:] != (D,) or o.ndim != (2 if batch else 1):
+        want = f"({D},) or (R, {D})" if batch else f"({D},)"
+        raise ValueError(f"obs: expected shape {want} (the env observes {D} slots), got "
+                         f"{np.shape(obs)}")
+    bad = ~np.isfinite(o)
+    if bad.any():
+        r, k = np.argwhere(bad.reshape(-1, D))[0]
+        row = f"row {r}, " if batch else ""
+        raise ValueError(f"obs: {row}slot {names[k]!r} (index {k}) is "
+                         f"{float(o.reshape(-1, D)[r, k])!r}: a controller acts on finite "
+                         f"observations")
+    return o
 
 
 class _Slots:
@@ -38,6 +70,10 @@ class _Slots:
         self.log_rate = math.log(u.config.heat_rate)
         self.i_yield = names.index("yield")
         self.i_time = names.index("time_left")
+
+    def check(self, obs, batch: bool = False) -> np.ndarray:
+        """:func:`check_observation` on this env's slots."""
+        return check_observation(obs, self.names, batch)
 
     def index(self, name: str, argument: str) -> int:
         """The slot ``name``, which the controller's ``argument`` asks for (``ValueError``
@@ -93,8 +129,8 @@ class Thermostat:
         return self.t_cold if o[self.s.i_yield] >= self.switch_yield else self.t_hot
 
     def __call__(self, obs) -> np.ndarray:
-        o = np.asarray(obs, dtype=np.float64)
         s = self.s
+        o = s.check(obs)
         target = self.target(o)
         self.setpoint = target
         a = np.empty(2 + s.n_feed, dtype=np.float32)
@@ -177,8 +213,8 @@ class AdaptiveThermostat:
         self.den = 0.0
 
     def __call__(self, obs) -> np.ndarray:
-        o = np.asarray(obs, dtype=np.float64)
         s = self.s
+        o = s.check(obs)
         w = self.memory
         main = float(o[self.i_main])
         self.main = w * self.main + (1 - w) * main
@@ -218,8 +254,8 @@ class BandThermostat:
         pass
 
     def __call__(self, obs) -> np.ndarray:
-        o = np.asarray(obs, dtype=np.float64)
         s = self.s
+        o = s.check(obs)
         T = s.temperature(o)
         a = np.zeros(2 + s.n_feed, dtype=np.float32)
         if T < self.t_low:
@@ -263,8 +299,8 @@ class JacketThermostat:
         self.last = None
 
     def __call__(self, obs) -> np.ndarray:
-        o = np.asarray(obs, dtype=np.float64)
         s = self.s
+        o = s.check(obs)
         target = self.t_cold if o[s.i_yield] >= self.switch_yield else self.t_hot
         T = s.temperature(o)
         rise = 0.0 if self.last is None else T - self.last
@@ -302,13 +338,26 @@ def flow_thermostat(env, *, setpoint=3.8, wall=1.0, inject=1.0, ramp=0.7, ramp_f
     return FlowThermostat(env, **kw)
 
 
+#: The hand-written controller of each task, by id.
+CONTROLLERS = {"DiscReactor-v0": Thermostat, "DiscKinetics-v0": AdaptiveThermostat,
+               "DiscEconomic-v0": BandThermostat, "DiscJacket-v0": JacketThermostat,
+               "DiscFlow-v0": flow_thermostat}
+
+
 def controller_for(env, **kwargs):
-    """The hand-written controller of the task ``env`` is (by its registered id)."""
-    env_id = env.spec.id if getattr(env, "spec", None) is not None else "DiscReactor-v0"
-    cls = {"DiscReactor-v0": Thermostat, "DiscKinetics-v0": AdaptiveThermostat,
-           "DiscEconomic-v0": BandThermostat, "DiscJacket-v0": JacketThermostat,
-           "DiscFlow-v0": flow_thermostat}[env_id]
-    return cls(env, **kwargs)
+    """The hand-written controller of the task ``env`` is (an env or a vector env), found as
+    :func:`discgym.tasks.task_id` finds it: by its registered id, or by its class where it
+    was built directly (``DiscFlowEnv()`` gets :func:`flow_thermostat`). The base
+    :class:`~discgym.env.DiscReactorEnv` (and its vector env) built directly gets
+    ``DiscReactor-v0``'s :class:`Thermostat`; an env of an id without a controller here is a
+    ``ValueError`` naming it."""
+    env_id = task_id(env)
+    if env_id is None and isinstance(getattr(env, "unwrapped", env), TASKS[ENV_ID]):
+        env_id = ENV_ID
+    if env_id not in CONTROLLERS:
+        raise ValueError(f"env: no hand-written controller for {env_id!r} (tasks: "
+                         f"{', '.join(CONTROLLERS)})")
+    return CONTROLLERS[env_id](env, **kwargs)
 
 
 class SetpointActions:
@@ -458,9 +507,9 @@ class SetpointActions:
         (unnormalised) observations ``obs`` (R, D) (or (D,)); with ``base``, ``bases`` are
         the reactors' controllers (:meth:`new_bases`), each called once here."""
         a = np.array(actions, dtype=np.float32)
-        o = np.asarray(obs, dtype=np.float64)
+        o = self.s.check(obs, batch=True)
         one = a.ndim == 1
-        a, o = np.atleast_2d(a), np.atleast_2d(o)
+        a = np.atleast_2d(a)
         if a.shape[0] != o.shape[0]:
             raise ValueError(f"actions, obs: {a.shape[0]} actions for {o.shape[0]} "
                              f"observations")
@@ -500,6 +549,7 @@ class SetpointActions:
 
         def act(obs):
             nonlocal step, held, mean
+            obs = self.s.check(obs)  # (before the mean or the agent sees it)
             if self.average is not None:
                 mean = self.update_mean(mean if step else None, obs)
             if step % self.hold == 0:

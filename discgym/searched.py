@@ -45,6 +45,7 @@ from collections.abc import Mapping, Sequence
 import numpy as np
 
 from .controllers import _Slots
+from .tasks import task_id
 
 __all__ = ["ScheduleController", "SETPOINT_KNOTS", "WALL_KNOTS", "SEARCHED", "searched",
            "flow_thermostat_params", "band_thermostat_params", "HELD", "run_batch"]
@@ -249,14 +250,11 @@ class ScheduleController:
         return [j for k, j in self._col.items() if k.startswith(prefix)]
 
     def __call__(self, obs) -> np.ndarray:
-        o = np.asarray(obs, dtype=np.float64)
-        one = o.ndim == 1
-        o = np.atleast_2d(o)
-        if o.ndim != 2 or o.shape[1] != len(self.s.names) \
-                or (self.x.shape[0] > 1 and o.shape[0] != self.x.shape[0]):
-            want = (len(self.s.names),) if self.x.shape[0] == 1 else \
-                (self.x.shape[0], len(self.s.names))
-            raise ValueError(f"obs: expected shape {want}, got {np.shape(obs)}")
+        one = np.ndim(obs) == 1
+        if self.x.shape[0] > 1 and (np.ndim(obs) != 2 or np.shape(obs)[0] != self.x.shape[0]):
+            raise ValueError(f"obs: expected shape ({self.x.shape[0]}, {len(self.s.names)}), "
+                             f"got {np.shape(obs)}")
+        o = self.s.check(obs, batch=True)
         X, s = self.x, self.s
         u = 1.0 - o[:, s.i_time]
         target = _interp(u, SETPOINT_KNOTS, X[:, self._cols("setpoint_")])
@@ -499,21 +497,6 @@ SEARCHED: dict[str, dict] = {
                     "--tune-seeds 3000 64 --compare"),
     },
 }
-
-
-def task_id(env) -> str | None:
-    """The task ``env`` is: its registered id (``env.spec``), or for an env or vector env
-    of a task's own class built directly (no spec), that task's id; None otherwise (also
-    for :class:`~discgym.env.DiscReactorEnv` and its vector env built directly: with
-    keyword arguments they may be any task)."""
-    if getattr(env, "spec", None) is not None:
-        return env.spec.id
-    from .env import ENV_ID
-    from .tasks import TASKS
-
-    u = getattr(env, "unwrapped", env)
-    return next((k for k, classes in TASKS.items() if k != ENV_ID and type(u) in classes),
-                None)
 
 
 def searched(env) -> ScheduleController:

@@ -34,6 +34,7 @@ __all__ = [
     "DiscFlowEnv",
     "DiscFlowVectorEnv",
     "register_tasks",
+    "task_id",
 ]
 
 
@@ -251,6 +252,18 @@ TASKS = {
     "DiscJacket-v0": (DiscJacketEnv, DiscJacketVectorEnv),
     "DiscFlow-v0": (DiscFlowEnv, DiscFlowVectorEnv),
 }
+
+
+def task_id(env) -> str | None:
+    """The task ``env`` is: its registered id (``env.spec``), or for an env or vector env
+    of a task's own class built directly (no spec), that task's id; None otherwise (also
+    for :class:`~discgym.env.DiscReactorEnv` and its vector env built directly: with
+    keyword arguments they may be any task)."""
+    if getattr(env, "spec", None) is not None:
+        return env.spec.id
+    u = getattr(env, "unwrapped", env)
+    return next((k for k, classes in TASKS.items() if k != ENV_ID and type(u) in classes),
+                None)
 
 
 def register_tasks() -> None:
