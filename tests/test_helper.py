@@ -131,3 +131,67 @@ def test_a_process_waits_for_the_kernel_another_holds(tmp_path):
     finally:
         p.wait(timeout=60)
     assert p.returncode == 0
+
+
+CORRUPT_PLANS = {
+    "empty": b"",
+    "not a pickle": b"plans",
+    "unknown protocol": b"\x80\x09" + b"\x00" * 16,
+    "truncated": pickle.dumps({"numba": numba.__version__, "plans": {}})[:-3],
+    "a list": pickle.dumps([1, 2, 3]),
+    "a number": pickle.dumps(7),
+    "a missing class": b"cdiscgym_no_such_module\nThing\n.",
+    "another numba": pickle.dumps({"numba": "0.0.1", "plans": {"env-step": []}}),
+    "plans a list": pickle.dumps({"numba": numba.__version__, "plans": [1]}),
+    "a plan a dict": pickle.dumps({"numba": numba.__version__, "plans": {"env-step": {}}}),
+    "an entry of two": pickle.dumps({"numba": numba.__version__,
+                                     "plans": {"env-step": [("a.b", b"x")]}}),
+    "an entry's types": pickle.dumps({"numba": numba.__version__,
+                                      "plans": {"env-step": [("a.b", "x", 1.0)]}}),
+}
+
+
+@pytest.mark.parametrize("case", CORRUPT_PLANS)
+def test_a_corrupt_plans_file_is_no_plan_and_starts_no_helper(monkeypatch, tmp_path, case):
+    path = tmp_path / "plans.pkl"
+    path.write_bytes(CORRUPT_PLANS[case])
+    monkeypatch.setattr(helper, "PLANS_FILE", path)
+    assert helper.load_plans() == {}
+    # the path a first compile takes (kernels.notice's listener): nothing raises, no process
+    monkeypatch.setattr(helper, "_expected", ["env-step"])
+    monkeypatch.setattr(helper, "_started", set())
+    monkeypatch.setattr(helper, "enabled", lambda: True)
+    monkeypatch.setattr(subprocess, "Popen", lambda *a, **k: pytest.fail("a helper started"))
+    helper.on_compile()
+    assert helper._started == {"env-step"}
+    assert helper.run("env-step") == 0
+
+
+def test_a_plan_file_as_record_writes_it_is_read_back(monkeypatch, tmp_path):
+    plan = [("discgym.kernels.batch._book", pickle.dumps(("a type",)), 0.25)]
+    path = tmp_path / "plans.pkl"
+    path.write_bytes(pickle.dumps({"numba": numba.__version__, "plans": {"env-step": plan}}))
+    monkeypatch.setattr(helper, "PLANS_FILE", path)
+    assert helper.load_plans() == {"env-step": plan}
+
+
+RESET_WITH = r"""
+import sys
+from pathlib import Path
+from discgym.kernels import helper
+helper.PLANS_FILE = Path(sys.argv[1])
+import gymnasium as gym, discgym
+env = gym.make("DiscReactor-v0", n_discs=20)
+env.reset(seed=0)
+print("reset", flush=True)
+"""
+
+
+def test_a_reset_that_compiles_survives_a_corrupt_plans_file(tmp_path):
+    # a fresh cache, so that the reset compiles and the compile listener reads the plans
+    (tmp_path / "plans.pkl").write_bytes(CORRUPT_PLANS["unknown protocol"])
+    env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path / "cache"))
+    env[helper.ENV_VAR] = "1"
+    out = subprocess.run([sys.executable, "-c", RESET_WITH, str(tmp_path / "plans.pkl")],
+                         env=env, capture_output=True, text=True, timeout=600)
+    assert out.returncode == 0 and "reset" in out.stdout, out.stderr[-2000:]

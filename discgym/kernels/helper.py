@@ -120,23 +120,45 @@ def _start(plan: str) -> subprocess.Popen | None:
     root = str(Path(discgym.__file__).resolve().parent.parent)
     env = dict(os.environ, **{ENV_VAR: "0"})  # (a helper starts no helper)
     env["PYTHONPATH"] = os.pathsep.join([root] + [p for p in [env.get("PYTHONPATH")] if p])
-    p = subprocess.Popen(
-        [sys.executable, "-c", _MAIN, "run", plan, str(Path(discgym.__file__).resolve())],
-        env=env, stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
-        stderr=subprocess.DEVNULL, start_new_session=True)
+    try:
+        p = subprocess.Popen(
+            [sys.executable, "-c", _MAIN, "run", plan, str(Path(discgym.__file__).resolve())],
+            env=env, stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
+            stderr=subprocess.DEVNULL, start_new_session=True)
+    except OSError:  # (no process to be had: this process compiles it all, as without one)
+        return None
     _helpers.append(p)
     return p
 
 
 def load_plans() -> dict:
-    """The recorded plans usable with this numba (``{}`` if none are)."""
+    """The recorded plans usable with this numba: ``{}`` if none are, whatever the file
+    holds (missing, unreadable, not a pickle or of an unknown protocol, another numba's,
+    naming classes that no longer exist, or of another shape than :func:`record` writes).
+    The plans only speed a first compile up: nothing in them may break the reset whose
+    compile reads them."""
     import numba
 
     try:
         data = pickle.loads(PLANS_FILE.read_bytes())
-    except (OSError, pickle.PickleError, EOFError):
+    except Exception:  # (unpickling raises whatever the bytes make it raise)
         return {}
-    return data.get("plans", {}) if data.get("numba") == numba.__version__ else {}
+    if not isinstance(data, dict) or data.get("numba") != numba.__version__:
+        return {}
+    plans = data.get("plans")
+    if not isinstance(plans, dict) or not all(
+            isinstance(name, str) and isinstance(plan, list) and all(_is_kernel(k) for k in plan)
+            for name, plan in plans.items()):
+        return {}
+    return plans
+
+
+def _is_kernel(item) -> bool:
+    """Whether ``item`` is a plan's entry as :func:`make_plan` writes it: ``(qualname, pickled
+    argument types, seconds)``."""
+    return (isinstance(item, tuple) and len(item) == 3 and isinstance(item[0], str)
+            and isinstance(item[1], bytes) and isinstance(item[2], (int, float))
+            and not isinstance(item[2], bool))
 
 
 def _dispatcher(qualname: str):
