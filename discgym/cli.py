@@ -638,6 +638,21 @@ def _write_plot(series: _Series, path: Path, title: str) -> None:
     plt.close(fig)
 
 
+def _plain_y(ax, *columns: list) -> None:
+    """Label ``ax``'s y axis by plain values: no offset (a kT that round-off moves by 1e-12
+    would otherwise be labelled ``1e-12+6e-1``), and a constant curve (to round-off) drawn in
+    a band of +-5 % around its value rather than blown up to fill the axis."""
+    ax.ticklabel_format(axis="y", useOffset=False, style="plain")
+    values = [v for c in columns for v in c if math.isfinite(v)]
+    if not values:
+        return
+    lo, hi = min(values), max(values)
+    mid = 0.5 * (lo + hi)
+    if hi - lo <= 1e-9 * max(abs(mid), 1e-300):
+        half = 0.05 * abs(mid) if mid != 0.0 else 1.0
+        ax.set_ylim(mid - half, mid + half)
+
+
 def _plot_counts(ax, series: _Series, t: list, title: str) -> None:
     from .render import species_colors
 
@@ -661,6 +676,7 @@ def _plot_temperature(ax, series: _Series, t: list) -> None:
         ax2.step(t[1:], p[1:], where="pre", color="tab:gray", lw=1.0, alpha=0.8,
                  label="pressure (interval mean)")
         ax2.set_ylabel("pressure", color="tab:gray")
+        _plain_y(ax2, p[1:])
         ax2.tick_params(axis="y", colors="tab:gray")
         h1, l1 = ax.get_legend_handles_labels()
         h2, l2 = ax2.get_legend_handles_labels()
@@ -668,6 +684,7 @@ def _plot_temperature(ax, series: _Series, t: list) -> None:
     else:
         ax.legend(loc="best", fontsize=9)
     ax.set_ylabel("kT")
+    _plain_y(ax, series.column("temperature"))
     ax.grid(alpha=0.3)
 
 
@@ -681,6 +698,8 @@ def _plot_energies(ax, series: _Series, t: list) -> None:
     worst = max(abs(b) for b in bal) if bal else 0.0
     ax.plot([], [], " ", label=f"max |energy balance| {worst:.2g}")
     ax.set_ylabel("energy")
+    _plain_y(ax, *(series.column(n) for n in ("kinetic", "internal", "formation",
+                                               "total_energy")))
     ax.set_xlabel("simulated time")
     ax.legend(loc="best", fontsize=9, ncol=2)
     ax.grid(alpha=0.3)

@@ -36,7 +36,7 @@ import gymnasium as gym
 import numpy as np
 
 __all__ = ["RolloutOracle", "ShootingOracle", "clipped_unique", "component_offsets",
-           "steps_left"]
+           "noise_seeds", "steps_left"]
 
 Policy = Callable[[np.ndarray], np.ndarray]
 #: ``candidates(base_action, env) -> (K, A)`` first actions to try; row 0 must be the base
@@ -109,6 +109,21 @@ def _copy_env(u: gym.Env, reseed=None) -> gym.Env:
     return c
 
 
+def noise_seeds(noise) -> np.random.SeedSequence | None:
+    """The planner's ``noise`` argument as numpy's seed sequence: None stays None; a whole
+    number >= 0 (or a sequence of them) is its entropy. Anything else is a ``ValueError``
+    naming ``noise``."""
+    if noise is None:
+        return None
+    try:
+        if isinstance(noise, bool):
+            raise TypeError("a bool")
+        return np.random.SeedSequence(noise)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"noise: need None or a whole number >= 0 (the seed of the "
+                         f"planner's futures), got {noise!r}") from exc
+
+
 class RolloutOracle:
     """Rollout model-predictive control on copies of ``env`` (see the module's docstring).
 
@@ -178,7 +193,7 @@ class RolloutOracle:
         self.base = base
         self.samples = int(samples)
         self.gate = None if gate is None else float(gate)
-        self._noise = None if noise is None else np.random.SeedSequence(noise)
+        self._noise = noise_seeds(noise)
         self.candidates = candidates or (lambda a, env: np.asarray(a, np.float32)[None])
         self.horizon = None if horizon is None else int(horizon)
         self.replan_every = int(replan_every)

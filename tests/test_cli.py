@@ -475,3 +475,34 @@ def test_bench_runs_quick_mode(tmp_path):
     assert "(quick)" in res.stdout + res.stderr
     assert "disc-steps" in res.stdout + res.stderr
 
+
+
+def test_a_run_in_which_nothing_changes_plots_plain_axes(tmp_path, monkeypatch):
+    # a gas of one species: nothing reacts, so kT and the energies are constant to
+    # round-off; their axes are labelled by plain values around the constant, not by an
+    # offset of 1e-15
+    import matplotlib
+
+    matplotlib.use("Agg")
+    from matplotlib.figure import Figure
+
+    from discgym import cli
+
+    figures = []
+    monkeypatch.setattr(Figure, "savefig", lambda fig, *a, **k: figures.append(fig))
+    gas = dg.Scene(bounds=dg.Box(20.0, 20.0), species=[dg.Species("A", 0.5, 1.0)],
+                   counts={"A": 150}, temperature=1.0, dt=0.02, restitution=1.0, name="gas",
+                   description="a gas of one species")
+    (tmp_path / "gas.toml").write_text(gas.to_toml())
+    monkeypatch.chdir(tmp_path)
+    assert cli.main(["run", "gas.toml", "--time", "5", "--plot", "gas.png"]) in (0, None)
+    (fig,) = figures
+    fig.canvas.draw()
+    counts, temperature, energies = fig.axes[:3]
+    for ax in (temperature, energies):
+        assert ax.yaxis.get_offset_text().get_text() == "", ax.get_ylabel()
+        lo, hi = ax.get_ylim()
+        assert hi - lo > 1e-3 * max(abs(lo), abs(hi)), (ax.get_ylabel(), lo, hi)
+    kT = temperature.lines[0].get_ydata()
+    assert 0 < np.ptp(kT) < 1e-9 * kT[0]  # (round-off moved it: the case to show)
+    assert temperature.get_ylim()[0] < kT[0] < temperature.get_ylim()[1]

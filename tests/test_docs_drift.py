@@ -375,6 +375,27 @@ def test_quickstart_runs_and_its_commands_are_the_readmes():
         assert block in readme, f"docs/quickstart.md's command is not the README's:\n{block}"
 
 
+def test_the_first_command_without_rl_is_the_readmes_and_shows_the_chemistry(tmp_path,
+                                                                              monkeypatch):
+    guide = DOCS / "quickstart.md"
+    (line,) = [ln for b in _blocks(guide, "console") for ln in b.splitlines()
+               if ln.startswith("$ discgym run ")]
+    words = line.split()[2:]
+    readme = " ".join((ROOT / "README.md").read_text().split())
+    assert f"`{' '.join(line.split()[1:])}`" in readme, line
+    monkeypatch.chdir(tmp_path)
+    with contextlib.redirect_stdout(io.StringIO()) as out, \
+            contextlib.redirect_stderr(io.StringIO()):
+        assert cli.main(words) in (0, None)
+    text = out.getvalue()
+    fired = int(re.search(r"^reactions fired +(\d+)$", text, flags=re.M).group(1))
+    made = {m[0]: int(m[2]) for m in re.findall(r"^(\w+) +(\d+) +(\d+) +[-+]\d+$", text,
+                                                flags=re.M)}
+    # (the cold start shows nothing: 0 reactions in 40 time units, flat lines)
+    assert fired >= 50 and made["C"] >= 20 and made["A"] < 120, text
+    assert (tmp_path / "reactor.png").stat().st_size > 0
+
+
 def test_api_reference_covers_the_public_names():
     api = "\n".join(p.read_text() for p in (DOCS / "api").glob("*.md"))
     modules = set(re.findall(r"\.\. automodule:: ([\w.]+)\n(?:   :[\w-]+:.*\n)*   :members:",

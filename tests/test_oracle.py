@@ -421,3 +421,17 @@ def test_a_controller_aggregates_as_the_iqm_of_its_task_means():
     assert one.value == 1.0 and np.isnan(one.low) and np.isnan(one.high)
     with pytest.raises(ValueError, match="scores_by_task"):
         aggregate_task_means([np.ones(3), []])
+
+
+def test_noise_is_a_seed_or_none_and_anything_else_is_refused_naming_it():
+    env = gym.make(ENV, **TINY)
+    env.reset(seed=0)
+    h = reactor_heuristic(env)
+    for bad in (-1, 1.5, True, "x", float("nan"), [-2]):
+        with pytest.raises(ValueError, match="^noise: need None or a whole number >= 0"):
+            RolloutOracle(env, h, noise=bad)
+        # the planner's factory refuses it when made, not at its first episode
+        with pytest.raises(ValueError, match="^noise: "):
+            TASK_BASELINES[ENV].planner(noise=bad)
+    for good in (None, 0, 7, np.int64(3), [1, 2]):
+        RolloutOracle(env, h, noise=good)
