@@ -22,6 +22,10 @@ outside one, and Ray's gRPC servers then listen on all interfaces. Nodes started
 (``Cluster.add_node``) with clusters switched off keep 127.0.0.1, and Ray's servers then
 listen on 127.0.0.1 only. Token authentication (``RAY_AUTH_MODE=token``) is on with a fresh
 token for this cluster only (``RAY_AUTH_TOKEN`` in its processes' environment).
+
+The cluster's files (Ray's temp dir, with the head's address file ``ray_current_cluster``) are
+all in a fresh folder (``dg-ray-*``, in ``$RAY_TMPDIR`` if set, else the system's temporary
+folder) removed at the end: nothing is read from or left in Ray's default ``/tmp/ray``.
 """
 
 from __future__ import annotations
@@ -43,7 +47,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 #: Environment of the cluster's processes and of the driver, restored on exit.
 CLUSTER_ENV = ("RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER", "RAY_AUTH_MODE", "RAY_AUTH_TOKEN",
-               "RAY_AUTH_TOKEN_PATH", "RAY_USAGE_STATS_ENABLED")
+               "RAY_AUTH_TOKEN_PATH", "RAY_USAGE_STATS_ENABLED", "RAY_TMPDIR")
 
 
 def _reset_auth_state() -> None:
@@ -61,12 +65,24 @@ def loopback_cluster(nodes: int = 2, cpus_per_node: int = 1,
     ``cpus_per_node`` logical CPUs each, every one on 127.0.0.1, token authentication on;
     yields the :class:`ray.cluster_utils.Cluster` (its ``address`` is the GCS's
     127.0.0.1:PORT). Every node is stopped, the environment restored and the cluster's temp
-    folder removed on exit, whatever happens inside."""
+    folder removed on exit, whatever happens inside.
+
+    The temp folder is a fresh one (in ``$RAY_TMPDIR`` if set, else the system's); the nodes
+    get its ``ray/`` subfolder, and ``RAY_TMPDIR`` is the folder itself meanwhile, so that
+    Ray's default temp dir (``$RAY_TMPDIR/ray``) is the nodes' one: ``Cluster.add_node``
+    writes the head's address file (``ray_current_cluster``) in the default one whatever the
+    head was given, and ``Cluster.shutdown`` removes it there (so not another cluster's)."""
     if nodes < 1 or cpus_per_node < 1:
         raise ValueError(f"nodes and cpus_per_node must be >= 1, got {nodes}, {cpus_per_node}")
     from ray._private import ray_constants
     from ray.cluster_utils import Cluster
 
+    # (a short path: Ray's unix sockets live under it)
+    if os.environ.get("RAY_TMPDIR"):
+        os.makedirs(os.environ["RAY_TMPDIR"], exist_ok=True)  # (as Ray makes its temp dir)
+    temp_root = tempfile.mkdtemp(prefix="dg-ray-", dir=os.environ.get("RAY_TMPDIR") or None)
+    temp_dir = os.path.join(temp_root, "ray")
+    os.mkdir(temp_dir)
     old_env = {k: os.environ.get(k) for k in CLUSTER_ENV}
     old_flag = ray_constants.ENABLE_RAY_CLUSTER
     # clusters "off": Ray then keeps 127.0.0.1 as every node's address (the constant is read
@@ -77,8 +93,7 @@ def loopback_cluster(nodes: int = 2, cpus_per_node: int = 1,
     os.environ["RAY_AUTH_TOKEN"] = secrets.token_hex(32)
     os.environ.pop("RAY_AUTH_TOKEN_PATH", None)
     os.environ.setdefault("RAY_USAGE_STATS_ENABLED", "0")
-    # (a short path: Ray's unix sockets live under it)
-    temp_dir = tempfile.mkdtemp(prefix="dg-ray-")
+    os.environ["RAY_TMPDIR"] = temp_root  # (Ray's default temp dir: temp_dir)
     cluster = None
     try:
         _reset_auth_state()
@@ -102,7 +117,7 @@ def loopback_cluster(nodes: int = 2, cpus_per_node: int = 1,
         ray_constants.ENABLE_RAY_CLUSTER = old_flag
         with contextlib.suppress(Exception):
             _reset_auth_state()
-        shutil.rmtree(temp_dir, ignore_errors=True)
+        shutil.rmtree(temp_root, ignore_errors=True)
 
 
 def cluster_processes(cluster) -> list:
@@ -242,6 +257,25 @@ def run(nodes: int, cpus_per_node: int, train_argv: list[str]) -> dict:
     }
 
 
+def check_report(path: str) -> Path:
+    """The ``--report`` file: not a folder, in a folder that exists and is writable (checked
+    before any node starts, as the other arguments)."""
+    from argcheck import usage
+
+    report = Path(path)
+    if report.is_dir():
+        raise usage("report", f"{report} is a folder")
+    parent = report.absolute().parent
+    if not parent.is_dir():
+        raise usage("report", f"{parent} is not a folder" if parent.exists()
+                    else f"no folder {parent}")
+    if not os.access(parent, os.W_OK | os.X_OK):
+        raise usage("report", f"{parent} is not writable")
+    if report.exists() and not os.access(report, os.W_OK):
+        raise usage("report", f"{report} is not writable")
+    return report
+
+
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
                                 usage="%(prog)s [--nodes N] [--cpus-per-node C] "
@@ -255,6 +289,8 @@ def main(argv=None) -> int:
     args = p.parse_args(argv[:argv.index("--")] if "--" in argv else argv)
     if args.nodes < 1 or args.cpus_per_node < 1:
         p.error("--nodes and --cpus-per-node must be at least 1")
+    if args.report is not None:
+        check_report(args.report)
     report = run(args.nodes, args.cpus_per_node, train_argv)
     runners = report["env_runner_nodes"]
     print(f"{len(report['nodes'])} node(s) on {', '.join(report['node_addresses'])}; "

@@ -5,14 +5,20 @@ node, an env runner on each node, one training iteration, every process stopped 
 
 The test watches from outside (psutil) every process the run starts: all listen on and
 connect to loopback addresses only, both raylets appear, and none is left once the run ends.
-Skipped only where Ray is not installed (CI installs it: the ``ecosystem`` extra)."""
+The run has ``RAY_TMPDIR`` and ``TMPDIR`` on fresh empty folders (a machine that never ran
+Ray: no ``ray/`` folder there) and leaves nothing in either.
+Skipped only where Ray is not installed (CI installs it: the ``ecosystem`` extra).
+
+A bad ``--report`` is refused before any node starts (no Ray needed)."""
 
 import contextlib
 import json
 import os
+import shutil
 import signal
 import subprocess
 import sys
+import tempfile
 import time
 from pathlib import Path
 
@@ -20,8 +26,6 @@ import pytest
 from test_clients import RLLIB_ONE_ITERATION
 
 ROOT = Path(__file__).resolve().parents[1]
-
-pytestmark = pytest.mark.slow  # (about a minute: two nodes' daemons, two env runners)
 
 
 def is_loopback(ip: str) -> bool:
@@ -92,13 +96,28 @@ def stop(proc: subprocess.Popen, seen: dict) -> None:
             p.kill()
 
 
-def test_train_rllib_on_two_ray_nodes_on_loopback(tmp_path):
+@pytest.fixture
+def fresh_temp_dirs():
+    """Two fresh empty folders, for ``RAY_TMPDIR`` and ``TMPDIR`` (short paths: Ray's unix
+    sockets live under them; pytest's tmp_path is too long), removed after the test."""
+    dirs = [Path(tempfile.mkdtemp(prefix="dg")) for _ in range(2)]
+    yield dirs
+    for d in dirs:
+        shutil.rmtree(d, ignore_errors=True)
+
+
+@pytest.mark.slow  # (about a minute: two nodes' daemons, two env runners)
+def test_train_rllib_on_two_ray_nodes_on_loopback(tmp_path, fresh_temp_dirs):
     pytest.importorskip("ray")
     report_path = tmp_path / "report.json"
     cmd = [sys.executable, str(ROOT / "agents" / "ray_cluster.py"), "--nodes", "2",
            "--cpus-per-node", "1", "--report", str(report_path), "--",
            *RLLIB_ONE_ITERATION, "--env-runners", "2", "--out", str(tmp_path / "run")]
-    env = dict(os.environ, RAY_USAGE_STATS_ENABLED="0", NUMBA_NUM_THREADS="1")
+    # Ray's temp folders as on a machine that never ran Ray (no ray/ in them): the run
+    # failed there once (Cluster.add_node wrote $RAY_TMPDIR/ray/ray_current_cluster)
+    ray_tmpdir, tmpdir = fresh_temp_dirs
+    env = dict(os.environ, RAY_USAGE_STATS_ENABLED="0", NUMBA_NUM_THREADS="1",
+               RAY_TMPDIR=str(ray_tmpdir), TMPDIR=str(tmpdir))
     log = open(tmp_path / "log.txt", "w+")
     proc = subprocess.Popen(cmd, cwd=tmp_path, env=env, stdout=log, stderr=subprocess.STDOUT,
                             text=True, start_new_session=True)
@@ -138,3 +157,34 @@ def test_train_rllib_on_two_ray_nodes_on_loopback(tmp_path):
     assert remote and [s for s in remote if not is_loopback(s[0])] == []
     assert report["outside_loopback"] == []  # (the script's own watch agrees)
     assert report["refuses_a_driver_without_the_token"]  # (token authentication is on)
+    # the cluster's temp folder (in RAY_TMPDIR) removed; nothing of Ray's in TMPDIR
+    assert list(ray_tmpdir.iterdir()) == []
+    assert [p.name for p in tmpdir.iterdir() if "ray" in p.name] == []
+
+
+@pytest.mark.parametrize("where", ["in a missing folder", "a folder", "under a file"])
+def test_a_bad_report_is_refused_before_any_node_starts(tmp_path, monkeypatch, capsys,
+                                                         where):
+    """``--report`` into a missing folder, onto a folder, under a file: one line naming
+    --report, exit 2, and no node started (the cluster is never entered)."""
+    monkeypatch.syspath_prepend(str(ROOT / "agents"))
+    import argcheck
+    import ray_cluster
+
+    def no_cluster(*args, **kwargs):
+        raise AssertionError("a Ray node was started")
+
+    monkeypatch.setattr(ray_cluster, "loopback_cluster", no_cluster)
+    (tmp_path / "file").write_text("")
+    report = {"in a missing folder": tmp_path / "missing" / "report.json",
+              "a folder": tmp_path,
+              "under a file": tmp_path / "file" / "report.json"}[where]
+    argv = ["--nodes", "2", "--report", str(report), "--", *RLLIB_ONE_ITERATION,
+            "--env-runners", "2", "--out", str(tmp_path / "run")]
+    with pytest.raises(SystemExit) as e:
+        argcheck.run(lambda: ray_cluster.main(argv))
+    err = capsys.readouterr().err
+    assert e.value.code == 2, err
+    assert len(err.strip().splitlines()) == 1, err
+    assert "error: --report: " in err, err
+    assert not (tmp_path / "run").exists() and not (tmp_path / "missing").exists()
