@@ -36,17 +36,26 @@ with its 95% interval, whether the ladder is ordered and every step separated by
 interval, the planner's and the oracle's wall time per episode), then every policy's
 normalised IQM over the tasks (random 0, the searched controller 1: the IQM of its task
 means) with the interval of resampling each task's seeds.
+
+Every argument is checked before any work (:func:`check_args`; the ``--env-kwarg`` by making
+each env without a reset, a few ms and no compile): a bad one is refused in one line
+``ladder.py: error: --flag: ...``, exit status 2, nothing run or written. Each JSON is
+written to a temporary file in its folder and renamed into place: whole or as it was.
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import math
 import os
 import platform
+import re
 import subprocess
 import sys
+import tempfile
 import time
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -72,6 +81,10 @@ from discgym.bench import machine_info
 from discgym.searched import SEARCHED
 
 ROOT = Path(__file__).resolve().parent.parent
+if str(ROOT / "agents") not in sys.path:  # (argcheck: what the command lines share)
+    sys.path.insert(0, str(ROOT / "agents"))
+from argcheck import MAX_SEED, UsageError, one_line, usage, write_text_atomic  # noqa: E402
+
 LADDER = ("random", "best constant", "hand-written", "searched", "planner", "oracle")
 #: The rows' names in the tables.
 SHORT = ("random", "best constant", "simple rule", "searched", "planner", "oracle")
@@ -378,9 +391,18 @@ def plot(results: list, path: Path) -> Path:
     return path
 
 
+class _Parser(argparse.ArgumentParser):
+    """search_controller.py's parser: an error is one line, exit 2 (the project's
+    command-line convention), worded ``--flag: ...`` as :func:`check_args` words its own."""
+
+    def error(self, message):
+        text = re.sub(r"^argument ([^:]+): ", r"\1: ", one_line(message))
+        self.exit(2, f"{self.prog}: error: {text}\n")
+
+
 def _kwarg(text: str):
     if "=" not in text:
-        raise argparse.ArgumentTypeError(f"--env-kwarg: expected key=value, got {text!r}")
+        raise argparse.ArgumentTypeError(f"expected KEY=VALUE, got {text!r}")
     k, v = text.split("=", 1)
     try:
         return k, json.loads(v)
@@ -388,8 +410,144 @@ def _kwarg(text: str):
         return k, v
 
 
+def _check_file_out(path: Path, name: str) -> Path:
+    """A file this script will write (a temporary file renamed into place): not a folder,
+    in a folder that exists or can be made, writable (a probe in its nearest existing
+    folder, removed at once)."""
+    if path.name in ("", ".", "..") or path.is_dir():
+        raise usage(name, f"{path} is a folder: name a file")
+    parent = path.absolute().parent
+    while not parent.exists() and parent != parent.parent:
+        parent = parent.parent
+    if not parent.is_dir():
+        raise usage(name, f"{parent} is not a folder")
+    try:  # (a probe, removed at once: as root os.access passes even /proc)
+        os.rmdir(tempfile.mkdtemp(prefix=".ladder-check-", dir=parent))
+    except OSError as e:
+        raise usage(name, f"cannot write in {parent} ({e.strerror or e})") from None
+    return path
+
+
+def _check_plot_path(given: str | None, default_name: str) -> Path:
+    """The chart's path (``--plot-path``, else out/``default_name``): a file matplotlib can
+    write, by its suffix."""
+    path = Path(given) if given else ROOT / "out" / default_name
+    try:
+        from matplotlib.backend_bases import FigureCanvasBase
+    except ImportError as e:
+        raise usage("--plot", f"the chart needs matplotlib ({e})") from None
+    kinds = FigureCanvasBase.get_supported_filetypes()
+    suffix = path.suffix[1:].lower()
+    if suffix and suffix not in kinds:
+        raise usage("--plot-path", f"{path}: matplotlib writes no .{suffix} files (it writes "
+                                   f"{', '.join(sorted(kinds))})")
+    return _check_file_out(path, "--plot-path")
+
+
+def _check_env_kwargs(env_id: str, kw: dict) -> None:
+    """``gymnasium.make(env_id, **kw)`` as each of the ladder's episodes makes it, closed
+    without a reset: the env checks its keyword arguments (names, types, ranges, a scene that
+    loads, discs that fit; ``ReactorConfig.from_kwargs``) and Gymnasium its own
+    (``max_episode_steps``, ...). A few ms an env; no kernel is compiled (the first reset
+    does that)."""
+    import gymnasium as gym
+
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # (Gymnasium's: the refusal is the one line)
+            gym.make(env_id, **kw).close()
+    except (TypeError, ValueError, AssertionError, OSError, gym.error.Error) as e:
+        raise usage("--env-kwarg", f"{env_id}: {e}") from None
+
+
+def _load_ladder(path: Path) -> dict:
+    """A ladder's JSON as ``--out`` writes it (for ``--table``), else a refusal naming the
+    file."""
+    try:
+        res = json.loads(path.read_text())
+    except OSError as e:
+        raise usage("--table", f"{path}: cannot read it ({e.strerror or e})") from None
+    except ValueError as e:  # (not JSON, not UTF-8)
+        raise usage("--table", f"{path}: not JSON ({e})") from None
+    try:
+        if not isinstance(res, dict):
+            raise TypeError(f"a JSON {type(res).__name__}, not an object")
+        for k in LADDER:
+            r = res["policies"][k]["returns"]
+            if not (isinstance(r, list) and r and all(
+                    isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x)
+                    for x in r)):
+                raise ValueError(f"policies.{k}.returns: expected a list of finite numbers")
+        len(res["eval_seeds"])
+        summary_row(res)
+    except (KeyError, IndexError, TypeError, ValueError) as e:
+        raise usage("--table", f"{path}: not a ladder's JSON ({type(e).__name__}: {e})") from None
+    return res
+
+
+def check_args(a) -> dict:
+    """Every argument of a run, before any work (the constant search, an episode, a file
+    written): a bad one raises :class:`argcheck.UsageError` naming its flag. Returns what
+    the run uses: ``envs``, ``eval_seeds``, ``search_seeds``, ``env_kwargs``, ``gate`` (the
+    planner's, None: no gate), ``outs`` (env id -> JSON path) and ``plot_path`` (None
+    without --plot)."""
+    if a.env != "all" and a.env not in TASK_BASELINES:
+        raise usage("--env", f"{a.env!r} has no baselines (known: {', '.join(TASK_BASELINES)}, "
+                             "or all)")
+    envs = list(TASK_BASELINES) if a.env == "all" else [a.env]
+    if a.seeds < 2:
+        raise usage("--seeds", f"expected an int >= 2 (a confidence interval), got {a.seeds}")
+    if not 0 <= a.first_seed <= MAX_SEED:
+        raise usage("--first-seed", f"expected an int in [0, {MAX_SEED}] (numpy's seeds), got "
+                                    f"{a.first_seed}")
+    last = a.first_seed + a.seeds - 1
+    if last > MAX_SEED:
+        raise usage("--seeds", f"the evaluation seeds {a.first_seed}..{last} pass numpy's "
+                               f"largest seed, {MAX_SEED}")
+    if not 1 <= a.search_seeds <= MAX_SEED + 1:
+        raise usage("--search-seeds", f"expected an int in [1, {MAX_SEED + 1}] (seeds 0 .. n - "
+                                      f"1), got {a.search_seeds}")
+    if a.search_seeds > a.first_seed:  # (0 .. n - 1 meets first .. last)
+        raise usage("--search-seeds", f"the search seeds 0..{a.search_seeds - 1} meet the "
+                    f"evaluation seeds {a.first_seed}..{last} (--first-seed); a constant action "
+                    "chosen on the evaluation seeds would be flattered")
+    for name, value in (("--replan-every", a.replan_every), ("--horizon", a.horizon)):
+        if value is not None and value < 1:
+            raise usage(name, f"expected an int >= 1, got {value}")
+    if a.planner_futures < 1:
+        raise usage("--planner-futures", f"expected an int >= 1, got {a.planner_futures}")
+    if not math.isfinite(a.planner_gate):
+        raise usage("--planner-gate", "expected a finite number (standard errors; a negative "
+                                      f"one: no gate), got {a.planner_gate}")
+    gate = None if a.planner_gate < 0 else a.planner_gate
+    if gate is not None and a.planner_futures < 2:
+        raise usage("--planner-gate", f"a gate ({gate:g}) needs --planner-futures >= 2 (a "
+                                      "standard error over the futures), or a negative gate: none")
+    env_kwargs = dict(a.env_kwarg)
+    if env_kwargs:
+        for env_id in envs:
+            _check_env_kwargs(env_id, {**dict(TASK_BASELINES[env_id].env_kwargs), **env_kwargs})
+    if len(envs) > 1 and "{env}" not in a.out:
+        raise usage("--out", f"with several envs the path must contain {{env}}, got {a.out!r}")
+    outs = {}
+    for env_id in envs:
+        try:
+            out = Path(a.out.format(env=env_id))
+        except (KeyError, IndexError, ValueError, AttributeError, TypeError) as e:
+            raise usage("--out", f"{a.out!r}: braces other than {{env}} ({type(e).__name__}: "
+                                 f"{e})") from None
+        outs[env_id] = _check_file_out(out, "--out")
+    plot_path = None
+    if a.plot:
+        plot_path = _check_plot_path(a.plot_path, f"ladder_{envs[0]}.png" if len(envs) == 1
+                                     else "ladder_all.png")
+    return {"envs": envs, "eval_seeds": list(range(a.first_seed, last + 1)),
+            "search_seeds": list(range(a.search_seeds)), "env_kwargs": env_kwargs,
+            "gate": gate, "outs": outs, "plot_path": plot_path}
+
+
 def main(argv=None) -> int:
-    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    p = _Parser(prog="ladder.py", description=__doc__.split("\n\n")[0])
     p.add_argument("--env", default="DiscReactor-v0",
                    help=f"an env id of TASK_BASELINES ({', '.join(TASK_BASELINES)}) or 'all'")
     p.add_argument("--seeds", type=int, default=20, help="evaluation seeds (>= 2; 20 for docs)")
@@ -423,43 +581,28 @@ def main(argv=None) -> int:
                    help="run nothing: print one Markdown table of the ladders in these JSON "
                    "files (written by --out)")
     a = p.parse_args(argv)
+    try:  # (every argument checked before any work: one line, exit 2)
+        if a.table:
+            results = [_load_ladder(f) for f in a.table]
+            try:
+                tables = summary_table(results), aggregate_table(results)
+            except (ValueError, KeyError, TypeError, IndexError) as e:
+                raise usage("--table", f"not ladders' JSON ({type(e).__name__}: {e})") from None
+            path = _check_plot_path(a.plot_path, "ladder_all.png") if a.plot else None
+        else:
+            plan = check_args(a)
+    except UsageError as e:
+        p.error(str(e))
     if a.table:
-        try:
-            results = [json.loads(f.read_text()) for f in a.table]
-            print(summary_table(results))
-            print("\nAcross the tasks (normalised per task: random 0, searched controller 1; "
-                  "IQM of the task means, interval over seeds within tasks):\n")
-            print(aggregate_table(results))
-        except (OSError, ValueError, KeyError, TypeError, StopIteration) as e:
-            p.error(f"--table: not a ladder's JSON ({type(e).__name__}: {e})")
-        if a.plot:  # (the chart of these files, nothing run)
-            path = Path(a.plot_path) if a.plot_path else ROOT / "out" / "ladder_all.png"
+        print(tables[0])
+        print("\nAcross the tasks (normalised per task: random 0, searched controller 1; "
+              "IQM of the task means, interval over seeds within tasks):\n")
+        print(tables[1])
+        if path is not None:  # (the chart of these files, nothing run)
             print(f"wrote {plot(results, path)}")
         return 0
-    envs = list(TASK_BASELINES) if a.env == "all" else [a.env]
-    for e in envs:
-        if e not in TASK_BASELINES:
-            p.error(f"--env: {e!r} has no baselines (known: {', '.join(TASK_BASELINES)})")
-    if a.seeds < 2:
-        p.error("--seeds: need at least 2 (a confidence interval)")
-    if a.planner_futures < 1:
-        p.error("--planner-futures: need at least 1")
-    if not np.isfinite(a.planner_gate):
-        p.error(f"--planner-gate: need a finite number, got {a.planner_gate}")
-    gate = None if a.planner_gate < 0 else a.planner_gate
-    if gate is not None and a.planner_futures < 2:
-        p.error("--planner-gate: needs --planner-futures >= 2 (or a negative gate: none)")
-    if a.search_seeds < 1:
-        p.error("--search-seeds: need at least 1")
-    if len(envs) > 1 and "{env}" not in a.out:
-        p.error("--out: with several envs the path must contain {env}")
-    eval_seeds = list(range(a.first_seed, a.first_seed + a.seeds))
-    search_seeds = list(range(a.search_seeds))
-    try:
-        check_disjoint(eval_seeds, search_seeds)
-    except ValueError as e:
-        p.error(str(e))
-    env_kwargs = dict(a.env_kwarg)
+    envs, eval_seeds, search_seeds = plan["envs"], plan["eval_seeds"], plan["search_seeds"]
+    env_kwargs, gate = plan["env_kwargs"], plan["gate"]
     date = time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime())
     cmd = "python benchmarks/ladder.py " + " ".join(sys.argv[1:] if argv is None else argv)
     results, ok = [], True
@@ -475,9 +618,9 @@ def main(argv=None) -> int:
             res["oracle_variants"] = run_variants(
                 res, log=lambda s: print(s, file=sys.stderr, flush=True))
             res["variants_table"] = variants_table(res)
-        out = Path(a.out.format(env=env_id))
+        out = plan["outs"][env_id]
         out.parent.mkdir(parents=True, exist_ok=True)
-        out.write_text(json.dumps(res, indent=2) + "\n")
+        write_text_atomic(out, json.dumps(res, indent=2) + "\n")  # (whole or as it was)
         print(f"\n## {env_id}\n\n{res['table']}\n")
         order = " < ".join(LADDER)
         print(f"ordered {order}: {'yes' if res['ordered'] else 'NO'}; separated by their "
@@ -496,10 +639,8 @@ def main(argv=None) -> int:
             print(f"\n{res['variants_table']}\n")
         ok &= res["ordered"]
         results.append(res)
-    if a.plot:
-        name = f"ladder_{envs[0]}.png" if len(envs) == 1 else "ladder_all.png"
-        path = Path(a.plot_path) if a.plot_path else ROOT / "out" / name
-        print(f"wrote {plot(results, path)}")
+    if plan["plot_path"] is not None:
+        print(f"wrote {plot(results, plan['plot_path'])}")
     return 1 if a.check and not ok else 0
 
 
