@@ -8,7 +8,13 @@ Each ``--evaluation`` is an ``evaluation.json`` written by ``agents/evaluate.py`
 task, holding the task's baselines and its trained runs (several training seeds of each
 learner: ``--run A B C ...``). Every return is mapped to the task's normalised score: the
 mean of uniform random actions 0, the searched controller's 1 (``discgym.baselines.
-normalised_scores``), on the same evaluation seeds.
+normalised_scores``), on the same evaluation seeds, which are required: a row's returns
+are mapped with the references' means over that row's seeds. Every row this scores (the
+controllers and each run) must be on the evaluation's ``eval_seeds``, those of its random
+and searched rows; a ladder's planner and oracle on that ladder's ``eval_seeds``, those of
+its own random and searched rows. A row on more, fewer or other seeds is refused (the rows
+this does not score, evaluate.py's planner and oracle, may be on the first of the seeds,
+as evaluate.py records them).
 
 - A learner (an ``evaluate.variant``: an algorithm, its hyperparameter folder and its
   non-default training settings) scores, on each task, one number per training run: the
@@ -30,13 +36,17 @@ normalised_scores``), on the same evaluation seeds.
 Writes ``aggregate.json`` (every score), ``aggregate.md`` (the table, the per-task cells and
 the budgets: each learner's training steps and wall time beside the search that found the
 task's controller) and ``aggregate.png`` into ``--out``. Every argument is checked before
-anything is written; a bad one is refused in one line, exit status 2.
+anything is written, each file's whole structure included (the fields this reads, of the
+kinds it reads: lists of finite returns, seeds that are integers each once, ...); a bad one
+is refused in one line naming the file and the field, exit status 2.
 """
 
 from __future__ import annotations
 
 import json
+import math
 import sys
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -66,26 +76,177 @@ class Args:
     """folder for aggregate.json, aggregate.md and aggregate.png"""
 
 
-def _load(path: Path, name: str, keys: set) -> dict:
+# ------------------------------------------------------------- what the files must hold
+#
+# A schema is one of: ``Is`` (a value passing a test), ``ListOf`` (a non-empty list whose
+# every item passes a test), ``Record`` (an object with named fields, a name ending in "?"
+# optional: absent or null, and a schema for every other key). :func:`_misfit` walks a file
+# along one and names the first field that does not fit.
+
+
+@dataclass(frozen=True)
+class Is:
+    what: str
+    test: Callable
+
+
+@dataclass(frozen=True)
+class ListOf:
+    what: str
+    item: Callable
+    unique: bool = False
+
+
+@dataclass(frozen=True)
+class Record:
+    fields: dict
+    rest: object = None
+
+
+def _finite(x) -> bool:
+    return isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x)
+
+
+def _count(x) -> bool:
+    return isinstance(x, int) and not isinstance(x, bool) and x >= 0
+
+
+TEXT = Is("a string", lambda x: isinstance(x, str))
+SEEDS = ListOf("a non-empty list of seeds (integers >= 0, each once)", _count, unique=True)
+ROW = Record({
+    "returns": ListOf("a non-empty list of finite numbers", _finite),
+    "seeds?": SEEDS,  # (evaluate.py: a row on fewer seeds, its oracles', names them)
+    "variant?": TEXT, "run?": TEXT,
+    "train?": Record({"wall_seconds": Is("a number >= 0", lambda x: _finite(x) and x >= 0),
+                      "env_steps?": Is("an integer >= 0", _count),
+                      "timesteps?": Is("an integer >= 0", _count)})})
+TASK_FILE = Record({  # (evaluate.py's evaluation.json and ladder.py's JSON alike)
+    "env_id": Is("a task's id", lambda x: isinstance(x, str) and x != ""),
+    "env_kwargs?": Is("an object", lambda x: isinstance(x, dict)),
+    "eval_seeds": SEEDS,
+    "policies": Record({"random": ROW, "searched": ROW}, rest=ROW)})
+
+
+def _at(where: str, key: str) -> str:
+    return f"{where}[{json.dumps(key)}]" if where else key
+
+
+def _short(x) -> str:
+    s = json.dumps(x)
+    return s if len(s) <= 40 else s[:37] + "..."
+
+
+def _misfit(value, schema, where: str = "") -> str | None:
+    """The first field of ``value`` (named from ``where``) that does not fit ``schema``, in a
+    refusal's words; None if all fit."""
+    name = where or "the file"
+    if isinstance(schema, Is):
+        return None if schema.test(value) else f"{name} is not {schema.what} ({_short(value)})"
+    if isinstance(schema, ListOf):
+        if not isinstance(value, list) or not value:
+            return f"{name} is not {schema.what} ({_short(value)})"
+        for i, v in enumerate(value):
+            if not schema.item(v):
+                return f"{name} is not {schema.what} (item {i}: {_short(v)})"
+        if schema.unique and len(set(value)) < len(value):
+            twice = next(v for i, v in enumerate(value) if v in value[:i])
+            return f"{name} is not {schema.what} ({twice} is there twice)"
+        return None
+    if not isinstance(value, dict):
+        return f"{name} is not an object ({_short(value)})"
+    named = {k.removesuffix("?"): (sub, k.endswith("?")) for k, sub in schema.fields.items()}
+    for key, (sub, optional) in named.items():
+        if key not in value or (optional and value[key] is None):
+            if optional:
+                continue
+            return f"{_at(where, key)} is missing"
+        bad = _misfit(value[key], sub, _at(where, key))
+        if bad:
+            return bad
+    for key, v in value.items():
+        if key not in named and schema.rest is not None:
+            bad = _misfit(v, schema.rest, _at(where, key))
+            if bad:
+                return bad
+    return None
+
+
+def _load(path: Path, name: str) -> dict:
+    """A task file, read and walked along :data:`TASK_FILE`."""
     try:
         data = json.loads(Path(path).read_text())
     except FileNotFoundError:
         raise usage(name, f"no file {path}") from None
     except (OSError, ValueError) as e:
         raise usage(name, f"{path} is not readable JSON ({e})") from None
-    if not isinstance(data, dict) or not keys <= set(data):
-        raise usage(name, f"{path} has no {', '.join(sorted(keys))} (not written by "
-                          f"{'agents/evaluate.py' if name == 'evaluation' else 'ladder.py'})")
+    bad = _misfit(data, TASK_FILE)
+    if bad:
+        kind = "agents/evaluate.py" if name == "evaluation" else "benchmarks/ladder.py"
+        top = {k for k in TASK_FILE.fields if not k.endswith("?")}  # (another file's kind)
+        hint = (f" (not written by {kind})" if not isinstance(data, dict) or
+                not top <= set(data) else "")
+        raise usage(name, f"{path}: {bad}{hint}")
     return data
+
+
+def _seeds(data: dict, key: str) -> list:
+    """The seeds of a row: those it names (evaluate.py's rows on fewer seeds), else the
+    file's first, one per return."""
+    row = data["policies"][key]
+    if row.get("seeds") is not None:
+        return row["seeds"]
+    return data["eval_seeds"][:len(row["returns"])]
+
+
+def _differ(a: list, b: list) -> str:
+    """Two seed lists, briefly: their sizes and the first place they differ."""
+    i = next((k for k, (x, y) in enumerate(zip(a, b)) if x != y), min(len(a), len(b)))
+    x, y = (s[i] if i < len(s) else "none" for s in (a, b))
+    return (f"{len(a)} seed{'s' * (len(a) != 1)} against {len(b)}; the first difference, at "
+            f"position {i}: {x} against {y}")
+
+
+def _check_seeds(data: dict, path: Path, name: str, used: set) -> None:
+    """Scores are per evaluation seed, mapped with the references' means on the same seeds:
+    random and searched must be on every one of ``eval_seeds``, each row in ``used`` (those
+    this scores) on exactly those, every other row (evaluate.py's oracle, say) on the first
+    of them, as evaluate.py records such rows."""
+    rows, seeds = data["policies"], data["eval_seeds"]
+    for key, row in rows.items():  # (a seed for each return: its own, or eval_seeds')
+        n, where = len(row["returns"]), f"policies[{json.dumps(key)}]"
+        if row.get("seeds") is not None:
+            given, m, fits = f'{where}["seeds"]', len(row["seeds"]), n == len(row["seeds"])
+        else:
+            given, m, fits = "eval_seeds", len(seeds), n <= len(seeds)
+        if not fits:
+            raise usage(name, f'{path}: {where}["returns"] holds {n} returns, {given} {m} '
+                              f'seed{"s" * (m != 1)}')
+    ref = _seeds(data, "random")
+    for key in ["searched", *(k for k in rows if k in used)]:
+        if _seeds(data, key) != ref:
+            raise usage(name, f"{path}: policies[{json.dumps(key)}] is not on the seeds of "
+                              f"the references random and searched it is normalised with "
+                              f"({_differ(_seeds(data, key), ref)}): evaluate them on the "
+                              f"same seeds")
+    if ref != seeds:
+        raise usage(name, f"{path}: the references random and searched are not on eval_seeds "
+                          f"({_differ(ref, seeds)})")
+    for key in rows:
+        if _seeds(data, key) != seeds[:len(rows[key]["returns"])]:
+            raise usage(name, f"{path}: policies[{json.dumps(key)}] is not on the first "
+                              f"eval_seeds ({_differ(_seeds(data, key), seeds)})")
+
+
+def _learner(row: dict) -> bool:
+    """A trained run's row (evaluate.py's pooled rows of several runs are not)."""
+    return "algo" in row and "pooled" not in row
 
 
 def _check_scale(data: dict, path: Path, name: str) -> None:
     """Each row's seeds must give a scale: the searched controller above random on them."""
     rows = data["policies"]
     for key, row in rows.items():
-        n = len(row.get("returns") or [])
-        if n == 0:
-            raise usage(name, f"{path}: the row {key!r} has no returns")
+        n = len(row["returns"])
         rand, top = (np.mean(rows[k]["returns"][:n]) for k in ("random", "searched"))
         if not top > rand:
             raise usage(name, f"{path}: the searched controller ({top:.4g}) is not above "
@@ -112,25 +273,24 @@ def check_args(a: Args) -> tuple[list, dict]:
     ``variant``."""
     if not a.evaluation:
         raise usage("evaluation", "name at least one evaluation.json of agents/evaluate.py")
-    evals = [_load(p, "evaluation", {"env_id", "policies"}) for p in a.evaluation]
+    evals = [_load(p, "evaluation") for p in a.evaluation]
     tasks = [e["env_id"] for e in evals]
     for k, t in enumerate(tasks):
         if t in tasks[:k]:
             raise usage("evaluation", f"two evaluations of {t} ({a.evaluation[tasks.index(t)]}"
                                       f" and {a.evaluation[k]}): give one per task, with all "
                                       f"its runs")
-        missing = {"random", "searched"} - set(evals[k]["policies"])
-        if missing:
-            raise usage("evaluation", f"{a.evaluation[k]} has no {', '.join(sorted(missing))}"
-                                      f" row")
+        rows = evals[k]["policies"]
+        scored = {key for key, row in rows.items() if key in dict(CONTROLLERS) or _learner(row)}
+        _check_seeds(evals[k], a.evaluation[k], "evaluation", scored)
         _check_scale(evals[k], a.evaluation[k], "evaluation")
-        for row in evals[k]["policies"].values():
-            if "algo" in row and "pooled" not in row:
+        for row in rows.values():
+            if _learner(row):
                 row["variant"] = _variant(row, a.evaluation[k])
     runs: dict = {}  # (rliable's stratified bootstrap: as many runs on each task)
     for e in evals:
         for row in e["policies"].values():
-            if "algo" in row and "pooled" not in row:
+            if _learner(row):
                 runs.setdefault(row["variant"], {}).setdefault(e["env_id"], 0)
                 runs[row["variant"]][e["env_id"]] += 1
     for kind, by_task in runs.items():
@@ -140,19 +300,19 @@ def check_args(a: Args) -> tuple[list, dict]:
                                       f"runs (training seeds)")
     ladders, where = {}, {}
     for p in a.ladder:
-        d = _load(p, "ladder", {"env_id", "policies"})
+        d = _load(p, "ladder")
         if d["env_id"] in ladders:
             raise usage("ladder", f"two ladders of {d['env_id']} ({where[d['env_id']]} and {p})"
                                   f": give one per task")
-        if not {"random", "searched"} <= set(d["policies"]):
-            raise usage("ladder", f"{p} has no random and searched rows")
         if d["env_id"] not in tasks:
             raise usage("ladder", f"{p} is a ladder of {d['env_id']}, which no --evaluation "
                                   f"has")
         e = evals[tasks.index(d["env_id"])]
-        if "env_kwargs" in d and "env_kwargs" in e and d["env_kwargs"] != e["env_kwargs"]:
+        kw, kw_e = d.get("env_kwargs"), e.get("env_kwargs")
+        if kw is not None and kw_e is not None and kw != kw_e:
             raise usage("ladder", f"{p} ran {d['env_id']} with {d['env_kwargs']}, its "
                                   f"evaluation with {e['env_kwargs']}: not one task")
+        _check_seeds(d, p, "ladder", {k for k, _ in REFERENCES})
         _check_scale(d, p, "ladder")
         ladders[d["env_id"]], where[d["env_id"]] = d, p
     out = Path(a.out)
@@ -181,7 +341,7 @@ def normalise(evals: list, ladders: dict) -> dict:
             if key in rows:
                 pol.setdefault(key, {})[task] = _scores(rows, key).tolist()
         for name, row in rows.items():
-            if "algo" not in row or "pooled" in row:
+            if not _learner(row):
                 continue
             kind = row["variant"]
             pol.setdefault(kind, {}).setdefault(task, []).append(
