@@ -17,10 +17,15 @@ below it a step runs on one thread either way.
 from __future__ import annotations
 
 import argparse
+import os
 import statistics
 import time
 
 import numpy as np
+
+# (the threads' own speed-up: every call on all of numba's threads, not the count that
+# discgym.threads would measure best; benchmarks/bench_busy.py measures that one)
+os.environ.setdefault("DISCGYM_ADAPTIVE_THREADS", "0")
 
 from discgym import Simulation
 from discgym.bench import bench_scene, format_table, machine_info, machine_line, n_label

@@ -49,6 +49,7 @@ from .scene import (
     too_hot_for_walls,
     validated_counts,
 )
+from .threads import ThreadChooser, numba_threads
 
 __all__ = ["Simulation", "PlacementError"]
 
@@ -173,6 +174,10 @@ class Simulation:
         self._since_reset = 0.0
         self._energy_input = 0.0
         self._threads = 4 * numba.get_num_threads()
+        # the thread count of each call (speed only: not part of the state); one thread
+        # takes the serial entry, which a parallel Simulation may not have compiled yet
+        self._chooser = ThreadChooser(
+            compiles=lambda t: t == 1 and not _step.advance_serial_rngs.signatures)
         self._integrator = "step"
 
     @classmethod
@@ -345,7 +350,10 @@ class Simulation:
     @property
     def threads(self) -> int:
         """Work chunks for numba's threads in a step (4 per thread; 1: single-threaded; with
-        one numba thread a step runs single-threaded whatever this says)."""
+        one numba thread a step runs single-threaded whatever this says). A call that would
+        run on several threads runs on the count measured fastest for this simulation (every
+        thread, or fewer when other processes hold cores: :mod:`discgym.threads`; the same
+        trajectory whatever the count)."""
         return self._threads
 
     @threads.setter
@@ -402,17 +410,32 @@ class Simulation:
                                                      tables, cs.params, cs.flags, self._rngs,
                                                      counters)
         else:
-            threads = self._threads if numba.get_num_threads() > 1 else 1
-            if _step.serial_suffices(self._n, threads):  # (compiles no parallel code)
-                discs, n, self._work = _step.advance_serial_rngs(
-                    discs, self._n, n_steps, dt, bounds, tables, cs.params, cs.flags,
-                    self._rngs, counters, self._steps, _step.REORDER_EVERY, self._work,
-                    _step.lists_for(n_steps))
-            else:
-                discs, n, self._work = _step.advance_rngs(
-                    discs, self._n, n_steps, dt, bounds, tables, cs.params, cs.flags,
-                    self._rngs, counters, threads, self._steps, _step.REORDER_EVERY,
-                    self._work, _step.lists_for(n_steps))
+            most = numba.get_num_threads()
+            chunks = self._threads if most > 1 else 1
+            lists = _step.lists_for(n_steps)
+
+            def run(threads: int):
+                # (on fewer threads than numba's, proportionally fewer work chunks; on one,
+                # one: the serial entry)
+                k = chunks if threads == most else 1 if threads == 1 else \
+                    max(chunks * threads // most, 2)
+                if _step.serial_suffices(self._n, k):  # (compiles no parallel code)
+                    return _step.advance_serial_rngs(
+                        discs, self._n, n_steps, dt, bounds, tables, cs.params, cs.flags,
+                        self._rngs, counters, self._steps, _step.REORDER_EVERY, self._work,
+                        lists)
+                with numba_threads(threads):
+                    return _step.advance_rngs(
+                        discs, self._n, n_steps, dt, bounds, tables, cs.params, cs.flags,
+                        self._rngs, counters, k, self._steps, _step.REORDER_EVERY,
+                        self._work, lists)
+
+            if _step.serial_suffices(self._n, chunks):
+                discs, n, self._work = run(most)
+            else:  # (the thread count measured call by call: discgym.threads)
+                sub0 = self._icnt[_step.IC_SUBSTEPS]
+                discs, n, self._work = self._chooser.timed(
+                    most, run, lambda: self._n * float(self._icnt[_step.IC_SUBSTEPS] - sub0))
         self._pos, self._vel, self._species, self._internal_energy, self._ids = discs[:5]
         self._n = n
         self._steps += n_steps

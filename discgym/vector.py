@@ -76,6 +76,7 @@ from .kernels.batch import (
     env_step_parallel,
 )
 from .kernels.structs import COUNT, FLOAT, INDEX, Episodes, Reactors
+from .threads import ThreadChooser, numba_threads
 
 __all__ = ["DiscReactorVectorEnv"]
 
@@ -102,7 +103,9 @@ class DiscReactorVectorEnv(VectorEnv):
     - ``autoreset_mode``: an ``AutoresetMode`` or its value ("NextStep", "SameStep",
       "Disabled");
     - ``threads``: None (numba's current setting) or whole, >= 1; more than numba's
-      ``NUMBA_NUM_THREADS`` uses all of them.
+      ``NUMBA_NUM_THREADS`` uses all of them. It is the most a step runs on: each step runs
+      on the count measured fastest (fewer when other processes hold cores:
+      :mod:`discgym.threads`; the same bits whatever the count).
 
     They may also come as one mapping, the only positional argument (RLlib's
     ``EnvContext``), alone or with keywords. Each is checked at construction (``TypeError``
@@ -183,6 +186,7 @@ class DiscReactorVectorEnv(VectorEnv):
         self._outflow = np.zeros((R, S), dtype=COUNT)
         self._walls = np.zeros((R, 4), dtype=FLOAT)
         self._cost = np.ones(R, dtype=FLOAT)  # the cost of each reactor's next step (estimate)
+        self._chooser = ThreadChooser()  # (speed only: the bits do not depend on it)
         self._order = np.zeros(R, dtype=np.int64)
         self._starts = np.zeros(numba.config.NUMBA_NUM_THREADS + 1, dtype=np.int64)
         self._fout = np.zeros((R, 2 + F), dtype=FLOAT)
@@ -448,19 +452,20 @@ class DiscReactorVectorEnv(VectorEnv):
         if len(idx) <= 1 or self.threads == 1:  # (a lone reactor runs on the calling thread)
             env_step(*args)
         else:
-            old = numba.get_num_threads()
-            want = old if self.threads is None else \
+            most = numba.get_num_threads() if self.threads is None else \
                 min(self.threads, numba.config.NUMBA_NUM_THREADS)
-            # one list of consecutive reactors per thread, of about equal cost (the last
-            # step's work of each reactor: disc-substeps + 4 x events)
-            balance(self._cost, active, want, self._order, self._starts[:want + 1])
-            if want != old:
-                numba.set_num_threads(want)
-            try:
-                env_step_parallel(*args, self._order, self._starts[:want + 1])
-            finally:
-                if want != old:
-                    numba.set_num_threads(old)
+
+            def run(want: int) -> None:
+                # one list of consecutive reactors per thread, of about equal cost (the last
+                # step's work of each reactor: disc-substeps + 4 x events)
+                balance(self._cost, active, want, self._order, self._starts[:want + 1])
+                with numba_threads(want):
+                    env_step_parallel(*args, self._order, self._starts[:want + 1])
+
+            # (the thread count measured call by call, the work by the same estimate:
+            # discgym.threads)
+            work = float(self._cost[active].sum())
+            self._chooser.timed(most, run, lambda: work)
         # the work of each reactor in this step, the estimate of its cost in the next
         cost = self._n * (self._icnt[:, _step.IC_SUBSTEPS] - sub0) + \
             4 * (self._icnt[:, _EVENTS].sum(axis=1) - ev0)

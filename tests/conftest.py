@@ -5,6 +5,16 @@ import numpy as np
 import pytest
 
 import discgym as dg
+from discgym import threads
+
+
+@pytest.fixture(autouse=True)
+def fixed_thread_count(monkeypatch):
+    """Every test runs its parallel calls on numba's threads, as it names them: the thread
+    chooser (discgym.threads) would measure this machine's load and may take another path
+    (the same bits, but not the path a test means to exercise or compile).
+    tests/test_threads.py switches it back on."""
+    monkeypatch.setenv(threads.ENV_VAR, "0")
 
 
 @pytest.fixture
