@@ -14,7 +14,8 @@ unit of work), starting on every thread, as numba would. Now and then it tries t
 smaller and the next larger count of 1, 2, 4, ... up to numba's current count: a try runs
 :data:`TRY_CALLS` calls on the other count, and the other count replaces the current one
 when the median of their costs is lower than the median of the current count's last calls
-by more than :data:`MARGIN`. Tries come after :data:`PROBE_MIN` calls, then twice as many
+by more than :data:`MARGIN`. The first try of fewer comes after :data:`PROBE_START` calls;
+later tries after :data:`PROBE_MIN` calls, then twice as many
 while they lose, up to :data:`PROBE_MAX`, and further apart where a try costs much more (the
 tries take at most :data:`OVERHEAD` of the time): a core taken by another process is
 noticed within :data:`PROBE_MAX` calls, a core freed within a few hundred. The first call
@@ -43,8 +44,8 @@ import numba
 
 from .kernels.helper import switched_off
 
-__all__ = ["ThreadChooser", "ENV_VAR", "BUSY_SHARE", "PROBE_MIN", "PROBE_MAX", "OVERHEAD",
-           "MARGIN", "TRY_CALLS", "SETTLE", "adaptive", "ladder", "numba_threads"]
+__all__ = ["ThreadChooser", "ENV_VAR", "BUSY_SHARE", "PROBE_START", "PROBE_MIN", "PROBE_MAX",
+           "OVERHEAD", "MARGIN", "TRY_CALLS", "SETTLE", "adaptive", "ladder", "numba_threads"]
 
 #: The environment variable that turns the chooser off (0, false, no, off).
 ENV_VAR = "DISCGYM_ADAPTIVE_THREADS"
@@ -56,6 +57,9 @@ BUSY_SHARE = 0.8
 #: PROBE_MAX; and at once at least as many as keep the tries' extra time under OVERHEAD of
 #: the whole (after a try of 3 calls that took five times as long: 1,200 calls).
 PROBE_MIN, PROBE_MAX, OVERHEAD = 4, 128, 0.01
+#: Calls on every thread before the first try of fewer: a short run (a benchmark's ten
+#: steps, an evaluation episode) pays nothing for tries on an idle machine.
+PROBE_START = 32
 #: A try measures TRY_CALLS calls on the other count; it replaces the current one when the
 #: median of their costs is lower by more than MARGIN than the median of the current
 #: count's last TRY_CALLS (a lucky call does not move it, nor a slow one keep it).
@@ -104,7 +108,7 @@ class ThreadChooser:
         self.try_calls = 0  # calls made in the try, measured or not
         # calls until a larger count is tried (up) and a smaller one (down), and the
         # intervals they are reset to, growing while the tries lose
-        self.wait = {+1: PROBE_MIN, -1: PROBE_MIN}
+        self.wait = {+1: PROBE_MIN, -1: PROBE_START}
         self.interval = {+1: PROBE_MIN, -1: PROBE_MIN}
         self.seen: dict[int, int] = {}  # calls made on each count
         self.ended: dict[int, float] = {}  # when the last call on each count ended

@@ -58,7 +58,7 @@ def test_the_ladder_of_counts():
 def test_idle_cores_keep_every_thread_trying_one_ever_more_rarely():
     c = T.ThreadChooser()
     picked = drive(c, 2, 2000, **IDLE)
-    assert c.threads == 2 and picked[:T.PROBE_MIN] == [2] * T.PROBE_MIN
+    assert c.threads == 2 and picked[:T.PROBE_START] == [2] * T.PROBE_START
     assert _tries(picked[-1000:], 1) <= 1000 // T.PROBE_MAX + 1
     assert c.interval[-1] >= T.PROBE_MAX
     assert _spent(picked[-1000:], IDLE["cost"]) < 1.0 + 1.5 * T.OVERHEAD  # (the start aside)
@@ -67,10 +67,10 @@ def test_idle_cores_keep_every_thread_trying_one_ever_more_rarely():
 def test_a_busy_core_moves_to_one_thread_and_tries_two_ever_more_rarely():
     c = T.ThreadChooser()
     picked = drive(c, 2, 2000, **BUSY)
-    # one thread tried after PROBE_MIN calls: its first call not measured (it may compile),
-    # nor the next while two threads spin on (10 ms calls), then TRY_CALLS decide
-    n = T.PROBE_MIN + 2 + T.TRY_CALLS
-    assert picked[:n] == [2] * T.PROBE_MIN + [1] * (n - T.PROBE_MIN)
+    # one thread tried after PROBE_START calls: its first call not measured (it may
+    # compile), nor the next while two threads spin on (10 ms calls), then TRY_CALLS decide
+    n = T.PROBE_START + 2 + T.TRY_CALLS
+    assert picked[:n] == [2] * T.PROBE_START + [1] * (n - T.PROBE_START)
     assert c.threads == 1 and picked[n:n + 20].count(2) <= 2 * T.TRY_CALLS
     assert _tries(picked[-1000:], 2) <= 1000 // T.PROBE_MAX + 1
     assert c.interval[+1] >= T.PROBE_MAX
