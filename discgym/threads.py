@@ -17,8 +17,9 @@ when the median of their costs is lower than the median of the current count's l
 by more than :data:`MARGIN`. The first try of fewer comes after :data:`PROBE_START` calls;
 later tries after :data:`PROBE_MIN` calls, then twice as many
 while they lose, up to :data:`PROBE_MAX`, and further apart where a try costs much more (the
-tries take at most :data:`OVERHEAD` of the time): a core taken by another process is
-noticed within :data:`PROBE_MAX` calls, a core freed within a few hundred. The first call
+tries take at most :data:`OVERHEAD` of the time); when the current count's calls get
+dearer than :data:`CHANGE` times their cost at the last try (a core taken by another
+process), both ways are tried at once. The first call
 on each count is not measured (it may compile or load code), nor a call within
 :data:`SETTLE` of one on more threads (whose idle threads spin on, taking cores), and a
 count whose first call would compile code (a Simulation's serial entry) is tried only after
@@ -45,7 +46,8 @@ import numba
 from .kernels.helper import switched_off
 
 __all__ = ["ThreadChooser", "ENV_VAR", "BUSY_SHARE", "PROBE_START", "PROBE_MIN", "PROBE_MAX",
-           "OVERHEAD", "MARGIN", "TRY_CALLS", "SETTLE", "adaptive", "ladder", "numba_threads"]
+           "OVERHEAD", "MARGIN", "CHANGE", "TRY_CALLS", "SETTLE", "adaptive", "ladder",
+           "numba_threads"]
 
 #: The environment variable that turns the chooser off (0, false, no, off).
 ENV_VAR = "DISCGYM_ADAPTIVE_THREADS"
@@ -64,6 +66,9 @@ PROBE_START = 32
 #: median of their costs is lower by more than MARGIN than the median of the current
 #: count's last TRY_CALLS (a lucky call does not move it, nor a slow one keep it).
 MARGIN, TRY_CALLS = 0.05, 3
+#: When the current count's last TRY_CALLS calls cost more than CHANGE times what it cost
+#: at the last try (the load changed: a core got taken), both ways are tried at once.
+CHANGE = 1.3
 #: Seconds after a call on more threads in which a call is not measured: numba's idle
 #: threads spin on for a while (libgomp's spin count; about 8 ms on this VM), taking cores.
 SETTLE = 0.02
@@ -113,6 +118,7 @@ class ThreadChooser:
         self.seen: dict[int, int] = {}  # calls made on each count
         self.ended: dict[int, float] = {}  # when the last call on each count ended
         self.busy = 0  # the last calls in a row whose threads got less than BUSY_SHARE
+        self.baseline: float | None = None  # the current count's cost at the last try
 
     @property
     def threads(self) -> int:
@@ -164,6 +170,12 @@ class ThreadChooser:
         c = seconds / work
         if self.trying is None:
             self.recent = (self.recent + [c])[-TRY_CALLS:]
+            if self.baseline is not None and len(self.recent) == TRY_CALLS and \
+                    _median(self.recent) > CHANGE * self.baseline:
+                # (the load changed since the last try: both ways are tried again now)
+                self.interval = {+1: PROBE_MIN, -1: PROBE_MIN}
+                self.wait = {+1: 0, -1: 0}
+                self.baseline = None
             return
         self.tried.append(c)
         if len(self.tried) < TRY_CALLS:
@@ -173,6 +185,7 @@ class ThreadChooser:
         way = +1 if k > self.current else -1
         mine = _median(self.recent) if self.recent else math.inf
         theirs = _median(self.tried)
+        self.baseline = min(theirs, mine)
         if theirs < (1.0 - MARGIN) * mine:
             self.current = k
             self.recent = self.tried

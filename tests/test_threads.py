@@ -77,6 +77,16 @@ def test_a_busy_core_moves_to_one_thread_and_tries_two_ever_more_rarely():
     assert _spent(picked[-1000:], BUSY["cost"]) < 1.0 + 1.5 * T.OVERHEAD
 
 
+def test_a_core_taken_after_a_lost_try_is_noticed_at_once():
+    # a fresh process: its first calls on two threads get both cores (the other process
+    # waits), so the first try of one thread loses; then the core is taken
+    c = T.ThreadChooser()
+    drive(c, 2, T.PROBE_START + 20, **IDLE)
+    assert c.threads == 2 and c.wait[-1] > 20
+    picked = drive(c, 2, 20, **BUSY)
+    assert c.threads == 1 and picked[-5:] == [1] * 5
+
+
 def test_freed_cores_bring_every_thread_back():
     c = T.ThreadChooser()
     drive(c, 2, 1000, **BUSY)
