@@ -20,6 +20,7 @@ from __future__ import annotations
 import argparse
 import hashlib
 import json
+import os
 import platform
 import sys
 from pathlib import Path
@@ -125,6 +126,41 @@ def control_runs(integrators=("step", "event"), seeds=SEEDS):
     return out
 
 
+def large_runs(seed=7):
+    """{name: fingerprint} of runs above 10^5 discs, where the stepped integrator takes its
+    other paths: the event phase by clusters on the calling thread (above the pair list's
+    range), and on two threads with the parallel drift and scan (clusters in chunks,
+    escapes, repairs and merges at packing 0.5; the TC model at e < 1; first-order reactions
+    and fissions between event phases); and the pair list of a long call on one thread."""
+    from discgym.bench import bench_scene
+    from discgym.kernels import step as S
+    from discgym.threads import ENV_VAR as threads_env
+
+    B = dg.Species("B", 1.0, 1.0)
+    C = dg.Species("C", 1.0, 2.0)
+    n = S.PAIR_MAX_DISCS + 3000
+    cases = {
+        "clusters1/e1": (bench_scene(n, eta=0.5), 1, 3),
+        "threads2/e1": (bench_scene(n, eta=0.5), 2, 3),
+        "threads2/e0.7": (bench_scene(n, eta=0.5, restitution=0.7), 2, 3),
+        "threads2/e0": (bench_scene(n, eta=0.3, restitution=0.0), 2, 3),
+        "threads2/reactions": (bench_scene(n - 4000, extra_species=[B, C],
+                                           extra_counts={"C": 4000}, reactions=[
+            dg.Transformation("A", "B", 0.05), dg.Transformation("B", "A", 0.05),
+            dg.Decomposition("C", "A", "A", 0.5)]), 2, 3),
+        "pairlist1/e0.9": (bench_scene(100_000, eta=0.4, restitution=0.9), 1,
+                           S.PAIR_MIN_STEPS),
+    }
+    os.environ[threads_env] = "0"  # (the threads asked for, not the ones measured fastest)
+    out = {}
+    for name, (scene, threads, steps) in cases.items():
+        sim = dg.Simulation(scene, seed=seed)
+        sim.threads = threads
+        sim.step(steps)
+        out[f"large/{name}"] = simulation_fingerprint(sim)
+    return out
+
+
 def _episode(env, policy, seed: int) -> tuple[str, str]:
     """The fingerprints of an episode's trajectory (observations, rewards, flags) and of its
     infos, apart: a change of the info format leaves the trajectory's untouched."""
@@ -217,7 +253,7 @@ def _cpu_model() -> str:
 
 
 def all_fingerprints() -> dict:
-    return {**scene_runs(), **control_runs(), **env_runs()}
+    return {**scene_runs(), **control_runs(), **env_runs(), **large_runs()}
 
 
 def main(argv=None) -> int:

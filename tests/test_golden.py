@@ -28,7 +28,8 @@ def _platform_or_skip():
 def _runs(group):
     if group in ("env", "envinfo"):  # (one set of episodes gives both)
         return _env_runs()
-    return {"scene": golden.scene_runs, "controls": golden.control_runs}[group]()
+    return {"scene": golden.scene_runs, "controls": golden.control_runs,
+            "large": golden.large_runs}[group]()
 
 
 @functools.cache
@@ -37,7 +38,7 @@ def _env_runs():
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("group", ["scene", "controls", "env", "envinfo"])
+@pytest.mark.parametrize("group", ["scene", "controls", "env", "envinfo", "large"])
 def test_trajectories_match_the_recorded_fingerprints(group):
     _platform_or_skip()
     runs = _runs(group)
