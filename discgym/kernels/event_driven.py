@@ -109,8 +109,8 @@ from .event_structs import (
 from .heap import IndexedHeap, heap_set
 from .jit import kernel
 from .reactions import (
-    _SEP,
     COMBINATION,
+    SEP,
     TRANSFORMATION,
     Contact,
     apply_combination,
@@ -129,31 +129,29 @@ from .reactions import (
     kind,
     released_energy,
 )
+from .rules import book_outflow, book_thermal, tc_restitution
 from .step import (
-    EVENTS_PER_DISC,
-    FS_DISSIPATED,
-    FS_OUTFLOW,
-    FS_WALL_HEAT,
-    FS_WALL_MOMENTUM,
-    IC_COLLISIONS,
-    IC_EVENTS_CAPPED,
-    IC_NO_ROOM,
-    IC_REACTIVE,
-    IC_TC_ELASTIC,
-    IC_WALL_HITS,
     MAX_SUBSTEPS,
-    _compact,
     advance,
+    compact,
     empty_work,
 )
 from .structs import (
     COUNT,
+    EVENTS_PER_DISC,
     F_BI,
     F_COLLISIONS,
     F_OUTLETS,
     F_THERMAL,
     F_UNI,
     FLOAT,
+    FS_DISSIPATED,
+    FS_WALL_MOMENTUM,
+    IC_COLLISIONS,
+    IC_EVENTS_CAPPED,
+    IC_NO_ROOM,
+    IC_REACTIVE,
+    IC_WALL_HITS,
     INDEX,
     P_MAXDISP,
     P_RELAX,
@@ -542,10 +540,8 @@ def _bounce(i, j, t, k, fl, run, tables, rng, counters):
     relaxation of internal energy)."""
     W = fl.path
     u = fl.internal_energy
-    e = run.e_rest
-    if e < 1.0 and (t - fl.t_collision[i] < run.tc or t - fl.t_collision[j] < run.tc):
-        e = 1.0
-        counters.icnt[IC_TC_ELASTIC] += 1
+    e = tc_restitution(run.e_rest, t - fl.t_collision[i] < run.tc or
+                       t - fl.t_collision[j] < run.tc, counters.icnt)
     ui0 = u[i]
     uj0 = u[j]
     vxi, vyi, vxj, vyj, ui, uj, lost = bounce(k.vxi, k.vyi, k.vxj, k.vyj, W[i, PM], W[j, PM],
@@ -629,11 +625,8 @@ def _leaves(d, fl, queue, run, tables, counters):
                          W[d, PVY], run.bounds_kind, run.bounds_params)
     if not on_outlet(side, frac, tables.outlets):
         return False
-    s = fl.species[d]
-    counters.fsum[FS_OUTFLOW] += 0.5 * W[d, PM] * (W[d, PVX] * W[d, PVX] +
-                                                   W[d, PVY] * W[d, PVY]) + \
-        fl.internal_energy[d] + tables.sp_form[s]
-    counters.outflow[s] += 1
+    book_outflow(fl.species[d], W[d, PM], W[d, PVX], W[d, PVY], fl.internal_energy[d],
+                 tables.sp_form, counters.fsum, counters.outflow)
     fl.species[d] = -1
     return True
 
@@ -667,9 +660,7 @@ def _wall_hit(d, fl, queue, run, counters, rng):
                     vn_out = (vx * nx + vy * ny) / nr
             W[d, PVX] = vx
             W[d, PVY] = vy
-            counters.fsum[FS_WALL_MOMENTUM] += m * (vn_in + vn_out)
-            counters.fsum[FS_WALL_HEAT + side] += 0.5 * m * ((vx * vx + vy * vy)
-                                                             - (vx0 * vx0 + vy0 * vy0))
+            book_thermal(side, m, vx0, vy0, vx, vy, vn_in, vn_out, counters.fsum)
             counters.icnt[IC_WALL_HITS] += 1
             fl.stamp[d] += 1
             return
@@ -707,7 +698,7 @@ def _fission(d, c, n, t, fl, cells, state, run, tables, rng):
     Vx = W[d, PVX]
     Vy = W[d, PVY]
     nx, ny = fission_direction(Vx, Vy, rng)
-    sep = (r1 + r2) * _SEP
+    sep = (r1 + r2) * SEP
     for _attempt in range(2):
         qb, qc = fission_outcome(X, Y, Vx, Vy, E, m1, m2, sep, nx, ny)
         if _room(qb.x, qb.y, r1, d, d, t, fl, cells, run) and \
@@ -1102,7 +1093,7 @@ def run_exact(state, n, n_steps, dt, bounds, tables, params, flags, rng, counter
     never runs it)."""
     state, n, t = _simulate(state, n, n_steps, dt, bounds, tables, params, flags, rng,
                             counters, cells_per_disc)
-    n = _compact(n, state.pos, state.vel, state.species, state.internal_energy, state.ids)
+    n = compact(n, state.pos, state.vel, state.species, state.internal_energy, state.ids)
     return state, n, n_steps * dt - t
 
 

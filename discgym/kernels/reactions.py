@@ -33,7 +33,7 @@ from .walls import inside
 
 TRANSFORMATION, DECOMPOSITION, COMBINATION, EXCHANGE, REVERSE = 0, 1, 2, 3, 4
 FIRED, NO_ENERGY, NO_ROOM = 1, 0, -1  # outcomes of a reactive collision
-_SEP = 1.0 + 1e-9  # products are placed this fraction farther apart than touching
+SEP = 1.0 + 1e-9  # products are placed this fraction farther apart than touching
 
 
 class Contact(NamedTuple):
@@ -236,7 +236,7 @@ def exchange_outcome(k, A, B, C, D, ui, uj, t):
     vCy = Vy + mD / Mp * s * uy
     vDx = Vx - mC / Mp * s * ux
     vDy = Vy - mC / Mp * s * uy
-    d = (rC + rD) * _SEP
+    d = (rC + rD) * SEP
     cx = (mi * k.xi + mj * k.xj) / M
     cy = (mi * k.yi + mj * k.yj) / M
     XC = cx - mD / Mp * d * nx - t * vCx
@@ -455,7 +455,7 @@ def fission(i, c, n, collide, tables, pos, vel, species, internal_energy, bounds
     Vx = vel[i, 0]
     Vy = vel[i, 1]
     nx, ny = fission_direction(Vx, Vy, rng)
-    d = (sp_radius[b] + sp_radius[cc]) * _SEP
+    d = (sp_radius[b] + sp_radius[cc]) * SEP
     X = pos[i, 0]
     Y = pos[i, 1]
     ii = np.int64(i)  # (the signature of room's other callers: one version compiled)

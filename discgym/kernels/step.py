@@ -516,7 +516,7 @@ def _pl_broad(n, pos, species, sp_radius, grid, sc, pl, full, big):
 
 @kernel
 def _pl_compact(n, species, pl, newidx):
-    """Follow :func:`_compact` (to be called before it, on the same discs): drop the pairs
+    """Follow :func:`compact` (to be called before it, on the same discs): drop the pairs
     of the removed discs (species < 0) and renumber the others. ``newidx``: (n,) scratch."""
     ref, listed, pi, pj = pl.ref, pl.listed, pl.pi, pl.pj
     m = 0
@@ -1096,7 +1096,7 @@ def _first_order(n, h, tables, discs, fission_possible, bounds, grid, sc, delta,
 
 # -------------------------------------------------------------------------- phase 5: removal
 @kernel
-def _compact(n, pos, vel, species, internal_energy, ids):
+def compact(n, pos, vel, species, internal_energy, ids):
     """Remove discs with species < 0, keeping the order of the others; returns the new n."""
     m = 0
     for i in range(n):
@@ -1489,7 +1489,7 @@ def advance(discs, n, n_steps, dt, bounds, tables, params, flags, rng, cnt, thre
                 if lists is not None:
                     if listed:
                         _pl_compact(n, species, pl, pl.todo)
-                n = _compact(n, pos, vel, species, internal_energy, ids)
+                n = compact(n, pos, vel, species, internal_energy, ids)
             sub += 1
             # Energy released in this substep may have made a disc faster than the remaining
             # substeps allow (they were sized by the speeds at the start of the step): the
