@@ -151,18 +151,20 @@ def cell_range(x, y, reach, grid):
 
 
 @kernel
-def overlaps_any(x, y, r, t, ex1, ex2, pos, vel, species, sp_radius, grid, cell_start, cell_items,
-                 nbin, n, reach):
+def overlaps_any(x, y, r, t, ex1, ex2, discs, sp_radius, search):
     """Does a disc of radius r at (x, y) at time t (<= 0, relative to the end of the substep)
-    overlap any live disc other than ex1 and ex2, each taken at ``pos + t * vel`` on its
-    current straight trajectory (exact for a time no earlier than every disc's latest event,
-    as holds for an event being processed in time order)?
+    overlap any live disc of ``discs`` other than ex1 and ex2, each taken at ``pos + t * vel``
+    on its current straight trajectory (exact for a time no earlier than every disc's latest
+    event, as holds for an event being processed in time order)?
 
-    Discs [0, nbin) are in the grid, binned at positions at most ``reach - rcell`` away from
-    where they are at time t (the big discs, in the big cell, are all checked); discs
-    [nbin, n) were created since and are checked one by one. Touching is not overlapping.
+    ``search`` (a :class:`~.structs.Search`): discs [0, nbin) are in its grid, binned at
+    positions at most ``reach - rcell`` away from where they are at time t (the big discs, in
+    the big cell, are all checked); discs [nbin, n) were created since and are checked one
+    by one. Touching is not overlapping.
     """
-    cx0, cx1, cy0, cy1 = cell_range(x, y, r + reach, grid)
+    pos, vel, species = discs.pos, discs.vel, discs.species
+    grid, cell_start, cell_items = search.grid, search.cell_start, search.cell_items
+    cx0, cx1, cy0, cy1 = cell_range(x, y, r + search.reach, grid)
     ncx = int(grid[4])
     for cy in range(cy0, cy1 + 1):
         for a in range(cell_start[cx0 + ncx * cy], cell_start[cx1 + 1 + ncx * cy]):
@@ -173,7 +175,7 @@ def overlaps_any(x, y, r, t, ex1, ex2, pos, vel, species, sp_radius, grid, cell_
     for a in range(cell_start[nb], cell_start[nb + 1]):
         if _hits(x, y, r, t, cell_items[a], ex1, ex2, pos, vel, species, sp_radius):
             return True
-    for k in range(nbin, n):
+    for k in range(search.nbin, search.n):
         if _hits(x, y, r, t, k, ex1, ex2, pos, vel, species, sp_radius):
             return True
     return False

@@ -37,43 +37,66 @@ event phase by clusters").
 """
 
 import math
+from typing import NamedTuple
 
 import numpy as np
 from numba import njit, prange
 
-from .celllist import cell_range
-from .collisions import bounce, normal_at
-from .contacts import add_event, push_contacts, queue_scan, schedule_start
-from .heap import new_heap, pop, push, reserve
-from .jit import kernel
-from .structs import (
-    DISC_EVENTS,
-    EVENTS_PER_DISC,
-    FLOAT,
-    FS_DISSIPATED,
-    FS_WALL_MOMENTUM,
-    IC_COLLISIONS,
-    IC_LEFT_OVERLAPPING,
-    IC_PUSHED_INSIDE,
-    IC_TC_ELASTIC,
-    IC_WALL_HITS,
-    N_ICOUNTERS,
-    VR_ROUNDOFF,
+from .claims import (
+    CLAIM,
+    OWN_LIMIT,
+    OWN_SHIFT,
+    R_FULL,
+    R_OK,
+    R_SERIAL,
+    blocks,
+    claim,
+    find,
+    new_owner,
 )
-from .walls import contact, reflect, settle_after_reflection
+from .contacts import add_event, queue_scan
+from .events import run_events, run_events_inline
+from .heap import new_heap, push, reserve
+from .jit import kernel
+from .structs import FLOAT, IC_PUSHED_INSIDE, N_ICOUNTERS, Counters, Phase
 
-CLAIM = 2  # cells a cluster claims around each disc of its initial events (each side)
-# Cells are claimed in blocks of 2^OWN_SHIFT x 2^OWN_SHIFT (one owner entry each): a claim
-# touches 2-3 cache lines instead of 5-6 rows of the finer array, which at 10^5 discs and
-# more is out of the L2 cache (docs/performance.md, "The event phase by clusters")
-OWN_SHIFT = 1
-OWN_LIMIT = 2**31 - 1  # (owner entries are int32)
+__all__ = ["ClusterRun", "eligible", "events", "new_owner"]
+
 REC_SLACK = 1024  # records and log rows a chunk has room for beyond its events (more: repair)
 
-# a run's outcome
-R_OK, R_ESCAPE, R_CONFLICT, R_FULL, R_SERIAL = range(5)
 # a cluster's status
 C_PENDING, C_DONE, C_ESCAPED, C_MERGED = range(4)
+
+
+class Groups(NamedTuple):
+    """A substep's clusters (:func:`events`): their initial events and what their runs
+    left."""
+
+    E: np.ndarray  #: (m, 5) FLOAT the initial events (t, i, j, stamp i, stamp j)
+    ev_start: np.ndarray  #: cluster c's events are evs[ev_start[c]:ev_start[c + 1]] (rows of E)
+    evs: np.ndarray
+    ecl: np.ndarray  #: event q's cluster
+    own: np.ndarray  #: the owner blocks (kernels.claims)
+    base: int  #: this substep's base in ``own``
+    status: np.ndarray  #: (ncl,) C_PENDING, C_DONE, C_ESCAPED or C_MERGED
+    res: np.ndarray  #: (ncl, 7) int64 what a cluster's run did (X_* columns)
+    resf: np.ndarray  #: (ncl, 2) FLOAT its largest displacement and speed
+    cicnt: np.ndarray  #: (ncl, N_ICOUNTERS) its integer counts
+
+
+class ClusterRun(NamedTuple):
+    """One cluster's run of the event loop (``events.run_events``'s ``cl``)."""
+
+    cid: int  #: the cluster
+    dynamic: bool  #: claims free cells as it goes (the repair), else confined to its own
+    own: np.ndarray  #: the owner blocks
+    base: int
+    ecl: np.ndarray  #: event q's cluster
+    rep: int  #: the event free blocks are claimed for
+    cparent: np.ndarray  #: the merged clusters (union-find; the repair's)
+    lg: np.ndarray  #: (rows, 5) FLOAT the log: disc, velocity, stamp, lastcol
+    rec: np.ndarray  #: (rows, 5) FLOAT the float terms: t, i, j, which sum, value
+    fill: np.ndarray  #: (2,) int64 rows of ``lg`` and ``rec`` used
 
 
 @kernel
@@ -82,31 +105,6 @@ def eligible(rc, bounds_kind):
     (The big discs are checked per substep.)"""
     return (rc.collide and not rc.has_bi and not rc.thermal and not rc.outlets
             and bounds_kind == 0)
-
-
-@njit(cache=True, inline="always")
-def _blocks(grid):
-    """The owner blocks' grid: (columns, rows)."""
-    m = (1 << OWN_SHIFT) - 1
-    return (int(grid[4]) + m) >> OWN_SHIFT, (int(grid[5]) + m) >> OWN_SHIFT
-
-
-@kernel
-def new_owner(grid):
-    """The owner of each block of cells for a call's substeps (:func:`events`): -1, none
-    yet; the last entry is the base of the next substep's entries (0)."""
-    nbx, nby = _blocks(grid)
-    own = np.full(nbx * nby + 1, -1, dtype=np.int32)
-    own[-1] = 0
-    return own
-
-
-@njit(cache=True, inline="always")
-def _find(parent, a):
-    while parent[a] != a:
-        parent[a] = parent[parent[a]]
-        a = parent[a]
-    return a
 
 
 @njit(cache=True, inline="always")
@@ -147,9 +145,9 @@ def _count(k, nst, sc, grid, qcnt):
 
 
 @kernel
-def _fill(k, nst, E, off, sp_radius, pos, vel, species, sc, grid, qcnt):
+def _fill(k, nst, E, off, discs, sp_radius, sc, grid, qcnt):
     """Append strip k's initial events (those :func:`_count` counted that occur) to E from
-    row ``off``, as ``step._queue_initial`` queues them; returns how many."""
+    row ``off``, as ``events.queue_initial`` queues them; returns how many."""
     ncx = int(grid[4])
     r0, r1 = _rows(k, nst, int(grid[5]))
     cell_of, wall_t, stamp, wl = sc.cell_of, sc.wall_t, sc.stamp, sc.wl
@@ -158,21 +156,9 @@ def _fill(k, nst, E, off, sp_radius, pos, vel, species, sc, grid, qcnt):
         i = wl[p]
         if wall_t[i] < math.inf and r0 <= cell_of[i] // ncx < r1:
             size = add_event(E, size, False, wall_t[i], i, -1, stamp[i], 0)
-    size = queue_scan(sc.cell_start[r0 * ncx], sc.cell_start[r1 * ncx], sp_radius, pos, vel,
-                      species, sc, grid, E, size, qcnt[k], np.bool_(False))
+    size = queue_scan(sc.cell_start[r0 * ncx], sc.cell_start[r1 * ncx], discs, sp_radius, sc,
+                      grid, E, size, qcnt[k], np.bool_(False))
     return size - off
-
-
-@njit(cache=True, inline="always")
-def _claim(own, cc, q, base, parent):
-    """Event q claims owner block cc (``own``: ``base`` + the event of a block claimed in
-    this substep; anything below ``base``: free): a free block becomes its, a block of
-    another event joins the two in ``parent``."""
-    o = own[cc] - base
-    if o < 0:
-        own[cc] = base + q
-    elif o != q:
-        _union(parent, q, o)
 
 
 @kernel
@@ -183,7 +169,7 @@ def _claims(k, nst, q0, q1, E, cell_of, grid, own, base, parent, bnd, b0):
     pass after. Returns how many were noted."""
     ncx = int(grid[4])
     ncy = int(grid[5])
-    nbx = _blocks(grid)[0]
+    nbx = blocks(grid)[0]
     r0, r1 = _rows(k, nst, ncy)
     nb = b0
     for q in range(q0, q1):
@@ -205,7 +191,7 @@ def _claims(k, nst, q0, q1, E, cell_of, grid, own, base, parent, bnd, b0):
             for bx in range(bx0, bx1 + 1):
                 cc = bx + nbx * by
                 if inside:
-                    _claim(own, cc, q, base, parent)
+                    claim(own, cc, q, base, parent)
                 else:
                     bnd[nb, 0] = q
                     bnd[nb, 1] = cc
@@ -213,20 +199,12 @@ def _claims(k, nst, q0, q1, E, cell_of, grid, own, base, parent, bnd, b0):
     return nb - b0
 
 
-@njit(cache=True, inline="always")
-def _union(parent, a, b):
-    a = _find(parent, a)
-    b = _find(parent, b)
-    if a < b:
-        parent[b] = a
-    elif b < a:
-        parent[a] = b
-
-
 @kernel(parallel=True)
-def _queue_parallel(nst, E, off, sp_radius, pos, vel, species, sc, grid, qcnt, got):
+def _queue_parallel(nst, E, off, discs, sp_radius, sc, grid, qcnt, got):
+    # (a parallel kernel takes structs of arrays, not a Phase: numba's parfors do not unpack
+    # structs of structs)
     for k in prange(nst):
-        got[k] = _fill(k, nst, E, off[k], sp_radius, pos, vel, species, sc, grid, qcnt)
+        got[k] = _fill(k, nst, E, off[k], discs, sp_radius, sc, grid, qcnt)
 
 
 @kernel(parallel=True)
@@ -243,12 +221,13 @@ def _claims_parallel(nst, qs, E, cell_of, grid, own, base, parent, bnd, boff, nb
 
 
 @kernel
-def _queue(sp_radius, pos, vel, species, sc, grid, icnt, nst):
-    """The substep's initial events (``step._queue_initial``'s, in another order), found
+def _queue(ph, icnt, nst):
+    """The substep's initial events (``events.queue_initial``'s, in another order), found
     by nst strips of cell rows on numba's threads (one: on the calling thread) from the
     drift's and the scan's lists. Returns ``(E,
     qs)``: the events of strip k are E[qs[k]:qs[k + 1]] (those of its sorted discs: one disc
     of each in its rows, the other in them or in the row below)."""
+    sc, grid = ph.sc, ph.grid
     qcnt = np.zeros((nst, N_ICOUNTERS), dtype=np.int64)
     need = np.empty(nst, dtype=np.int64)
     if nst > 1:
@@ -261,9 +240,9 @@ def _queue(sp_radius, pos, vel, species, sc, grid, icnt, nst):
     E0 = np.empty((off[nst], 5), dtype=FLOAT)
     got = np.empty(nst, dtype=np.int64)
     if nst > 1:
-        _queue_parallel(nst, E0, off, sp_radius, pos, vel, species, sc, grid, qcnt, got)
+        _queue_parallel(nst, E0, off, ph.discs, ph.tables.sp_radius, sc, grid, qcnt, got)
     else:
-        got[0] = _fill(0, 1, E0, 0, sp_radius, pos, vel, species, sc, grid, qcnt)
+        got[0] = _fill(0, 1, E0, 0, ph.discs, ph.tables.sp_radius, sc, grid, qcnt)
     for k in range(nst):
         for q in range(N_ICOUNTERS):
             icnt[q] += qcnt[k, q]
@@ -308,11 +287,11 @@ def _cluster(E, qs, nst, cell_of, grid, own, base):
         nbs[0] = _claims(0, 1, qs[0], qs[1], E, cell_of, grid, own, base, parent, bnd, 0)
     for k in range(nst):  # the claims across the strips' borders
         for a in range(boff[k], boff[k] + nbs[k]):
-            _claim(own, bnd[a, 1], bnd[a, 0], base, parent)
+            claim(own, bnd[a, 1], bnd[a, 0], base, parent)
     # number the clusters by the cell of their root event's first disc (memory order)
     ncl = 0
     for q in range(size):
-        parent[q] = _find(parent, q)
+        parent[q] = find(parent, q)
         if parent[q] == q:
             ncl += 1
     roots = np.empty(ncl, dtype=np.int64)
@@ -359,184 +338,6 @@ def _undo(lg, lo, hi, h, pos, vel, sc):
 
 
 @njit(cache=True, inline="always")
-def _schedule(d, cid, dynamic, pos, vel, species, sp_radius, tlast, stamp, cell_start,
-              cell_items, bounds_kind, bounds_params, grid, reach, own, base, ecl, rep, cparent,
-              H, size, cicnt, crow):
-    """``step._schedule`` for a cluster: first checks that every cell it searches is the
-    cluster's (``own``: an event of the cluster of the cell's owner block, ``ecl``: the
-    cluster of an event; ``dynamic``: a free block is claimed for the cluster's event
-    ``rep``, a block of another cluster found by ``cparent``). Returns ``(code, other, H,
-    size)``: code R_ESCAPE (a cell not its own, not ``dynamic``), R_CONFLICT (``other``:
-    the cluster owning it) or R_OK."""
-    r, x, y, vx, vy, td, t, pushed = schedule_start(d, pos, vel, species, sp_radius, tlast,
-                                                    bounds_kind, bounds_params)
-    if pushed:
-        cicnt[crow, IC_PUSHED_INSIDE] += 1
-    ncx = int(grid[4])
-    nbx = _blocks(grid)[0]
-    cx0, cx1, cy0, cy1 = cell_range(x, y, r + reach, grid)
-    for by in range(cy0 >> OWN_SHIFT, (cy1 >> OWN_SHIFT) + 1):
-        for bx in range(cx0 >> OWN_SHIFT, (cx1 >> OWN_SHIFT) + 1):
-            c = bx + nbx * by
-            o = own[c] - base
-            if o >= 0 and ecl[o] == cid:
-                continue
-            if not dynamic:
-                return R_ESCAPE, -1, H, size
-            if o < 0:
-                own[c] = base + rep
-            else:
-                g = _find(cparent, ecl[o])
-                if g != cid:
-                    return R_CONFLICT, g, H, size
-    need = 1
-    for cy in range(cy0, cy1 + 1):
-        need += cell_start[cx1 + 1 + ncx * cy] - cell_start[cx0 + ncx * cy]
-    H = reserve(H, size, need)
-    if t < math.inf:
-        size = push(H, size, max(t, td), d, -1, stamp[d], 0)
-    size, left = push_contacts(d, x, y, vx, vy, r, td, cx0, cx1, cy0, cy1, ncx, pos, vel,
-                               species, sp_radius, tlast, stamp, cell_start, cell_items, H, size)
-    cicnt[crow, IC_LEFT_OVERLAPPING] += left
-    return R_OK, -1, H, size
-
-
-def _run_py(cid, dynamic, H, size, discs, tables, sc, bounds_kind, bounds_params, grid, rc,
-            sub_id, own, base, ecl, rep, cparent, lg, nlog, cicnt, crow, rec, nrec, budget):
-    """Process one cluster's heap ``H[0:size]`` in time order, as ``step._events`` does for
-    the scenes of :func:`eligible`. Before its first event each disc is logged in ``lg``
-    (rows from ``nlog``: disc, velocity, stamp, lastcol; what :func:`_undo` needs). Float
-    terms go to ``rec`` rows (t, i, j, which sum, value) from ``nrec``; counts to
-    ``cicnt[crow]``. Returns ``(code, other, H, nrec, nlog, events, delta, vfast,
-    dropped)`` (``code``: R_OK, or why it stopped: see :func:`_schedule`; R_FULL: no room
-    left in ``rec`` or ``lg``;
-    R_SERIAL past ``budget`` events or at a release of internal energy, which the serial
-    phase must handle). Compiled twice: inlined into the loop over a chunk's clusters
-    (:func:`_chunk`: a call per cluster would reference-count its dozens of arrays) and as a
-    function for the repair."""
-    pos, vel, species, internal_energy = discs.pos, discs.vel, discs.species, discs.internal_energy
-    sp_radius, sp_mass = tables.sp_radius, tables.sp_mass
-    tlast, stamp, lastcol, partner, nev = sc.tlast, sc.stamp, sc.lastcol, sc.partner, sc.nev
-    binx, biny, cell_start, cell_items = sc.binx, sc.biny, sc.cell_start, sc.cell_items
-    e = rc.restitution
-    kappa = rc.relax
-    rcell = rc.rcell
-    delta = 0.0
-    vfast = 0.0
-    events = 0
-    dropped = False
-    while size > 0:
-        t, i, j, si, sj, size = pop(H, size)
-        if stamp[i] != si or (j >= 0 and stamp[j] != sj):
-            continue
-        if nev[i] >= DISC_EVENTS or (j >= 0 and nev[j] >= DISC_EVENTS):
-            dropped = True
-            continue
-        events += 1
-        if events > budget:
-            return R_SERIAL, -1, H, nrec, nlog, events, delta, vfast, dropped
-        for w in range(1 if j < 0 else 2):  # log the discs of their first event
-            d = i if w == 0 else j
-            if nev[d] == 0:
-                if nlog >= lg.shape[0]:
-                    return R_FULL, -1, H, nrec, nlog, events, delta, vfast, dropped
-                lg[nlog, 0] = d
-                lg[nlog, 1] = vel[d, 0]
-                lg[nlog, 2] = vel[d, 1]
-                lg[nlog, 3] = stamp[d]
-                lg[nlog, 4] = lastcol[d]
-                nlog += 1
-            nev[d] += 1
-        if j < 0:
-            r = sp_radius[species[i]]
-            tw, axis, inward = contact(pos[i, 0], pos[i, 1], vel[i, 0], vel[i, 1], r,
-                                       bounds_kind, bounds_params)
-            if tw == math.inf:
-                continue
-            if nrec >= rec.shape[0]:
-                return R_FULL, -1, H, nrec, nlog, events, delta, vfast, dropped
-            tw = max(tw, tlast[i])
-            dp = reflect(i, tw, axis, pos, vel, sp_mass[species[i]], bounds_kind, bounds_params)
-            rec[nrec, 0] = t
-            rec[nrec, 1] = i
-            rec[nrec, 2] = -1
-            rec[nrec, 3] = FS_WALL_MOMENTUM
-            rec[nrec, 4] = dp
-            nrec += 1
-            cicnt[crow, IC_WALL_HITS] += 1
-            partner[i] = -1
-            tlast[i] = tw
-            if settle_after_reflection(i, axis, pos, r, bounds_kind, bounds_params):
-                cicnt[crow, IC_PUSHED_INSIDE] += 1
-            stamp[i] += 1
-            delta = max(delta, math.hypot(pos[i, 0] - binx[i], pos[i, 1] - biny[i]))
-        else:
-            vxi = vel[i, 0]
-            vyi = vel[i, 1]
-            vxj = vel[j, 0]
-            vyj = vel[j, 1]
-            xi, yi, xj, yj, nx, ny = normal_at(pos[i, 0], pos[i, 1], vxi, vyi, pos[j, 0],
-                                               pos[j, 1], vxj, vyj, t)
-            vr = (vxi - vxj) * nx + (vyi - vyj) * ny
-            if vr <= VR_ROUNDOFF * (abs(vxi) + abs(vyi) + abs(vxj) + abs(vyj)):
-                continue
-            if partner[i] == j and partner[j] == i:
-                continue
-            if kappa > 0.0 and internal_energy[i] + internal_energy[j] > 0.0:
-                # a release of internal energy may cut the substep short at its time: serial
-                return R_SERIAL, -1, H, nrec, nlog, events, delta, vfast, dropped
-            e_eff = e
-            if e < 1.0:
-                if lastcol[i] == sub_id or lastcol[j] == sub_id:
-                    e_eff = 1.0
-                    cicnt[crow, IC_TC_ELASTIC] += 1
-                lastcol[i] = sub_id
-                lastcol[j] = sub_id
-            vxi, vyi, vxj, vyj, ui, uj, lost = bounce(vxi, vyi, vxj, vyj, sp_mass[species[i]],
-                                                      sp_mass[species[j]], nx, ny, e_eff, kappa,
-                                                      internal_energy[i], internal_energy[j])
-            if e < 1.0:
-                if nrec >= rec.shape[0]:
-                    return R_FULL, -1, H, nrec, nlog, events, delta, vfast, dropped
-                rec[nrec, 0] = t
-                rec[nrec, 1] = i
-                rec[nrec, 2] = j
-                rec[nrec, 3] = FS_DISSIPATED
-                rec[nrec, 4] = lost
-                nrec += 1
-            vel[i, 0] = vxi
-            vel[i, 1] = vyi
-            vel[j, 0] = vxj
-            vel[j, 1] = vyj
-            pos[i, 0] = xi - t * vxi
-            pos[i, 1] = yi - t * vyi
-            pos[j, 0] = xj - t * vxj
-            pos[j, 1] = yj - t * vyj
-            cicnt[crow, IC_COLLISIONS] += 1
-            tlast[i] = t
-            tlast[j] = t
-            stamp[i] += 1
-            stamp[j] += 1
-            partner[i] = j
-            partner[j] = i
-            delta = max(delta, math.hypot(pos[i, 0] - binx[i], pos[i, 1] - biny[i]))
-            delta = max(delta, math.hypot(pos[j, 0] - binx[j], pos[j, 1] - biny[j]))
-            vfast = max(vfast, math.hypot(vxi, vyi), math.hypot(vxj, vyj))
-        for w in range(1 if j < 0 else 2):  # the new contacts of i (and j)
-            code, other, H, size = _schedule(
-                i if w == 0 else j, cid, dynamic, pos, vel, species, sp_radius, tlast, stamp,
-                cell_start, cell_items, bounds_kind, bounds_params, grid, rcell + delta, own,
-                base, ecl, rep, cparent, H, size, cicnt, crow)
-            if code != R_OK:
-                return code, other, H, nrec, nlog, events, delta, vfast, dropped
-    return R_OK, -1, H, nrec, nlog, events, delta, vfast, dropped
-
-
-_run = kernel(_run_py)
-_run_inline = njit(cache=True, inline="always")(_run_py)
-
-
-@njit(cache=True, inline="always")
 def _load(H, E, evs, lo, hi):
     """A heap of the events ``E[evs[lo:hi]]``; returns (H, size)."""
     H = reserve(H, 0, hi - lo)
@@ -552,64 +353,83 @@ def _load(H, E, evs, lo, hi):
 X_EVENTS, X_DROPPED, X_REC_LO, X_REC_HI, X_LOG_LO, X_LOG_HI, X_REPAIRED = range(7)
 
 
+@njit(cache=True, inline="always")
+def _done(g, c, events, dropped, delta, vfast, fill0, fill, repaired):
+    """Note what cluster c's run did (``fill0``, ``fill``: its first and its end rows of
+    the log and of the records, ``(log, records)``; ``repaired``: in the repair's
+    buffers)."""
+    g.status[c] = C_DONE
+    g.res[c, X_EVENTS] = events
+    g.res[c, X_DROPPED] = 1 if dropped else 0
+    g.res[c, X_REC_LO] = fill0[1]
+    g.res[c, X_REC_HI] = fill[1]
+    g.res[c, X_LOG_LO] = fill0[0]
+    g.res[c, X_LOG_HI] = fill[0]
+    g.res[c, X_REPAIRED] = repaired
+    g.resf[c, 0] = delta
+    g.resf[c, 1] = vfast
+
+
 @kernel
-def _chunk(c0, c1, E, ev_start, evs, ecl, discs, tables, sc, bounds_kind, bounds_params, grid,
-           rc, sub_id, h, own, base, rec, rec0, lg, lg0, budget, status, res, resf, cicnt):
-    """Clusters [c0, c1) in turn, on one thread; their records in ``rec`` and their logs in
-    ``lg`` (this chunk's rows, the first of which are rows ``rec0`` and ``lg0`` of all the
-    chunks'). A cluster that escapes its cells, or finds no room for its records or its log,
-    is undone (C_ESCAPED); one past the budget or at a release of internal energy is undone
-    and stops the chunk (``res[c, X_EVENTS]`` = -1)."""
+def _chunk(c0, c1, n, ph, cnt, sub, g, rec, lg, row0):
+    """Clusters [c0, c1) in turn, on one thread, by the event loop inlined
+    (``events.run_events``); their records in ``rec`` and their logs in ``lg`` (this chunk's
+    rows, the first of which are rows ``row0`` = (log, records) of all the chunks'). A
+    cluster that escapes its cells, or finds no room for its records or its log, is undone
+    (C_ESCAPED); one past the budget or at a release of internal energy is undone and stops
+    the chunk (``res[c, X_EVENTS]`` = -1)."""
     H = new_heap(256)
     cparent = np.empty(0, dtype=np.int64)
-    nrec = 0
-    nlog = 0
-    pos, vel = discs.pos, discs.vel
+    fill = np.zeros(2, dtype=np.int64)
     for c in range(c0, c1):
-        H, size = _load(H, E, evs, ev_start[c], ev_start[c + 1])
-        code, other, H, nrec1, nlog1, events, delta, vfast, dropped = _run_inline(
-            c, False, H, size, discs, tables, sc, bounds_kind, bounds_params, grid, rc,
-            sub_id, own, base, ecl, evs[ev_start[c]], cparent, lg, nlog, cicnt, c, rec, nrec,
-            budget)
+        H, size = _load(H, g.E, g.evs, g.ev_start[c], g.ev_start[c + 1])
+        l0 = fill[0]
+        r0 = fill[1]
+        cl = ClusterRun(c, False, g.own, g.base, g.ecl, g.evs[g.ev_start[c]], cparent, lg, rec,
+                        fill)
+        code, other, H, events, n_dead, delta, dropped, vfast, vrel, t_cut = run_events_inline(
+            H, size, n, ph, Counters(g.cicnt[c], cnt.fsum, cnt.ch_count, cnt.outflow), sub,
+            0.0, None, cl)
         if code != R_OK:
-            _undo(lg, nlog, nlog1, h, pos, vel, sc)
-            cicnt[c, :] = 0
+            _undo(lg, l0, fill[0], sub.h, ph.discs.pos, ph.discs.vel, ph.sc)
+            fill[0] = l0
+            fill[1] = r0
+            g.cicnt[c, :] = 0
             if code == R_SERIAL:
-                res[c, X_EVENTS] = -1
+                g.res[c, X_EVENTS] = -1
                 return
-            status[c] = C_ESCAPED
+            g.status[c] = C_ESCAPED
             continue
-        status[c] = C_DONE
-        res[c, X_EVENTS] = events
-        res[c, X_DROPPED] = 1 if dropped else 0
-        res[c, X_REC_LO] = rec0 + nrec
-        res[c, X_REC_HI] = rec0 + nrec1
-        res[c, X_LOG_LO] = lg0 + nlog
-        res[c, X_LOG_HI] = lg0 + nlog1
-        resf[c, 0] = delta
-        resf[c, 1] = vfast
-        nrec = nrec1
-        nlog = nlog1
+        _done(g, c, events, dropped, delta, vfast, (l0 + row0[0], r0 + row0[1]),
+              (fill[0] + row0[0], fill[1] + row0[1]), 0)
 
 
 @kernel(parallel=True)
-def _chunks_parallel(nch, bounds_c, E, ev_start, evs, ecl, discs, tables, sc, bounds_kind,
-                     bounds_params, grid, rc, sub_id, h, own, base, rec, rcap, lg, lcap, budget,
-                     status, res, resf, cicnt):
+def _chunks_parallel(nch, n, discs, tables, bounds, grid, sc, rc, cnt, sub, g, bufs):
+    """The chunks of clusters on numba's threads (``bufs``: the chunks' bounds, the
+    capacities of a chunk's log and records, the logs and the records; the phase's structs
+    apart, as in :func:`_queue_parallel`)."""
     for k in prange(nch):
-        _chunk(bounds_c[k], bounds_c[k + 1], E, ev_start, evs, ecl, discs, tables, sc,
-               bounds_kind, bounds_params, grid, rc, sub_id, h, own, base,
-               rec[k * rcap:(k + 1) * rcap], k * rcap,
-               lg[k * lcap:(k + 1) * lcap], k * lcap, budget, status, res, resf, cicnt)
+        _chunk_k(k, n, discs, tables, bounds, grid, sc, rc, cnt, sub, g, bufs)
 
 
 @kernel
-def _undo_done(c, res, lg, lg2, h, pos, vel, sc):
+def _chunk_k(k, n, discs, tables, bounds, grid, sc, rc, cnt, sub, g, bufs):
+    """Chunk k of :func:`_chunks_parallel` (``bufs``: its chunks, capacities, records and
+    logs), its phase put together again."""
+    bounds_c, caps, rec, lg = bufs
+    _chunk(bounds_c[k], bounds_c[k + 1], n, Phase(discs, tables, bounds, grid, sc, rc), cnt,
+           sub, g, rec[k * caps[1]:(k + 1) * caps[1]], lg[k * caps[0]:(k + 1) * caps[0]],
+           (k * caps[0], k * caps[1]))
+
+
+@kernel
+def _undo_done(c, g, lg, lg2, h, pos, vel, sc):
     """Undo what cluster (or merged group) c did, from its log."""
-    if res[c, X_REPAIRED]:
-        _undo(lg2, res[c, X_LOG_LO], res[c, X_LOG_HI], h, pos, vel, sc)
+    if g.res[c, X_REPAIRED]:
+        _undo(lg2, g.res[c, X_LOG_LO], g.res[c, X_LOG_HI], h, pos, vel, sc)
     else:
-        _undo(lg, res[c, X_LOG_LO], res[c, X_LOG_HI], h, pos, vel, sc)
+        _undo(lg, g.res[c, X_LOG_LO], g.res[c, X_LOG_HI], h, pos, vel, sc)
 
 
 @kernel
@@ -622,183 +442,193 @@ def _grown(a, used):
 
 
 @kernel
-def _repair(ncl, E, ev_start, evs, ecl, discs, tables, sc, bounds_kind, bounds_params, grid,
-            rc, sub_id, h, own, base, lg, budget, status, res, resf, cicnt):
+def _merged_heap(H, g, gid, cnext):
+    """A heap of the initial events of every cluster merged into ``gid``; returns (H,
+    size)."""
+    need = 0
+    c = gid
+    while c >= 0:
+        need += g.ev_start[c + 1] - g.ev_start[c]
+        c = cnext[c]
+    H = reserve(H, 0, need)
+    size = 0
+    c = gid
+    while c >= 0:
+        for a in range(g.ev_start[c], g.ev_start[c + 1]):
+            q = g.evs[a]
+            E = g.E
+            size = push(H, size, E[q, 0], int(E[q, 1]), int(E[q, 2]), int(E[q, 3]),
+                        int(E[q, 4]))
+        c = cnext[c]
+    return H, size
+
+
+@kernel
+def _repair(ncl, n, ph, cnt, sub, g, lg):
     """Run the escaped clusters one at a time, growing them into free cells and merging
     them with the clusters they reach (undone and run again as one). Returns ``(ok, rec2,
     lg2)``: ``ok`` False when a run went past the budget or reached a release of internal
     energy (it is undone); the records and logs of the repaired clusters (``res[c,
     X_REPAIRED]`` = 1)."""
-    pos, vel = discs.pos, discs.vel
+    pos, vel = ph.discs.pos, ph.discs.vel
     cparent = np.arange(ncl)
     cnext = np.full(ncl, -1, dtype=np.int64)
     ctail = np.arange(ncl)
     rec2 = np.empty((256, 5), dtype=FLOAT)
     lg2 = np.empty((1024, 5), dtype=FLOAT)
-    nrec = 0
-    nlog = 0
+    fill = np.zeros(2, dtype=np.int64)
     H = new_heap(256)
     for c0 in range(ncl):
-        if status[c0] != C_ESCAPED:
+        if g.status[c0] != C_ESCAPED:
             continue
-        g = c0
+        gid = c0
         while True:
-            # a heap of the initial events of every cluster merged into g
-            need = 0
-            c = g
-            while c >= 0:
-                need += ev_start[c + 1] - ev_start[c]
-                c = cnext[c]
-            H = reserve(H, 0, need)
-            size = 0
-            c = g
-            while c >= 0:
-                for a in range(ev_start[c], ev_start[c + 1]):
-                    q = evs[a]
-                    size = push(H, size, E[q, 0], int(E[q, 1]), int(E[q, 2]), int(E[q, 3]),
-                                int(E[q, 4]))
-                c = cnext[c]
-            cicnt[g, :] = 0
-            code, other, H, nrec1, nlog1, events, delta, vfast, dropped = _run(
-                g, True, H, size, discs, tables, sc, bounds_kind, bounds_params, grid, rc,
-                sub_id, own, base, ecl, evs[ev_start[g]], cparent, lg2, nlog, cicnt, g, rec2,
-                nrec, budget)
+            H, size = _merged_heap(H, g, gid, cnext)
+            g.cicnt[gid, :] = 0
+            l0 = fill[0]
+            r0 = fill[1]
+            cl = ClusterRun(gid, True, g.own, g.base, g.ecl, g.evs[g.ev_start[gid]], cparent,
+                            lg2, rec2, fill)
+            code, other, H, events, n_dead, delta, dropped, vfast, vrel, t_cut = run_events(
+                H, size, n, ph, Counters(g.cicnt[gid], cnt.fsum, cnt.ch_count, cnt.outflow),
+                sub, 0.0, None, cl)
             if code == R_OK:
-                status[g] = C_DONE
-                res[g, X_EVENTS] = events
-                res[g, X_DROPPED] = 1 if dropped else 0
-                res[g, X_REC_LO] = nrec
-                res[g, X_REC_HI] = nrec1
-                res[g, X_LOG_LO] = nlog
-                res[g, X_LOG_HI] = nlog1
-                res[g, X_REPAIRED] = 1
-                resf[g, 0] = delta
-                resf[g, 1] = vfast
-                nrec = nrec1
-                nlog = nlog1
+                _done(g, gid, events, dropped, delta, vfast, (l0, r0), (fill[0], fill[1]), 1)
                 break
-            _undo(lg2, nlog, nlog1, h, pos, vel, sc)
-            cicnt[g, :] = 0
+            l1 = fill[0]
+            r1 = fill[1]
+            _undo(lg2, l0, l1, sub.h, pos, vel, ph.sc)
+            fill[0] = l0
+            fill[1] = r0
+            g.cicnt[gid, :] = 0
             if code == R_SERIAL:
                 return False, rec2, lg2
             if code == R_FULL:  # room for more records and log, and again
-                if nrec1 + 64 >= rec2.shape[0]:
-                    rec2 = _grown(rec2, nrec)
-                if nlog1 + 64 >= lg2.shape[0]:
-                    lg2 = _grown(lg2, nlog)
+                if r1 + 64 >= rec2.shape[0]:
+                    rec2 = _grown(rec2, r0)
+                if l1 + 64 >= lg2.shape[0]:
+                    lg2 = _grown(lg2, l0)
                 continue
-            # R_CONFLICT: merge the cluster it reached into g (undone if it ran)
-            if status[other] == C_DONE:
-                _undo_done(other, res, lg, lg2, h, pos, vel, sc)
-            cicnt[other, :] = 0
-            lo = min(g, other)
-            hi = max(g, other)
+            # R_CONFLICT: merge the cluster it reached into gid (undone if it ran)
+            if g.status[other] == C_DONE:
+                _undo_done(other, g, lg, lg2, sub.h, pos, vel, ph.sc)
+            g.cicnt[other, :] = 0
+            lo = min(gid, other)
+            hi = max(gid, other)
             cparent[hi] = lo
             cnext[ctail[lo]] = hi
             ctail[lo] = ctail[hi]
-            status[hi] = C_MERGED
-            g = lo
-            status[g] = C_PENDING
+            g.status[hi] = C_MERGED
+            gid = lo
+            g.status[gid] = C_PENDING
     return True, rec2, lg2
 
 
 @kernel
-def events(n, H, tables, discs, sc, bounds, grid, cnt, rc, sub_id, h, vfast, own, threads):
-    """The initial queue and the event phase of a substep (as ``step._queue_initial`` and
-    ``step._events`` for the scenes of :func:`eligible`, after the scan: not the pair
+def _chunked(g, ncl, nst, size):
+    """Chunks of about equal numbers of events: chunk k runs clusters [b[k], b[k + 1]).
+    Returns ``(b, most)``, most the largest number of initial events of a chunk."""
+    nch = max(min(nst, ncl), 1)
+    b = np.empty(nch + 1, dtype=np.int64)
+    b[0] = 0
+    c = 0
+    for k in range(1, nch):
+        while c < ncl and g.ev_start[c] < k * size // nch:
+            c += 1
+        b[k] = c
+    b[nch] = ncl
+    most = 0
+    for k in range(nch):
+        most = max(most, g.ev_start[b[k + 1]] - g.ev_start[b[k]])
+    return b, most
+
+
+@kernel
+def events(n, H, ph, cnt, sub, vfast, own, threads):
+    """The initial queue and the event phase of a substep (as ``events.queue_initial`` and
+    ``events.run_events`` for the scenes of :func:`eligible`, after the scan: not the pair
     list), by clusters, in ``threads`` strips and chunks on numba's threads (one: all on
     the calling thread).
-    ``own``: :func:`new_owner`; the blocks a substep claims hold its base (``own[-1]``, then
-    raised past its events) + an event, so no block need be freed after.
+    ``own``: :func:`~.claims.new_owner`; the blocks a substep claims hold its base
+    (``own[-1]``, then raised past its events) + an event, so no block need be freed after.
     Returns ``(done, H, size, delta, dropped, vfast)``; ``done`` False (nothing changed but
     the queue's counts) when the clusters would spend more than the substep's event budget
     or reach a release of internal energy: the caller then runs the serial phase on the
     initial events, the heap ``H[0:size]``."""
-    bounds_kind, bounds_params = bounds.kind, bounds.params
-    pos, vel = discs.pos, discs.vel
-    budget = EVENTS_PER_DISC * n + 1024  # (step._events')
+    pos, vel = ph.discs.pos, ph.discs.vel
     nst = max(threads, 1)
-    E, qs = _queue(tables.sp_radius, pos, vel, discs.species, sc, grid, cnt.icnt, nst)
+    E, qs = _queue(ph, cnt.icnt, nst)
     size = E.shape[0]
     base = np.int64(own[-1])
     if base + size >= OWN_LIMIT:  # (rare: after about 2^31 events in one call)
         own[:] = -1
         base = 0
     own[-1] = base + size + 1
-    ncl, ev_start, evs, ecl = _cluster(E, qs, nst, sc.cell_of, grid, own, base)
-    status = np.full(ncl, C_PENDING, dtype=np.int64)
-    res = np.zeros((ncl, 7), dtype=np.int64)
-    resf = np.zeros((ncl, 2), dtype=FLOAT)
-    cicnt = np.zeros((ncl, N_ICOUNTERS), dtype=np.int64)
-    nch = max(min(nst, ncl), 1)
-    # chunks of about equal numbers of events
-    bounds_c = np.empty(nch + 1, dtype=np.int64)
-    bounds_c[0] = 0
-    c = 0
-    for k in range(1, nch):
-        while c < ncl and ev_start[c] < k * size // nch:
-            c += 1
-        bounds_c[k] = c
-    bounds_c[nch] = ncl
-    most = 0
-    for k in range(nch):
-        most = max(most, ev_start[bounds_c[k + 1]] - ev_start[bounds_c[k]])
-    rcap = most + REC_SLACK
-    lcap = 3 * most + REC_SLACK
-    rec = np.empty((nch * rcap, 5), dtype=FLOAT)
-    lg = np.empty((nch * lcap, 5), dtype=FLOAT)
+    ncl, ev_start, evs, ecl = _cluster(E, qs, nst, ph.sc.cell_of, ph.grid, own, base)
+    g = Groups(E, ev_start, evs, ecl, own, base, np.full(ncl, C_PENDING, dtype=np.int64),
+               np.zeros((ncl, 7), dtype=np.int64), np.zeros((ncl, 2), dtype=FLOAT),
+               np.zeros((ncl, N_ICOUNTERS), dtype=np.int64))
+    bounds_c, most = _chunked(g, ncl, nst, size)
+    nch = bounds_c.shape[0] - 1
+    caps = np.array([3 * most + REC_SLACK, most + REC_SLACK], dtype=np.int64)
+    rec = np.empty((nch * caps[1], 5), dtype=FLOAT)
+    lg = np.empty((nch * caps[0], 5), dtype=FLOAT)
     if nch > 1:
-        _chunks_parallel(nch, bounds_c, E, ev_start, evs, ecl, discs, tables, sc, bounds_kind,
-                         bounds_params, grid, rc, sub_id, h, own, base, rec, rcap, lg, lcap,
-                         budget, status, res, resf, cicnt)
+        _chunks_parallel(nch, n, ph.discs, ph.tables, ph.bounds, ph.grid, ph.sc, ph.rc, cnt, sub,
+                         g, (bounds_c, caps, rec, lg))
     else:
-        _chunk(0, ncl, E, ev_start, evs, ecl, discs, tables, sc, bounds_kind, bounds_params,
-               grid, rc, sub_id, h, own, base, rec, 0, lg, 0, budget, status, res, resf, cicnt)
+        _chunk(0, ncl, n, ph, cnt, sub, g, rec, lg, (np.int64(0), np.int64(0)))
     ok = True
     for c in range(ncl):
-        if res[c, X_EVENTS] < 0:
+        if g.res[c, X_EVENTS] < 0:
             ok = False
     if ok:
-        ok, rec2, lg2 = _repair(ncl, E, ev_start, evs, ecl, discs, tables, sc, bounds_kind,
-                                bounds_params, grid, rc, sub_id, h, own, base, lg, budget,
-                                status, res, resf, cicnt)
+        ok, rec2, lg2 = _repair(ncl, n, ph, cnt, sub, g, lg)
     else:
         rec2 = np.empty((0, 5), dtype=FLOAT)
         lg2 = np.empty((0, 5), dtype=FLOAT)
     total = 0
     nrec = 0
     for c in range(ncl):
-        if status[c] == C_DONE:
-            total += res[c, X_EVENTS]
-            nrec += res[c, X_REC_HI] - res[c, X_REC_LO]
-    if not ok or total > budget:  # the serial phase stops where the budget runs out
+        if g.status[c] == C_DONE:
+            total += g.res[c, X_EVENTS]
+            nrec += g.res[c, X_REC_HI] - g.res[c, X_REC_LO]
+    if not ok or total > sub.budget:  # the serial phase stops where the budget runs out
         for c in range(ncl):
-            if status[c] == C_DONE:
-                _undo_done(c, res, lg, lg2, h, pos, vel, sc)
+            if g.status[c] == C_DONE:
+                _undo_done(c, g, lg, lg2, sub.h, pos, vel, ph.sc)
         H = reserve(H, 0, size)  # the serial phase pops a heap
         m = 0
         for q in range(size):
             m = push(H, m, E[q, 0], int(E[q, 1]), int(E[q, 2]), int(E[q, 3]), int(E[q, 4]))
         return False, H, size, 0.0, False, vfast
-    icnt, fsum = cnt.icnt, cnt.fsum
+    delta, dropped, vfast = _gather(g, ncl, nrec, rec, rec2, cnt, vfast)
+    return True, H, size, delta, dropped, vfast
+
+
+@kernel
+def _gather(g, ncl, nrec, rec, rec2, cnt, vfast):
+    """The clusters' counts into ``cnt``, their float terms added in the serial order;
+    returns ``(delta, dropped, vfast)`` of them all."""
+    icnt = cnt.icnt
     delta = 0.0
     dropped = False
     R = np.empty((nrec, 5), dtype=FLOAT)
     k = 0
     for c in range(ncl):
-        if status[c] != C_DONE:
+        if g.status[c] != C_DONE:
             continue
         for q in range(N_ICOUNTERS):
-            icnt[q] += cicnt[c, q]
-        dropped = dropped or res[c, X_DROPPED] != 0
-        delta = max(delta, resf[c, 0])
-        vfast = max(vfast, resf[c, 1])
-        src = rec2 if res[c, X_REPAIRED] else rec
-        for a in range(res[c, X_REC_LO], res[c, X_REC_HI]):
+            icnt[q] += g.cicnt[c, q]
+        dropped = dropped or g.res[c, X_DROPPED] != 0
+        delta = max(delta, g.resf[c, 0])
+        vfast = max(vfast, g.resf[c, 1])
+        src = rec2 if g.res[c, X_REPAIRED] else rec
+        for a in range(g.res[c, X_REC_LO], g.res[c, X_REC_HI]):
             R[k] = src[a]
             k += 1
-    _add_in_order(R, fsum)
-    return True, H, size, delta, dropped, vfast
+    _add_in_order(R, cnt.fsum)
+    return delta, dropped, vfast
 
 
 @kernel

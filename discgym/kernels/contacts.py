@@ -1,4 +1,4 @@
-"""Queueing the contacts of a substep (``kernels.step`` and ``kernels.clusters``): an event
+"""Queueing the contacts of a substep (``kernels.events`` and ``kernels.clusters``): an event
 appended or pushed, a pair's contact tested and queued, the half stencil of the scan, the
 drift's and the scan's lists of the discs with contacts.
 
@@ -18,7 +18,6 @@ from .collisions import pair_time
 from .heap import push
 from .jit import kernel
 from .structs import IC_LEFT_OVERLAPPING, OV_SLOTS
-from .walls import contact, push_inside
 
 
 @njit(cache=True, inline="always")
@@ -37,19 +36,21 @@ def add_event(H, size, sift, t, i, j, si, sj):
 
 
 @njit(cache=True, inline="always")
-def try_pair(i, j, sp_radius, pos, vel, species, tlast, stamp, H, size, icnt, sift=True):
-    """Queue the contact of i and j if they overlap and touched in this step (room for one
-    event must be reserved; ``sift`` False: appended, see ``step._queue_initial``); returns
-    the new size. A pair left overlapping while separating (``pair_time`` +inf) is counted in
-    ``icnt[IC_LEFT_OVERLAPPING]``."""
+def try_pair(i, j, discs, sp_radius, sc, H, size, icnt, sift=True):
+    """Queue the contact of i and j (of ``discs``; ``sc``: the
+    :class:`~.structs.Scratch`) if they overlap and touched in this step (room for one
+    event must be reserved; ``sift`` False: appended, see ``events.queue_initial``); returns
+    the new size. A pair left overlapping while separating (``pair_time`` +inf) is counted
+    in ``icnt[IC_LEFT_OVERLAPPING]``."""
     # (the indices, size and sift cast here, at each call site: one compiled _try_pair
     # whatever the callers' integer types, and none for literal arguments)
-    return _try_pair(np.int64(i), np.int64(j), sp_radius, pos, vel, species, tlast, stamp, H,
-                     np.int64(size), icnt, np.bool_(sift))
+    return _try_pair(np.int64(i), np.int64(j), discs.pos, discs.vel, discs.species, sp_radius,
+                     sc, H, np.int64(size), icnt, np.bool_(sift))
 
 
-@kernel
-def _try_pair(i, j, sp_radius, pos, vel, species, tlast, stamp, H, size, icnt, sift):
+@kernel(_nrt=False)  # (no reference counts of the structs' arrays: it allocates nothing)
+def _try_pair(i, j, pos, vel, species, sp_radius, sc, H, size, icnt, sift):
+    tlast, stamp = sc.tlast, sc.stamp
     t = pair_time(pos[i, 0], pos[i, 1], vel[i, 0], vel[i, 1], sp_radius[species[i]], tlast[i],
                   pos[j, 0], pos[j, 1], vel[j, 0], vel[j, 1], sp_radius[species[j]], tlast[j])
     if math.isnan(t):
@@ -94,7 +95,7 @@ def half_stencil(c, ncx, ncy, cell_start):
 
 
 @kernel
-def queue_scan(a0, a1, sp_radius, pos, vel, species, sc, grid, H, size, icnt, sift):
+def queue_scan(a0, a1, discs, sp_radius, sc, grid, H, size, icnt, sift):
     """Queue the contacts of the overlapping pairs the scan found for the sorted discs
     [a0, a1) (listed in ``sc.ol``; ``sc.ov_n``, ``sc.ov_b``: a disc with more partners than
     OV_SLOTS has its half stencil scanned again); room must be reserved (``sc.ov_n`` of
@@ -102,73 +103,22 @@ def queue_scan(a0, a1, sp_radius, pos, vel, species, sc, grid, H, size, icnt, si
     ncx = int(grid[4])
     ncy = int(grid[5])
     cell_start, cell_items, cell_of = sc.cell_start, sc.cell_items, sc.cell_of
-    tlast, stamp, ov_n, ov_b, ol = sc.tlast, sc.stamp, sc.ov_n, sc.ov_b, sc.ol
+    ov_n, ov_b, ol = sc.ov_n, sc.ov_b, sc.ol
     m = sc.nlist[1]
     for p in range(np.searchsorted(ol[:m], a0), m):
         a = ol[p]
         if a >= a1:
             break
-        size = _queue_slot(a, sp_radius, pos, vel, species, cell_start, cell_items, cell_of,
-                           tlast, stamp, ov_n[a], ov_b, ncx, ncy, H, size, icnt, sift)
+        i = cell_items[a]
+        k = ov_n[a]
+        if k <= OV_SLOTS:
+            for q in range(k):
+                size = try_pair(i, cell_items[ov_b[a, q]], discs, sp_radius, sc, H, size, icnt,
+                                sift)
+            continue
+        e1, lo2, hi2 = half_stencil(cell_of[i], ncx, ncy, cell_start)
+        for b in range(a + 1, e1):
+            size = try_pair(i, cell_items[b], discs, sp_radius, sc, H, size, icnt, sift)
+        for b in range(lo2, hi2):
+            size = try_pair(i, cell_items[b], discs, sp_radius, sc, H, size, icnt, sift)
     return size
-
-
-@njit(cache=True, inline="always")
-def _queue_slot(a, sp_radius, pos, vel, species, cell_start, cell_items, cell_of, tlast, stamp,
-                k, ov_b, ncx, ncy, H, size, icnt, sift):
-    """Queue the contacts of sorted disc a and its k overlapping partners (queue_scan)."""
-    i = cell_items[a]
-    if k <= OV_SLOTS:
-        for q in range(k):
-            size = try_pair(i, cell_items[ov_b[a, q]], sp_radius, pos, vel, species, tlast,
-                            stamp, H, size, icnt, sift)
-        return size
-    e1, lo2, hi2 = half_stencil(cell_of[i], ncx, ncy, cell_start)
-    for b in range(a + 1, e1):
-        size = try_pair(i, cell_items[b], sp_radius, pos, vel, species, tlast, stamp, H, size,
-                        icnt, sift)
-    for b in range(lo2, hi2):
-        size = try_pair(i, cell_items[b], sp_radius, pos, vel, species, tlast, stamp, H, size,
-                        icnt, sift)
-    return size
-
-
-@njit(cache=True, inline="always")
-def push_contacts(d, x, y, vx, vy, r, td, cx0, cx1, cy0, cy1, ncx, pos, vel, species,
-                  sp_radius, tlast, stamp, cell_start, cell_items, H, size):
-    """Push the contacts of disc d (at (x, y) with velocity (vx, vy), radius r, latest event
-    td) with every disc binned in cells [cx0, cx1] x [cy0, cy1] (room reserved). Returns
-    ``(size, left)``: the new size and how many pairs were found overlapping while
-    separating (``pair_time`` +inf; the caller counts them in IC_LEFT_OVERLAPPING)."""
-    sd = stamp[d]
-    left = 0
-    for cy in range(cy0, cy1 + 1):
-        for a in range(cell_start[cx0 + ncx * cy], cell_start[cx1 + 1 + ncx * cy]):
-            k = cell_items[a]
-            if k == d or species[k] < 0:
-                continue
-            tc = pair_time(x, y, vx, vy, r, td, pos[k, 0], pos[k, 1], vel[k, 0], vel[k, 1],
-                           sp_radius[species[k]], tlast[k])
-            if tc == math.inf:
-                left += 1
-            elif not math.isnan(tc):
-                if d < k:
-                    size = push(H, size, tc, d, k, sd, stamp[k])
-                else:
-                    size = push(H, size, tc, k, d, stamp[k], sd)
-    return size, left
-
-
-@njit(cache=True, inline="always")
-def schedule_start(d, pos, vel, species, sp_radius, tlast, bounds_kind, bounds_params):
-    """What a disc's search for its next contacts starts from: ``(r, x, y, vx, vy, td, t,
-    pushed)``, its radius, position, velocity, latest event, next wall contact t; a disc
-    overlapping a wall while moving inward (t +inf) is moved inside first (``pushed``)."""
-    r = sp_radius[species[d]]
-    vx = vel[d, 0]
-    vy = vel[d, 1]
-    t, axis, inward = contact(pos[d, 0], pos[d, 1], vx, vy, r, bounds_kind, bounds_params)
-    pushed = inward and t == math.inf
-    if pushed:
-        push_inside(d, pos, r, bounds_kind, bounds_params)
-    return r, pos[d, 0], pos[d, 1], vx, vy, tlast[d], t, pushed

@@ -125,17 +125,17 @@ def apply_transformation(i, s, sp_form, species, internal_energy):
 
 
 @kernel
-def room(x, y, r, t, ex1, ex2, collide, bounds_kind, bounds_params, pos, vel, species, sp_radius,
-         grid, cell_start, cell_items, nbin, n, reach):
+def room(x, y, r, t, ex1, ex2, discs, sp_radius, bounds, search):
     """Is there room for a disc of radius r at (x, y) at time t (<= 0: the contact time of a
     reactive collision, 0 for a first-order reaction at the end of the substep), inside the
-    bounds and clear of every other disc (except ex1, ex2) where it is at that time?"""
-    if not inside(x, y, r, bounds_kind, bounds_params):
+    bounds and clear of every other disc of ``discs`` (except ex1, ex2) where it is at that
+    time? (``search``: a :class:`~.structs.Search`; without collisions only the bounds
+    count.)"""
+    if not inside(x, y, r, bounds.kind, bounds.params):
         return False
-    if not collide:
+    if not search.collide:
         return True
-    return not overlaps_any(x, y, r, t, ex1, ex2, pos, vel, species, sp_radius, grid, cell_start,
-                            cell_items, nbin, n, reach)
+    return not overlaps_any(x, y, r, t, ex1, ex2, discs, sp_radius, search)
 
 
 @kernel
@@ -166,23 +166,22 @@ def combine_outcome(k, A, B, P, ui, uj, t):
 
 
 @kernel
-def combine(i, j, c, t, xi, yi, xj, yj, tables, pos, vel, species, internal_energy, bounds_kind,
-            bounds_params, grid, cell_start, cell_items, nbin, n, reach):
-    """A + B -> C at contact time t; i becomes C, j dies (species = -1). Returns FIRED, or
-    NO_ENERGY (an endothermic product the energy cannot pay for) or NO_ROOM."""
+def combine(i, j, c, t, k, tables, discs, bounds, search):
+    """A + B -> C at contact time t (``k``: the :class:`Contact`); i becomes C, j dies
+    (species = -1). Returns FIRED, or NO_ENERGY (an endothermic product the energy cannot pay
+    for) or NO_ROOM."""
+    species, internal_energy = discs.species, discs.internal_energy
     sp_radius = tables.sp_radius
     p = tables.ch_prod[c, 0]
-    k = Contact(xi, yi, xj, yj, 0.0, 0.0, vel[i, 0], vel[i, 1], vel[j, 0], vel[j, 1])
     ok, q = combine_outcome(k, kind(species[i], tables), kind(species[j], tables), kind(p, tables),
                             internal_energy[i], internal_energy[j], t)
     if not ok:
         return NO_ENERGY
     # room where C appears: at the contact, not where it would be at the end of the substep
-    if not room(q.x + t * q.vx, q.y + t * q.vy, sp_radius[p], t, i, j, np.bool_(True), bounds_kind,
-                bounds_params, pos,
-                vel, species, sp_radius, grid, cell_start, cell_items, nbin, n, reach):
+    if not room(q.x + t * q.vx, q.y + t * q.vy, sp_radius[p], t, i, j, discs, sp_radius, bounds,
+                search):
         return NO_ROOM
-    apply_combination(i, j, p, q, pos, vel, species, internal_energy)
+    apply_combination(i, j, p, q, discs.pos, discs.vel, species, internal_energy)
     return FIRED
 
 
@@ -247,28 +246,25 @@ def exchange_outcome(k, A, B, C, D, ui, uj, t):
 
 
 @kernel
-def exchange(i, j, c, t, xi, yi, xj, yj, nx, ny, tables, pos, vel, species, internal_energy,
-             bounds_kind, bounds_params, grid, cell_start, cell_items, nbin, n, reach):
-    """A + B -> C + D at contact time t (n from i to j); i and j become the products.
-    Returns FIRED, NO_ENERGY or NO_ROOM (as :func:`combine`)."""
+def exchange(i, j, c, t, k, tables, discs, bounds, search):
+    """A + B -> C + D at contact time t (``k``: the :class:`Contact`, n from i to j); i and j
+    become the products. Returns FIRED, NO_ENERGY or NO_ROOM (as :func:`combine`)."""
+    species, internal_energy = discs.species, discs.internal_energy
     sp_radius = tables.sp_radius
     pi, pj = exchange_species(c, species[i], tables.ch_reac, tables.ch_prod)
-    k = Contact(xi, yi, xj, yj, nx, ny, vel[i, 0], vel[i, 1], vel[j, 0], vel[j, 1])
     ok, qi, qj = exchange_outcome(k, kind(species[i], tables), kind(species[j], tables),
                                   kind(pi, tables), kind(pj, tables), internal_energy[i],
                                   internal_energy[j], t)
     if not ok:
         return NO_ENERGY
     # room where the products appear, at the contact
-    if not room(qi.x + t * qi.vx, qi.y + t * qi.vy, sp_radius[pi], t, i, j, np.bool_(True),
-                bounds_kind, bounds_params,
-                pos, vel, species, sp_radius, grid, cell_start, cell_items, nbin, n, reach):
+    if not room(qi.x + t * qi.vx, qi.y + t * qi.vy, sp_radius[pi], t, i, j, discs, sp_radius,
+                bounds, search):
         return NO_ROOM
-    if not room(qj.x + t * qj.vx, qj.y + t * qj.vy, sp_radius[pj], t, i, j, np.bool_(True),
-                bounds_kind, bounds_params,
-                pos, vel, species, sp_radius, grid, cell_start, cell_items, nbin, n, reach):
+    if not room(qj.x + t * qj.vx, qj.y + t * qj.vy, sp_radius[pj], t, i, j, discs, sp_radius,
+                bounds, search):
         return NO_ROOM
-    apply_exchange(i, j, pi, pj, qi, qj, pos, vel, species, internal_energy)
+    apply_exchange(i, j, pi, pj, qi, qj, discs.pos, discs.vel, species, internal_energy)
     return FIRED
 
 
@@ -388,18 +384,17 @@ def transform_energy(u, fa, fp):
 
 
 @kernel
-def transform(i, c, collide, tables, pos, vel, species, internal_energy, bounds_kind,
-              bounds_params, grid, cell_start, cell_items, nbin, n, reach):
+def transform(i, c, tables, discs, bounds, search):
     """A -> B on disc i by channel c if B fits where A is (B no larger than A always does).
     Returns True if fired."""
+    pos, species = discs.pos, discs.species
     sp_radius = tables.sp_radius
     p = tables.ch_prod[c, 0]
     if sp_radius[p] > sp_radius[species[i]] and not room(
-            pos[i, 0], pos[i, 1], sp_radius[p], 0.0, np.int64(i), np.int64(i), collide,
-            bounds_kind, bounds_params,
-            pos, vel, species, sp_radius, grid, cell_start, cell_items, nbin, n, reach):
+            pos[i, 0], pos[i, 1], sp_radius[p], 0.0, np.int64(i), np.int64(i), discs, sp_radius,
+            bounds, search):
         return False
-    apply_transformation(i, p, tables.sp_form, species, internal_energy)
+    apply_transformation(i, p, tables.sp_form, species, discs.internal_energy)
     return True
 
 
@@ -440,12 +435,12 @@ def fission_outcome(X, Y, Vx, Vy, E, m1, m2, d, nx, ny):
 
 
 @kernel
-def fission(i, c, n, collide, tables, pos, vel, species, internal_energy, bounds_kind,
-            bounds_params, grid, cell_start, cell_items, nbin, reach, rng):
+def fission(i, c, n, tables, discs, bounds, search, rng):
     """A -> B + C (decomposition or reverse combination): i becomes B, disc n becomes C.
 
     The caller guarantees capacity for disc n. Returns True if fired.
     """
+    pos, vel, species, internal_energy = discs.pos, discs.vel, discs.species, discs.internal_energy
     sp_radius, sp_mass = tables.sp_radius, tables.sp_mass
     b = tables.ch_prod[c, 0]
     cc = tables.ch_prod[c, 1]
@@ -461,10 +456,8 @@ def fission(i, c, n, collide, tables, pos, vel, species, internal_energy, bounds
     ii = np.int64(i)  # (the signature of room's other callers: one version compiled)
     for _attempt in range(2):
         qb, qc = fission_outcome(X, Y, Vx, Vy, E, m1, m2, d, nx, ny)
-        if room(qb.x, qb.y, sp_radius[b], 0.0, ii, ii, collide, bounds_kind, bounds_params,
-                pos, vel, species, sp_radius, grid, cell_start, cell_items, nbin, n, reach) and \
-                room(qc.x, qc.y, sp_radius[cc], 0.0, ii, ii, collide, bounds_kind, bounds_params,
-                     pos, vel, species, sp_radius, grid, cell_start, cell_items, nbin, n, reach):
+        if room(qb.x, qb.y, sp_radius[b], 0.0, ii, ii, discs, sp_radius, bounds, search) and \
+                room(qc.x, qc.y, sp_radius[cc], 0.0, ii, ii, discs, sp_radius, bounds, search):
             apply_fission(i, n, b, cc, qb, qc, pos, vel, species, internal_energy)
             return True
         nx = -nx

@@ -33,21 +33,16 @@ import math
 import numpy as np
 from numba import njit, prange
 
-from .celllist import build, cell_coord, cell_radius, cell_range, make_grid, overlaps_any
-from .clusters import eligible, new_owner
+from .celllist import build, cell_coord, cell_radius, cell_range, make_grid
+from .claims import new_owner
+from .clusters import eligible
 from .clusters import events as cluster_events
-from .collisions import bounce, normal_at
-from .contacts import close_lists, push_contacts, queue_scan, schedule_start
-from .contacts import try_pair as _try_pair
-from .heap import new_heap, pop, push, reserve
+from .contacts import close_lists
+from .events import queue_initial, rewind, run_events
+from .heap import new_heap
 from .jit import kernel
 from .reactions import (
-    COMBINATION,
-    FIRED,
-    NO_ROOM,
     TRANSFORMATION,
-    combine,
-    exchange,
     first_order_draws,
     fission,
     grow1,
@@ -55,9 +50,10 @@ from .reactions import (
     transform,
 )
 from .resolve import resolve
-from .structs import (
+
+# The counters' names, read as step.X by the Simulation, the envs and the tests
+from .structs import (  # noqa: E402,F401,I001
     COUNT,
-    DISC_EVENTS,
     EVENTS_PER_DISC,
     F_BI,
     F_COLLISIONS,
@@ -93,34 +89,24 @@ from .structs import (
     P_RELAX,
     P_RESTITUTION,
     P_RMIN,
-    VR_ROUNDOFF,
     Bounds,
     Counters,
     Discs,
     PairList,
+    Phase,
     RunConsts,
     Scratch,
+    Search,
+    Substep,
     Tables,
     capacity_for_discs,
     fields,
 )
 from .walls import (
-    GLIDE_CHORDS,
     box_contact,
-    circle_chord,
     circle_contact,
-    circle_glide,
-    contact,
-    on_outlet,
     push_inside,
-    reflect,
-    settle_after_reflection,
-    side_of,
-    thermal_velocity,
 )
-
-# What a wall event did (_wall_event)
-W_NONE, W_REFLECTED, W_THERMAL, W_LEFT = range(4)
 
 MAX_SUBSTEPS = 1 << 16
 REBUILD_UNBINNED = 256  # rebuild the grid when this many discs were created since it was built
@@ -562,467 +548,6 @@ def _pl_permute(n, perm, pl, inv, fs):
         pj[p] = inv[pj[p]]
 
 
-# ------------------------------------------------------------------ phase 3: event queue
-@kernel
-def _queue_initial(n, collide, sp_radius, pos, vel, species, sc, grid, H, icnt, pl, listed):
-    """Queue every wall contact and every overlapping pair of the substep: the pairs the
-    broad phase found (``sc.ov_n``, ``sc.ov_b``: small discs; by sorted position from the
-    scan, half stencil, or by disc from the pair list ``pl`` if ``listed``; ``pl`` None: no
-    pair lists, pruned by numba) and those of the
-    big discs (found here: each big disc against the cells within its radius + rcell and the
-    big discs after it). ``sc``: the :class:`~.structs.Scratch`."""
-    tlast, stamp, wall_t, wflag = sc.tlast, sc.stamp, sc.wall_t, sc.wflag
-    cell_start, cell_items = sc.cell_start, sc.cell_items
-    sx, sy, sr, ov_n, wl, ol = sc.sx, sc.sy, sc.sr, sc.ov_n, sc.wl, sc.ol
-    ncx = int(grid[4])
-    ncy = int(grid[5])
-    rcell = grid[6]
-    nbc = ncx * ncy
-    # the drift's and the scan's lists (contacts), in the order of the discs (of the sorted
-    # discs) as a pass over all of them would take them
-    nw = sc.nlist[0]
-    need = 0
-    for p in range(nw):
-        i = wl[p]
-        if wall_t[i] < math.inf:
-            need += 1
-        icnt[IC_PUSHED_INSIDE] += wflag[i]
-    if collide:
-        scanned = True
-        if pl is not None:  # (pruned by numba when None: advance's lists)
-            if listed:
-                need += pl.count[1]
-                scanned = False
-        if scanned:
-            for p in range(sc.nlist[1]):
-                need += ov_n[ol[p]]
-        for a in range(cell_start[nbc], cell_start[nbc + 1]):
-            need += _big_candidates(a, sx, sy, sr, rcell, grid, cell_start)
-    H = reserve(H, 0, need)
-    size = np.int64(0)  # (not a literal: see queue_scan's call)
-    for p in range(nw):
-        i = wl[p]
-        if wall_t[i] < math.inf:
-            size = push(H, size, wall_t[i], i, -1, stamp[i], 0)
-    if not collide:
-        return H, size
-    scanned = True
-    if pl is not None:
-        if listed:
-            ovi, ovj = pl.ovi, pl.ovj
-            for q in range(pl.count[1]):
-                size = _try_pair(ovi[q], ovj[q], sp_radius, pos, vel, species, tlast, stamp, H,
-                                 size, icnt)
-            scanned = False
-    if scanned:
-        # (an int32 and a bool, not literals: the types of kernels.clusters' call, so that
-        # numba compiles queue_scan once)
-        size = queue_scan(np.int32(0), cell_start[nbc], sp_radius, pos, vel, species, sc, grid,
-                          H, size, icnt, np.bool_(True))
-    for a in range(cell_start[nbc], cell_start[nbc + 1]):  # the big discs
-        i = cell_items[a]
-        cx0, cx1, cy0, cy1 = cell_range(sx[a], sy[a], sr[a] + rcell, grid)
-        for cy in range(cy0, cy1 + 1):
-            for b in range(cell_start[cx0 + ncx * cy], cell_start[cx1 + 1 + ncx * cy]):
-                size = _try_pair(i, cell_items[b], sp_radius, pos, vel, species, tlast, stamp, H,
-                                 size, icnt)
-        for b in range(a + 1, cell_start[nbc + 1]):
-            size = _try_pair(i, cell_items[b], sp_radius, pos, vel, species, tlast, stamp, H, size,
-                             icnt)
-    return H, size
-
-
-@kernel
-def _big_candidates(a, sx, sy, sr, rcell, grid, cell_start):
-    """How many discs big disc a (sorted index) is compared with in :func:`_queue_initial`."""
-    ncx = int(grid[4])
-    nbc = ncx * int(grid[5])
-    cx0, cx1, cy0, cy1 = cell_range(sx[a], sy[a], sr[a] + rcell, grid)
-    k = cell_start[nbc + 1] - a - 1
-    for cy in range(cy0, cy1 + 1):
-        k += cell_start[cx1 + 1 + ncx * cy] - cell_start[cx0 + ncx * cy]
-    return k
-
-
-@kernel
-def _schedule(d, sp_radius, pos, vel, species, tlast, stamp, n, collide, bounds_kind,
-              bounds_params, grid, cell_start, cell_items, nbin, reach, H, size, icnt):
-    """Queue the next contacts of disc d (a wall, and every overlapping disc).
-
-    Reserves room first (one wall event plus every disc in the cells searched), so the loops
-    below never reallocate the heap. Returns the heap and its new size."""
-    r, x, y, vx, vy, td, t, pushed = schedule_start(d, pos, vel, species, sp_radius, tlast,
-                                                    bounds_kind, bounds_params)
-    if pushed:
-        icnt[IC_PUSHED_INSIDE] += 1
-    ncx = int(grid[4])
-    nbc = ncx * int(grid[5])
-    cx0, cx1, cy0, cy1 = cell_range(x, y, r + reach, grid)
-    need = 1 + n - nbin
-    if collide:
-        need += cell_start[nbc + 1] - cell_start[nbc]
-        for cy in range(cy0, cy1 + 1):
-            need += cell_start[cx1 + 1 + ncx * cy] - cell_start[cx0 + ncx * cy]
-    H = reserve(H, size, need)
-    if t < math.inf:
-        size = push(H, size, max(t, td), d, -1, stamp[d], 0)
-    if not collide:
-        return H, size
-    size, left = push_contacts(d, x, y, vx, vy, r, td, cx0, cx1, cy0, cy1, ncx, pos, vel,
-                               species, sp_radius, tlast, stamp, cell_start, cell_items, H, size)
-    icnt[IC_LEFT_OVERLAPPING] += left
-    for a in range(cell_start[nbc], cell_start[nbc + 1]):  # the big discs (celllist)
-        k = cell_items[a]
-        if k != d and species[k] >= 0:
-            size = _try_pair(d, k, sp_radius, pos, vel, species, tlast, stamp, H, size, icnt)
-    for k in range(nbin, n):
-        if k != d and species[k] >= 0:
-            size = _try_pair(d, k, sp_radius, pos, vel, species, tlast, stamp, H, size, icnt)
-    return H, size
-
-
-@kernel
-def _glide(i, tw, T, xc, yc, tau, psi, vn, r, mi, pos, vel, species, sp_radius, tlast, collide,
-           bounds_params, grid, cell_start, cell_items, nbin, n, reach, icnt, fsum):
-    """Disc i, just reflected at (xc, yc) at time tw, grazes the circle wall so closely that
-    more than GLIDE_CHORDS chords ``(tau, psi, vn)`` fit in the time T it glides: move it
-    through them in closed form (:func:`~discgym.kernels.walls.circle_glide`) to time
-    tw + T. If the glide would run into another disc, it stops where the two touch
-    (bisection on the glide time, to 2^-40 of T), and that collision is the disc's next
-    event. Books the wall momentum, leaves the disc on its straight chord (``pos`` its
-    extrapolation to the end of the substep, ``tlast[i]`` its last reflection). Returns False
-    (nothing done) for a disc wedged between the wall and a disc it already touches.
-    """
-    b0, b1, b2 = bounds_params[0], bounds_params[1], bounds_params[2]
-    vx = vel[i, 0]
-    vy = vel[i, 1]
-    gx, gy, ux, uy, rest, imp = circle_glide(xc, yc, vx, vy, r, b0, b1, b2, tau, psi, vn, T)
-    s = T
-    if collide and overlaps_any(gx, gy, r, tw + T, i, i, pos, vel, species, sp_radius, grid,
-                                cell_start, cell_items, nbin, n, reach):
-        lo = 0.0
-        hi = T
-        for _ in range(40):
-            mid = 0.5 * (lo + hi)
-            x, y, _ux, _uy, _rest, _imp = circle_glide(xc, yc, vx, vy, r, b0, b1, b2, tau,
-                                                       psi, vn, mid)
-            if overlaps_any(x, y, r, tw + mid, i, i, pos, vel, species, sp_radius, grid,
-                            cell_start, cell_items, nbin, n, reach):
-                hi = mid
-            else:
-                lo = mid
-        s = lo
-        if s <= 0.0:
-            return False  # wedged between the wall and a disc it touches
-        gx, gy, ux, uy, rest, imp = circle_glide(xc, yc, vx, vy, r, b0, b1, b2, tau, psi, vn,
-                                                 s)
-    # the position at tw + s -> its straight-line extrapolation to the end of the substep
-    pos[i, 0] = gx - (tw + s) * ux
-    pos[i, 1] = gy - (tw + s) * uy
-    vel[i, 0] = ux
-    vel[i, 1] = uy
-    tlast[i] = tw + s - rest
-    fsum[FS_WALL_MOMENTUM] += mi * imp
-    icnt[IC_GLIDES] += 1
-    return True
-
-
-@njit(cache=True, inline="always")
-def _wall_event(i, discs, tables, bounds, sc, cnt, rc, grid, H, size, nbin, n, reach, vfast,
-                t_glide, rng):
-    """Disc i meets the wall (if it still does at its queued time): reflect it, settle it
-    inside, and on a circle let a grazing disc glide through its chords in closed form, to the
-    end of the substep or to the next queued event when discs near it could interfere
-    (``reach``: the search radius for them; ``vfast``: the fastest speed in the substep).
-    Where the scene has them (``rc.outlets``, ``rc.thermal``): a contact point on an outlet
-    removes the disc (species -1, its energy booked in FS_OUTFLOW, counted in
-    ``cnt.outflow``); a thermal side draws its velocity from ``rng``
-    (walls.thermal_velocity, the energy exchanged booked in FS_WALL_HEAT + side); neither
-    glides (a glide is a sequence of specular reflections). Returns ``(what, t_glide)``:
-    W_NONE (it does not meet the wall), W_REFLECTED, W_THERMAL or W_LEFT, and the latest
-    time a glide took a disc to."""
-    pos, vel, species = discs.pos, discs.vel, discs.species
-    sp_radius, sp_mass = tables.sp_radius, tables.sp_mass
-    bounds_kind, bounds_params = bounds.kind, bounds.params
-    tlast, partner, nev = sc.tlast, sc.partner, sc.nev
-    cell_start, cell_items = sc.cell_start, sc.cell_items
-    icnt, fsum = cnt.icnt, cnt.fsum
-    collide = rc.collide
-    r = sp_radius[species[i]]
-    tw, axis, inward = contact(pos[i, 0], pos[i, 1], vel[i, 0], vel[i, 1], r, bounds_kind,
-                               bounds_params)
-    if tw == math.inf:
-        return W_NONE, t_glide
-    tw = max(tw, tlast[i])
-    mi = sp_mass[species[i]]
-    what = W_REFLECTED
-    if rc.thermal or rc.outlets:
-        xc = pos[i, 0] + tw * vel[i, 0]
-        yc = pos[i, 1] + tw * vel[i, 1]
-        side, frac = side_of(xc, yc, axis, vel[i, 0], vel[i, 1], bounds_kind, bounds_params)
-        if rc.outlets and on_outlet(side, frac, tables.outlets):
-            s_i = species[i]
-            fsum[FS_OUTFLOW] += 0.5 * mi * (vel[i, 0] * vel[i, 0] + vel[i, 1] * vel[i, 1]) + \
-                discs.internal_energy[i] + tables.sp_form[s_i]
-            cnt.outflow[s_i] += 1
-            species[i] = -1
-            pos[i, 0] = xc  # (where it left; removed at the end of the substep)
-            pos[i, 1] = yc
-            tlast[i] = tw
-            return W_LEFT, t_glide
-        kT = bounds.walls[side]
-        if rc.thermal and kT == kT:  # (NaN: a specular side)
-            vx0 = vel[i, 0]
-            vy0 = vel[i, 1]
-            vx, vy, vn_in, vn_out = thermal_velocity(xc, yc, vx0, vy0, side, kT, mi,
-                                                     bounds_kind, bounds_params, rng)
-            fsum[FS_WALL_MOMENTUM] += mi * (vn_in + vn_out)
-            fsum[FS_WALL_HEAT + side] += 0.5 * mi * ((vx * vx + vy * vy) - (vx0 * vx0 + vy0 * vy0))
-            vel[i, 0] = vx
-            vel[i, 1] = vy
-            pos[i, 0] = xc - tw * vx
-            pos[i, 1] = yc - tw * vy
-            what = W_THERMAL
-    if what == W_REFLECTED:
-        fsum[FS_WALL_MOMENTUM] += reflect(i, tw, axis, pos, vel, mi, bounds_kind, bounds_params)
-    icnt[IC_WALL_HITS] += 1
-    partner[i] = -1
-    tlast[i] = tw
-    if settle_after_reflection(i, axis, pos, r, bounds_kind, bounds_params):
-        icnt[IC_PUSHED_INSIDE] += 1
-    elif bounds_kind == 1 and not (rc.thermal or rc.outlets):
-        xc = pos[i, 0] + tw * vel[i, 0]
-        yc = pos[i, 1] + tw * vel[i, 1]
-        tau, psi, vn = circle_chord(xc, yc, vel[i, 0], vel[i, 1], r, bounds_params[0],
-                                    bounds_params[1], bounds_params[2])
-        T = -tw  # glide to the end of the substep, ...
-        if collide and size > 0 and tau * GLIDE_CHORDS < T:
-            # ... but the glide is closed form only while the discs near it keep
-            # their trajectories: with one near, stop at the next queued event
-            sweep = (math.hypot(vel[i, 0], vel[i, 1]) + vfast) * T
-            if overlaps_any(xc, yc, r + sweep, tw, i, i, pos, vel, species, sp_radius,
-                            grid, cell_start, cell_items, nbin, n, reach + sweep):
-                T = min(T, H[0, 0] - tw)
-        if tau * GLIDE_CHORDS < T:
-            if not _glide(i, tw, T, xc, yc, tau, psi, vn, r, mi, pos, vel, species,
-                          sp_radius, tlast, collide, bounds_params, grid, cell_start,
-                          cell_items, nbin, n, reach, icnt, fsum):
-                nev[i] = DISC_EVENTS  # wedged: no finite sequence of events frees it
-            else:
-                t_glide = max(t_glide, tlast[i])
-    return what, t_glide
-
-
-@kernel
-def _events(n, H, size, tables, discs, sc, bounds, grid, cnt, rc, sub_id, h, vfast, cut_after,
-            rng):
-    """Process the queue earliest first (``discs``: :class:`~.structs.Discs`, ``sc``:
-    :class:`~.structs.Scratch`, ``bounds``: :class:`~.structs.Bounds`, ``cnt``:
-    :class:`~.structs.Counters`, ``rc``: :class:`~.structs.RunConsts`). Returns (H,
-    n_dead, delta, dropped, vfast, vrel, t_cut): ``dropped`` if events were left unprocessed
-    because a disc (``nev``, at most DISC_EVENTS per substep) or the substep
-    (EVENTS_PER_DISC * n + 1024) ran out of events; the caller then repairs the state with
-    :func:`~discgym.kernels.resolve.resolve`.
-
-    Energy released inside the substep: ``vrel`` is the largest speed a reactive collision,
-    a collision releasing internal energy (``kappa``) or a thermal wall (its draws from
-    ``rng``) left a disc with (0 if none). When such a disc would move more than
-    ``maxdisp`` in what is left of the substep (-t), and -t > ``cut_after`` (inf: no cut),
-    processing stops at that contact: ``t_cut`` = t (else 0), every disc has its latest
-    event at or before t and the caller ends the substep there (:func:`_rewind`). Queued
-    later events are dropped; they lie after the new end and are found again by the next
-    substep. A disc glided past t (``_glide`` jumps ahead in time) could not be rewound: no
-    cut is made while one has (``t_glide``).
-
-    ``h`` is the substep and ``vfast`` the largest speed at its start: a disc is within
-    ``delta + h * vfast`` of where it was binned at any time of the substep (``vfast`` is
-    raised whenever a collision makes a disc faster), which is the reach of the room checks
-    made at a contact time.
-
-    Inelastic collapse (e < 1): a disc's second and later collisions within one substep are
-    elastic (the TC model of Luding & McNamara, with t_c = the substep; ``lastcol`` holds the
-    substep ``sub_id`` of each disc's last collision). Without it a cluster at e = 0 takes
-    unbounded numbers of ever smaller collisions (the event budget runs out in every
-    substep of a dense e = 0 box). A wall reflection that would leave a disc outside along
-    the reflected axis (a disc as wide as the bounds) is followed by moving it inside along
-    that axis (``walls.settle_after_reflection``).
-
-    Work bound: a pair event is skipped when the pair is not approaching to round-off
-    (``VR_ROUNDOFF``) or when both discs' latest events were with each other in this substep
-    (``partner``; two discs that have just bounced move apart on straight lines and cannot
-    meet again before something else happens to one of them). Without these a pair whose
-    impulse is lost to round-off (speeds ~1e2, approach speed ~1e-15), or a pair with
-    coincident centres, was re-detected at the same time until the event budget ran out.
-    """
-    sp_radius, sp_mass = tables.sp_radius, tables.sp_mass
-    ch_kind = tables.ch_kind
-    ch_energy = tables.ch_energy
-    bi_table = tables.bi_table
-    pos, vel, species, internal_energy = discs.pos, discs.vel, discs.species, discs.internal_energy
-    tlast, stamp, lastcol, partner, nev = sc.tlast, sc.stamp, sc.lastcol, sc.partner, sc.nev
-    binx, biny, cell_start, cell_items = sc.binx, sc.biny, sc.cell_start, sc.cell_items
-    bounds_kind, bounds_params = bounds.kind, bounds.params
-    icnt, fsum, ch_count = cnt.icnt, cnt.fsum, cnt.ch_count
-    collide, has_bi, rcell, maxdisp = rc.collide, rc.has_bi, rc.rcell, rc.maxdisp
-    e, kappa = rc.restitution, rc.relax
-    nbin = n if collide else 0
-    delta = 0.0  # largest distance of a disc from where it was binned
-    n_dead = 0
-    budget = EVENTS_PER_DISC * n + 1024
-    dropped = False
-    vrel = 0.0
-    t_cut = 0.0
-    t_glide = -math.inf  # the latest time a glide took a disc to in this substep
-    while size > 0:
-        t, i, j, si, sj, size = pop(H, size)
-        if stamp[i] != si or (j >= 0 and stamp[j] != sj):
-            continue
-        if nev[i] >= DISC_EVENTS or (j >= 0 and nev[j] >= DISC_EVENTS):
-            dropped = True  # a disc out of events: left to resolve() at the end
-            continue
-        budget -= 1
-        if budget < 0:
-            dropped = True
-            break
-        nev[i] += 1
-        if j >= 0:
-            nev[j] += 1
-        if j < 0:
-            what, t_glide = _wall_event(i, discs, tables, bounds, sc, cnt, rc, grid, H, size,
-                                        nbin, n, rcell + delta + h * vfast, vfast, t_glide,
-                                        rng)
-            if what == W_NONE:
-                continue
-            stamp[i] += 1
-            if what == W_LEFT:  # gone through an outlet: removed at the end of the substep
-                n_dead += 1
-                continue
-            if collide:
-                delta = max(delta, math.hypot(pos[i, 0] - binx[i], pos[i, 1] - biny[i]))
-            if what == W_THERMAL:  # a drawn speed: checked as a release of energy is
-                vi = math.hypot(vel[i, 0], vel[i, 1])
-                vfast = max(vfast, vi)
-                vrel = max(vrel, vi)
-                if vi * -t > maxdisp and -t > cut_after and t >= t_glide:
-                    t_cut = max(t, tlast[i])
-                    break
-            H, size = _schedule(i, sp_radius, pos, vel, species, tlast, stamp, n, collide,
-                                bounds_kind, bounds_params, grid, cell_start, cell_items, nbin,
-                                rcell + delta, H, size, icnt)
-            continue
-        vxi = vel[i, 0]
-        vyi = vel[i, 1]
-        vxj = vel[j, 0]
-        vyj = vel[j, 1]
-        xi, yi, xj, yj, nx, ny = normal_at(pos[i, 0], pos[i, 1], vxi, vyi, pos[j, 0],
-                                           pos[j, 1], vxj, vyj, t)
-        vr = (vxi - vxj) * nx + (vyi - vyj) * ny
-        if vr <= VR_ROUNDOFF * (abs(vxi) + abs(vyi) + abs(vxj) + abs(vyj)):
-            continue  # not approaching (to round-off: an impulse this small changes nothing)
-        if partner[i] == j and partner[j] == i:
-            continue  # the pair's last events were with each other: straight lines that have
-            # just separated cannot meet again (a re-detection by round-off)
-        fired = False
-        released = False  # energy went into motion: the speeds it leaves are checked below
-        if has_bi:
-            c = bi_table[species[i], species[j]]
-            if c >= 0:
-                mi = sp_mass[species[i]]
-                mj = sp_mass[species[j]]
-                if 0.5 * mi * mj / (mi + mj) * vr * vr >= ch_energy[c]:
-                    if ch_kind[c] == COMBINATION:
-                        outcome = combine(i, j, c, t, xi, yi, xj, yj, tables, pos, vel, species,
-                                          internal_energy, bounds_kind, bounds_params, grid,
-                                          cell_start,
-                                              cell_items, nbin,
-                                          n, rcell + delta + h * vfast)
-                    else:
-                        outcome = exchange(i, j, c, t, xi, yi, xj, yj, nx, ny, tables, pos,
-                                           vel, species, internal_energy, bounds_kind,
-                                           bounds_params, grid,
-                                               cell_start,
-                                           cell_items, nbin, n, rcell + delta + h * vfast)
-                    fired = outcome == FIRED
-                    if fired:
-                        released = True
-                        ch_count[c] += 1
-                        icnt[IC_REACTIVE] += 1
-                        if ch_kind[c] == COMBINATION:
-                            n_dead += 1
-                    elif outcome == NO_ROOM:
-                        icnt[IC_NO_ROOM] += 1
-        if not fired:
-            e_eff = e
-            if e < 1.0:
-                if lastcol[i] == sub_id or lastcol[j] == sub_id:
-                    e_eff = 1.0
-                    icnt[IC_TC_ELASTIC] += 1
-                lastcol[i] = sub_id
-                lastcol[j] = sub_id
-            # the bounce releases a share of the pair's internal energy
-            released = kappa > 0.0 and internal_energy[i] + internal_energy[j] > 0.0
-            vxi, vyi, vxj, vyj, ui, uj, lost = bounce(vxi, vyi, vxj, vyj, sp_mass[species[i]],
-                                                      sp_mass[species[j]], nx, ny, e_eff, kappa,
-                                                      internal_energy[i], internal_energy[j])
-            fsum[FS_DISSIPATED] += lost
-            vel[i, 0] = vxi
-            vel[i, 1] = vyi
-            vel[j, 0] = vxj
-            vel[j, 1] = vyj
-            internal_energy[i] = ui
-            internal_energy[j] = uj
-            pos[i, 0] = xi - t * vxi
-            pos[i, 1] = yi - t * vyi
-            pos[j, 0] = xj - t * vxj
-            pos[j, 1] = yj - t * vyj
-            icnt[IC_COLLISIONS] += 1
-        tlast[i] = t
-        tlast[j] = t
-        stamp[i] += 1
-        stamp[j] += 1
-        partner[i] = j
-        partner[j] = i
-        delta = max(delta, math.hypot(pos[i, 0] - binx[i], pos[i, 1] - biny[i]))
-        vi = math.hypot(vel[i, 0], vel[i, 1])
-        vfast = max(vfast, vi)
-        if species[j] >= 0:
-            delta = max(delta, math.hypot(pos[j, 0] - binx[j], pos[j, 1] - biny[j]))
-            vj = math.hypot(vel[j, 0], vel[j, 1])
-            vfast = max(vfast, vj)
-            vi = max(vi, vj)
-        if released:
-            vrel = max(vrel, vi)
-            if vi * -t > maxdisp and -t > cut_after and t >= t_glide:
-                # the substep's contact checks come too late for it: end the substep here
-                t_cut = t
-                break
-        H, size = _schedule(i, sp_radius, pos, vel, species, tlast, stamp, n, collide,
-                            bounds_kind, bounds_params,
-                            grid, cell_start, cell_items, nbin, rcell + delta, H, size, icnt)
-        if species[j] >= 0:
-            H, size = _schedule(j, sp_radius, pos, vel, species, tlast, stamp, n, collide,
-                                bounds_kind,
-                                bounds_params, grid, cell_start, cell_items, nbin, rcell + delta,
-                                H, size, icnt)
-    return H, n_dead, delta, dropped, vfast, vrel, t_cut
-
-
-@kernel
-def _rewind(n, t, pos, vel, species, binx, biny, collide):
-    """End the substep at time t < 0 (see :func:`_events`): every disc, on its straight
-    trajectory since its latest event (none after t), goes back to where it is at t. Returns
-    the largest distance of a disc from where it was binned (if ``collide``)."""
-    delta = 0.0
-    for q in range(n):
-        if species[q] < 0:
-            continue
-        pos[q, 0] += t * vel[q, 0]
-        pos[q, 1] += t * vel[q, 1]
-        if collide:
-            delta = max(delta, math.hypot(pos[q, 0] - binx[q], pos[q, 1] - biny[q]))
-    return delta
-
-
 # ------------------------------------------------------------- phase 4: first-order reactions
 @kernel
 def _first_order(n, h, tables, discs, fission_possible, bounds, grid, sc, delta, rc, rng, cnt):
@@ -1036,7 +561,6 @@ def _first_order(n, h, tables, discs, fission_possible, bounds, grid, sc, delta,
     """
     pos, vel, species, internal_energy = discs.pos, discs.vel, discs.species, discs.internal_energy
     ids, idctr = discs.ids, discs.next_id
-    bounds_kind, bounds_params = bounds.kind, bounds.params
     cell_start, cell_items, cell_of = sc.cell_start, sc.cell_items, sc.cell_of
     collide, rcell = rc.collide, rc.rcell
     icnt, ch_count = cnt.icnt, cnt.ch_count
@@ -1066,9 +590,9 @@ def _first_order(n, h, tables, discs, fission_possible, bounds, grid, sc, delta,
         i = react[q]
         c = chan[q]
         if ch_kind[c] == TRANSFORMATION:
-            fired = transform(i, c, collide, tables, pos, vel, species, internal_energy,
-                              bounds_kind, bounds_params, grid,
-                              cell_start, cell_items, nbin, n, rcell + delta)
+            fired = transform(i, c, tables, Discs(pos, vel, species, internal_energy, ids, idctr),
+                              bounds, Search(grid, cell_start, cell_items, nbin, n,
+                                             rcell + delta, collide))
         else:
             if collide and n - nbin > REBUILD_UNBINNED:
                 build(n, pos, species, tables.sp_radius, grid, cell_start, cell_items, cell_of)
@@ -1076,9 +600,9 @@ def _first_order(n, h, tables, discs, fission_possible, bounds, grid, sc, delta,
                 delta = 0.0
             x_old = pos[i, 0]
             y_old = pos[i, 1]
-            fired = fission(i, c, n, collide, tables, pos, vel, species, internal_energy,
-                            bounds_kind, bounds_params, grid,
-                            cell_start, cell_items, nbin, rcell + delta, rng)
+            fired = fission(i, c, n, tables, Discs(pos, vel, species, internal_energy, ids, idctr),
+                            bounds, Search(grid, cell_start, cell_items, nbin, n, rcell + delta,
+                                           collide), rng)
             if fired:
                 ids[n] = idctr[0]
                 idctr[0] += 1
@@ -1434,26 +958,26 @@ def advance(discs, n, n_steps, dt, bounds, tables, params, flags, rng, cnt, thre
             # if it declines) the serial one
             done = False
             queued = False
+            ph = Phase(Discs(pos, vel, species, internal_energy, ids, idctr), tables, bounds, grid,
+                       sc, rc)
+            sub_c = Substep(icnt[IC_SUBSTEPS], h, cut_after, EVENTS_PER_DISC * n + 1024)
             if clusters is not None:
                 if clustered and sc.cell_start[nbc + 1] == sc.cell_start[nbc]:
                     done, H, size, delta, dropped, vfast = cluster_events(
-                        n, H, tables, Discs(pos, vel, species, internal_energy, ids, idctr), sc,
-                        bounds, grid, cnt, rc, icnt[IC_SUBSTEPS], h, vfast, own, threads)
+                        n, H, ph, cnt, sub_c, vfast, own, threads)
                     queued = True
                     n_dead = 0
                     vrel = 0.0
                     t_cut = 0.0
             if not queued:
-                H, size = _queue_initial(n, collide, sp_radius, pos, vel, species, sc, grid, H,
-                                         icnt, pl, listed)
+                H, size = queue_initial(n, ph, H, icnt, pl, listed)
             if not done:
-                H, n_dead, delta, dropped, vfast, vrel, t_cut = _events(
-                    n, H, size, tables, Discs(pos, vel, species, internal_energy, ids, idctr),
-                    sc, bounds, grid, cnt, rc, icnt[IC_SUBSTEPS], h, vfast, cut_after, rng)
+                _code, _other, H, _ev, n_dead, delta, dropped, vfast, vrel, t_cut = run_events(
+                    H, size, n, ph, cnt, sub_c, vfast, rng, None)
             hu = h  # the length of this substep
             if t_cut < 0.0:
                 icnt[IC_CUTS] += 1
-                delta = _rewind(n, t_cut, pos, vel, species, sc.binx, sc.biny, collide)
+                delta = rewind(n, t_cut, ph.discs, sc, collide)
                 hu = h + t_cut
             left = icnt[IC_LEFT_OVERLAPPING] != left0
             if dropped or left:

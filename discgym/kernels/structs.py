@@ -193,6 +193,41 @@ class RunConsts(NamedTuple):
     outlets: bool  #: ... outlets (flags[F_OUTLETS])
 
 
+class Phase(NamedTuple):
+    """What the phases of a stepped substep read and write, besides the counters: the state,
+    its tables and bounds, the substep's grid and scratch, and the run's constants."""
+
+    discs: Discs  #: the state
+    tables: Tables
+    bounds: Bounds
+    grid: np.ndarray  #: (7,) FLOAT the cell grid (celllist.make_grid)
+    sc: Scratch  #: the per-disc scratch
+    rc: RunConsts
+
+
+class Substep(NamedTuple):
+    """One substep's constants, as its event phase reads them."""
+
+    sub_id: int  #: its number in the call (a disc's last collision's, for the TC model)
+    h: float  #: its length
+    cut_after: float  #: a release of energy ends it early only with more than this left
+    budget: int  #: the events it may take (EVENTS_PER_DISC * n + 1024)
+
+
+class Search(NamedTuple):
+    """Where a check for room looks: the grid of the substep, the discs binned in it (by
+    cell, [0, nbin)), the discs made since ([nbin, n)), and how far a binned disc may be from
+    where it was binned (``reach``; the searched disc's radius is added to it)."""
+
+    grid: np.ndarray  #: (7,) FLOAT
+    cell_start: np.ndarray  #: (cells + 2,) INDEX
+    cell_items: np.ndarray  #: (ws,) INDEX
+    nbin: int
+    n: int
+    reach: float
+    collide: bool  #: False: the discs do not collide, only the bounds are checked
+
+
 class Reactors(NamedTuple):
     """The state of R reactors of one scene, as padded rows (reactor r is row r of each
     field; discs [0, n[r]) are live, species -1 past them)."""
