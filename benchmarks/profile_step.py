@@ -32,6 +32,9 @@ from numba import njit
 
 from discgym import Simulation
 from discgym.bench import bench_scene, format_table, n_label
+from discgym.kernels import drift as DR
+from discgym.kernels import events as EV
+from discgym.kernels import pairlist as PL
 from discgym.kernels import step as S
 from discgym.kernels.celllist import cell_radius, make_grid
 from discgym.kernels.heap import new_heap
@@ -47,7 +50,9 @@ from discgym.kernels.structs import (
     Bounds,
     Counters,
     Discs,
+    Phase,
     RunConsts,
+    Substep,
 )
 
 PHASES = ("reorder in memory", "substep split", "drift, walls, binning", "cell sort",
@@ -70,7 +75,7 @@ def _now(buf):
 
 @njit
 def profiled_advance(discs, n, n_steps, dt, bounds, tables, params, flags, rng, cnt, step0,
-                     work, T, clk, C, skin_factor=S.PAIR_SKIN):
+                     work, T, clk, C, skin_factor=PL.PAIR_SKIN):
     """kernels.step.advance for a scene without reactions (one thread), adding the ns
     spent in each phase of PHASES to T and the COUNTS to C. The broad phase is the one
     advance takes for a call of ``n_steps`` steps (the pair list from PAIR_MIN_STEPS on, its
@@ -97,7 +102,7 @@ def profiled_advance(discs, n, n_steps, dt, bounds, tables, params, flags, rng, 
     sc = S._carve(work, ws, nstart)
     listed = collide and n_steps >= S.PAIR_MIN_STEPS and skin_factor > 0.0  # (and any n:
     # advance takes the scan above PAIR_MAX_DISCS, a profile may still ask for the list)
-    pl = S.new_pairlist(ws if listed else 0, S.PAIR_CAP * ws if listed else 0)
+    pl = PL.new_pairlist(ws if listed else 0, PL.PAIR_CAP * ws if listed else 0)
     big = sp_radius.max() > rcell
     skin = skin_factor * rcell
     cut = 2.0 * rcell + skin
@@ -106,7 +111,7 @@ def profiled_advance(discs, n, n_steps, dt, bounds, tables, params, flags, rng, 
         if n >= S.REORDER_MIN and (step0 + s) % S.REORDER_EVERY == 0:
             S._reorder(n, pos, vel, species, internal_energy, ids, rgrid, work)
             if listed:
-                S._pl_permute(n, work[1][n:2 * n], pl, work[1][0:n], work[0])
+                PL.pl_permute(n, work[1][n:2 * n], pl, work[1][0:n], work[0])
         t1 = _now(clk)
         T[0] += t1 - t0
         k, capped, vfast = S._first_split(vel, n, dt, maxdisp, icnt)
@@ -116,53 +121,54 @@ def profiled_advance(discs, n, n_steps, dt, bounds, tables, params, flags, rng, 
         for _ in range(k):
             icnt[S.IC_SUBSTEPS] += 1
             t0 = _now(clk)
-            sc.nlist[0] = S._drift_range(0, n, h, pos, vel, species, sp_radius, bounds_kind,
+            sc.nlist[0] = DR.drift_range(0, n, h, pos, vel, species, sp_radius, bounds_kind,
                                          bounds_params, sc.tlast, sc.wall_t, sc.wflag, sc.wl,
                                          grid, sc.cell_of, collide, sc.nev, sc.binx, sc.biny,
                                          sc.partner)
             t1 = _now(clk)
             T[2] += t1 - t0
-            S._sort(n, sc.cell_of, sc.cell_start, sc.cell_items)
+            DR.sort_cells(n, sc.cell_of, sc.cell_start, sc.cell_items)
             t0 = _now(clk)
             T[3] += t0 - t1
             C[0] += 1
-            if listed:  # S._pl_broad, phase by phase
-                m = S._pl_stale(n, pos, species, sp_radius, rcell, 0.5 * skin, big, pl)
+            if listed:  # PL.pl_broad, phase by phase
+                m = PL.pl_stale(n, pos, species, sp_radius, rcell, 0.5 * skin, big, pl)
                 t1 = _now(clk)
                 T[6] += t1 - t0
-                S._pl_test(pos, species, sp_radius, S._mono_radius(sp_radius, rcell), pl)
+                PL.pl_test(pos, species, sp_radius, PL.mono_radius(sp_radius, rcell), pl)
                 t0 = _now(clk)
                 T[8] += t0 - t1
                 p0 = pl.count[0]
                 o0 = pl.count[1]
-                while not S._pl_refresh(m, pos, species, sp_radius, pl, grid, sc.cell_start,
+                while not PL.pl_refresh(m, pos, species, sp_radius, pl, grid, sc.cell_start,
                                         sc.cell_items, cut, cut + 0.5 * skin):
                     pl.count[0] = p0
                     pl.count[1] = o0
-                    pl = S._pl_resize(pl, pl.ref.shape[0], 2 * pl.pi.shape[0])
+                    pl = PL.pl_resize(pl, pl.ref.shape[0], 2 * pl.pi.shape[0])
                 nbc = int(grid[4]) * ncy
-                S._gather(sc.cell_start[nbc], sc.cell_start[nbc + 1], sc.cell_items, pos,
+                DR.gather(sc.cell_start[nbc], sc.cell_start[nbc + 1], sc.cell_items, pos,
                           species, sp_radius, sc.sx, sc.sy, sc.sr)
                 C[1] += m
                 t1 = _now(clk)
                 T[7] += t1 - t0
                 t0 = t1
             else:
-                S._gather(0, n, sc.cell_items, pos, species, sp_radius, sc.sx, sc.sy, sc.sr)
+                DR.gather(0, n, sc.cell_items, pos, species, sp_radius, sc.sx, sc.sy, sc.sr)
                 t1 = _now(clk)
                 T[4] += t1 - t0
-                sc.nlist[1] = S._scan_rows(0, ncy, grid, sc.cell_start, sc.sx, sc.sy, sc.sr,
+                sc.nlist[1] = DR.scan_rows(0, ncy, grid, sc.cell_start, sc.sx, sc.sy, sc.sr,
                                            sc.ov_n, sc.ov_b, sc.ol)
                 t0 = _now(clk)
                 T[5] += t0 - t1
             left0 = icnt[S.IC_LEFT_OVERLAPPING]
-            H, size = S._queue_initial(n, collide, sp_radius, pos, vel, species, sc, grid, H,
-                                       icnt, pl, listed)
+            ph = Phase(Discs(pos, vel, species, internal_energy, ids, idctr), tables, bounds,
+                       grid, sc, rc)
+            H, size = EV.queue_initial(n, ph, H, icnt, pl, listed)
             t1 = _now(clk)
             T[9] += t1 - t0
-            H, n_dead, delta, dropped, vfast, vrel, t_cut = S._events(
-                n, H, size, tables, Discs(pos, vel, species, internal_energy, ids, idctr), sc,
-                bounds, grid, cnt, rc, icnt[S.IC_SUBSTEPS], h, vfast, math.inf, rng)
+            sub = Substep(icnt[S.IC_SUBSTEPS], h, math.inf, S.EVENTS_PER_DISC * n + 1024)
+            _c, _o, H, _e, n_dead, delta, dropped, vfast, vrel, t_cut = EV.run_events(
+                H, size, n, ph, cnt, sub, vfast, rng, None)
             t0 = _now(clk)
             T[10] += t0 - t1
             if dropped or icnt[S.IC_LEFT_OVERLAPPING] != left0:
@@ -174,7 +180,7 @@ def profiled_advance(discs, n, n_steps, dt, bounds, tables, params, flags, rng, 
 
 
 def profile(n: int, steps: int, seed: int = 0, equilibrate: float = 5.0,
-            skin: float = S.PAIR_SKIN):
+            skin: float = PL.PAIR_SKIN):
     """ns per disc-step of each phase over ``steps`` steps, and of the whole run."""
     sim = Simulation(bench_scene(n), seed=seed)
     sim.threads = 1
@@ -233,7 +239,7 @@ def main(argv=None) -> int:
                     " so the pair list's build at its start is spread thin)")
     ap.add_argument("--reps", type=int, default=3, help="runs per N (median reported)")
     ap.add_argument("--markdown", action="store_true", help="print a Markdown table")
-    ap.add_argument("--skin", type=float, default=S.PAIR_SKIN,
+    ap.add_argument("--skin", type=float, default=PL.PAIR_SKIN,
                     help="the pair list's skin in cell radii (default: the integrator's; 0: the "
                     "per-substep scan that shorter calls take)")
     ap.add_argument("--compare", default=None, metavar="SKINS",

@@ -23,6 +23,7 @@ import pytest
 import discgym as dg
 from discgym.bench import bench_scene
 from discgym.kernels import clusters as CL
+from discgym.kernels import drift as DR
 from discgym.kernels import step as S
 from discgym.kernels.structs import (
     F_BI,
@@ -36,7 +37,7 @@ from discgym.kernels.structs import (
 )
 
 N = 20000  # (from PARALLEL_MIN discs, 8 chunks from 8 CHUNK_MIN)
-assert N >= S.PARALLEL_MIN and N >= 8 * S.CHUNK_MIN
+assert N >= DR.PARALLEL_MIN and N >= 8 * S.CHUNK_MIN
 
 
 def _same(a, b):
@@ -57,7 +58,7 @@ def _serial_vs_clusters(sim, calls, steps):
     cs = sim._cs
     rc = RunConsts(cs.params[0], cs.params[1], 0.5, 1.0, bool(cs.flags[F_COLLISIONS]),
                    bool(cs.flags[F_BI]), bool(cs.flags[F_THERMAL]), bool(cs.flags[F_OUTLETS]))
-    assert CL.eligible(rc, sim._bounds_kind) and len(sim) >= S.PARALLEL_MIN
+    assert CL.eligible(rc, sim._bounds_kind) and len(sim) >= DR.PARALLEL_MIN
     one = sim.copy()
     one.threads = 1  # the serial event phase
     many = sim.copy()
@@ -164,7 +165,7 @@ def test_a_simulation_below_the_threads_range_runs_the_serial_entry_the_same_bit
                        threads if numba.get_num_threads() > 1 else 1)
         _same(ref, sim)
         assert sim.counters()["collisions"] > 0
-    assert not S.serial_suffices(S.PARALLEL_MIN, 2) and S.serial_suffices(S.PARALLEL_MIN, 1)
+    assert not S.serial_suffices(DR.PARALLEL_MIN, 2) and S.serial_suffices(DR.PARALLEL_MIN, 1)
     assert not S.serial_suffices(S.PAIR_MAX_DISCS + 1, 1)
 
 

@@ -11,6 +11,8 @@ import pytest
 
 import discgym as dg
 from discgym.bench import bench_scene
+from discgym.kernels import drift as DR
+from discgym.kernels import pairlist as PL
 from discgym.kernels import step as S
 from discgym.kernels.celllist import build, cell_radius, make_grid
 from discgym.kernels.structs import FLOAT, INDEX
@@ -38,7 +40,7 @@ class Scene2D:
 
     def broad(self, pl, full=False):
         self.bin()
-        pl = S._pl_broad(self.n, self.pos, self.species, self.sp_radius, self.grid, self.sc,
+        pl = PL.pl_broad(self.n, self.pos, self.species, self.sp_radius, self.grid, self.sc,
                          pl, full, self.big)
         m = int(pl.count[1])
         found = {(min(i, j), max(i, j)) for i, j in zip(pl.ovi[:m], pl.ovj[:m])}
@@ -56,7 +58,7 @@ class Scene2D:
     def listed_invariant(self, pl):
         """Every small disc listed, within skin / 2 of its reference position, and every
         pair of them closer than the cut (by reference positions) in the list, once."""
-        skin = S.PAIR_SKIN * self.rcell
+        skin = PL.PAIR_SKIN * self.rcell
         small = self.sp_radius[self.species] <= self.rcell
         assert (pl.listed[:self.n][small] == 1).all()
         d = np.hypot(*(self.pos - pl.ref[:self.n]).T)
@@ -84,7 +86,7 @@ def test_the_list_finds_exactly_the_overlapping_pairs_as_discs_move(radii, weigh
     and some not, every round), the big discs left to _queue_initial."""
     rng = np.random.default_rng(1)
     g = _gas(rng, 400, 40.0, radii, weights)
-    pl = S.new_pairlist(g.n, S.PAIR_CAP * g.n)
+    pl = PL.new_pairlist(g.n, PL.PAIR_CAP * g.n)
     pl, found = g.broad(pl, full=True)
     assert found == g.brute() and found
     g.listed_invariant(pl)
@@ -96,8 +98,8 @@ def test_the_list_finds_exactly_the_overlapping_pairs_as_discs_move(radii, weigh
         pl, found = g.broad(pl)
         assert found == g.brute()
         g.listed_invariant(pl)
-        refreshed += int(S._pl_stale(g.n, g.pos, g.species, g.sp_radius, g.rcell,
-                                     0.5 * S.PAIR_SKIN * g.rcell, g.big, pl))
+        refreshed += int(PL.pl_stale(g.n, g.pos, g.species, g.sp_radius, g.rcell,
+                                     0.5 * PL.PAIR_SKIN * g.rcell, g.big, pl))
     assert refreshed == 0  # (each broad phase leaves nothing to refresh at the same positions)
 
 
@@ -105,17 +107,17 @@ def test_a_disc_faster_than_half_the_skin_per_step_is_refreshed_and_its_contact_
     """Disc 0 jumps 0.9 skin per step onto disc 1 (listed far apart at first): each step it
     is beyond skin / 2 of where it was listed, so it is refreshed, and the overlap is found
     the step it happens."""
-    skin = S.PAIR_SKIN * 1.0
+    skin = PL.PAIR_SKIN * 1.0
     pos = np.array([[5.0, 20.0], [5.0 + 6 * 0.9 * skin + 1.0, 20.0], [30.0, 30.0]])
     g = Scene2D(pos, [0, 0, 0], [1.0], 40.0)
-    pl, found = g.broad(S.new_pairlist(3, 8), full=True)
+    pl, found = g.broad(PL.new_pairlist(3, 8), full=True)
     assert found == set() and int(pl.count[0]) == 0  # (too far apart to be listed)
     for step in range(1, 7):
         g.pos[0, 0] += 0.9 * skin
         g.bin()
-        m = S._pl_stale(3, g.pos, g.species, g.sp_radius, g.rcell, 0.5 * skin, False, pl)
+        m = PL.pl_stale(3, g.pos, g.species, g.sp_radius, g.rcell, 0.5 * skin, False, pl)
         assert m == 1 and pl.todo[0] == 0  # disc 0 alone is refreshed
-        pl, found = g.broad(S._pl_resize(pl, 3, pl.pi.shape[0]))
+        pl, found = g.broad(PL.pl_resize(pl, 3, pl.pi.shape[0]))
         gap = g.pos[1, 0] - g.pos[0, 0]
         assert found == ({(0, 1)} if gap < 2.0 else set()), (step, gap)
     assert found == {(0, 1)}
@@ -125,16 +127,16 @@ def test_a_full_list_grows_and_drops_no_pair():
     rng = np.random.default_rng(2)
     g = _gas(rng, 300, 18.0)  # dense: many pairs per disc
     # a list with room for one pair refuses the refresh (returns False) instead of dropping
-    tiny = S.new_pairlist(g.n, 1)
+    tiny = PL.new_pairlist(g.n, 1)
     g.bin()
     tiny.listed[:] = 0
-    m = S._pl_stale(g.n, g.pos, g.species, g.sp_radius, g.rcell, 0.5, False, tiny)
-    skin = S.PAIR_SKIN * g.rcell
+    m = PL.pl_stale(g.n, g.pos, g.species, g.sp_radius, g.rcell, 0.5, False, tiny)
+    skin = PL.PAIR_SKIN * g.rcell
     cut = 2 * g.rcell + skin
-    assert not S._pl_refresh(m, g.pos, g.species, g.sp_radius, tiny, g.grid, g.sc.cell_start,
+    assert not PL.pl_refresh(m, g.pos, g.species, g.sp_radius, tiny, g.grid, g.sc.cell_start,
                              g.sc.cell_items, cut, cut + 0.5 * skin)
     # the broad phase grows it (doubling) until every pair fits
-    pl, found = g.broad(S.new_pairlist(g.n, 1), full=True)
+    pl, found = g.broad(PL.new_pairlist(g.n, 1), full=True)
     assert pl.pi.shape[0] >= int(pl.count[0]) > 2 * g.n
     assert found == g.brute()
     g.listed_invariant(pl)
@@ -146,7 +148,7 @@ def test_a_full_list_grows_and_drops_no_pair():
 def test_removals_renumbering_and_species_changes_keep_the_list_exact():
     rng = np.random.default_rng(3)
     g = _gas(rng, 300, 30.0, (1.0, 0.5, 4.0), (0.6, 0.39, 0.01))
-    pl, found = g.broad(S.new_pairlist(g.n, 2 * g.n), full=True)
+    pl, found = g.broad(PL.new_pairlist(g.n, 2 * g.n), full=True)
     assert found == g.brute()
     # a reaction makes small discs big and a big disc small, in place
     small = np.nonzero(g.species == 0)[0][:3]
@@ -159,7 +161,7 @@ def test_removals_renumbering_and_species_changes_keep_the_list_exact():
     # discs removed (as _compact removes them): the list follows
     dead = rng.choice(g.n, size=40, replace=False)
     g.species[dead] = -1
-    S._pl_compact(g.n, g.species, pl, pl.todo)
+    PL.pl_compact(g.n, g.species, pl, pl.todo)
     keep = g.species >= 0
     g2 = Scene2D(g.pos[keep], g.species[keep], g.sp_radius, 30.0)
     pl, found = g2.broad(pl)
@@ -167,7 +169,7 @@ def test_removals_renumbering_and_species_changes_keep_the_list_exact():
     g2.listed_invariant(pl)
     # renumbered (as _reorder does): the list follows the permutation
     perm = rng.permutation(g2.n).astype(INDEX)
-    S._pl_permute(g2.n, perm, pl, np.empty(g2.n, dtype=INDEX), np.empty(2 * g2.n, dtype=FLOAT))
+    PL.pl_permute(g2.n, perm, pl, np.empty(g2.n, dtype=INDEX), np.empty(2 * g2.n, dtype=FLOAT))
     g3 = Scene2D(g2.pos[perm], g2.species[perm], g2.sp_radius, 30.0)
     g3.pos += rng.normal(0.0, 0.3, size=g3.pos.shape)
     pl, found = g3.broad(pl)
@@ -235,7 +237,7 @@ def test_the_list_gives_the_same_trajectory_on_any_number_of_threads():
     """From PARALLEL_MIN discs a long call takes the list on one thread and, on two, the
     parallel scan and the event phase by clusters (kernels.clusters): one thread, two
     threads and the scan agree bit for bit."""
-    sim = dg.Simulation(bench_scene(S.PARALLEL_MIN + 1000), seed=4)
+    sim = dg.Simulation(bench_scene(DR.PARALLEL_MIN + 1000), seed=4)
     one = sim.copy()
     one.threads = 1
     two = sim.copy()

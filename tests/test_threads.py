@@ -11,7 +11,7 @@ import pytest
 import discgym as dg
 from discgym import threads as T
 from discgym.bench import bench_scene
-from discgym.kernels import step as S
+from discgym.kernels import drift as DR
 from discgym.vector import DiscReactorVectorEnv
 
 
@@ -186,7 +186,7 @@ def _alternating(monkeypatch) -> list:
 
 @pytest.mark.skipif(numba.get_num_threads() < 2, reason="numba has one thread here")
 def test_a_simulation_gives_the_same_bits_whatever_the_counts(monkeypatch):
-    sim = dg.Simulation(bench_scene(S.PARALLEL_MIN + 2000), seed=21)
+    sim = dg.Simulation(bench_scene(DR.PARALLEL_MIN + 2000), seed=21)
     fixed = sim.copy()
     monkeypatch.setenv(T.ENV_VAR, "0")
     for _ in range(4):

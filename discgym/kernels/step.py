@@ -31,16 +31,17 @@ The driver is :func:`advance`; its state, bounds and counters are the structs of
 import math
 
 import numpy as np
-from numba import njit, prange
+from numba import njit
 
-from .celllist import build, cell_coord, cell_radius, cell_range, make_grid
+from .celllist import build, cell_coord, cell_radius, make_grid
 from .claims import new_owner
 from .clusters import eligible
 from .clusters import events as cluster_events
-from .contacts import close_lists
+from .drift import PARALLEL_MIN, drift_and_bin
 from .events import queue_initial, rewind, run_events
 from .heap import new_heap
 from .jit import kernel
+from .pairlist import PAIR_CAP, new_pairlist, pl_compact, pl_permute, pl_resize
 from .reactions import (
     TRANSFORMATION,
     first_order_draws,
@@ -102,23 +103,13 @@ from .structs import (  # noqa: E402,F401,I001
     capacity_for_discs,
     fields,
 )
-from .walls import (
-    box_contact,
-    circle_contact,
-    push_inside,
-)
 
 MAX_SUBSTEPS = 1 << 16
 REBUILD_UNBINNED = 256  # rebuild the grid when this many discs were created since it was built
-PARALLEL_MIN = 8192  # below this many discs a step runs on one thread: waking numba's
-# threads for the parallel regions of a substep costs more than they save (2 threads against
-# 1: 1.3-1.4x at 8,200 discs, docs/performance.md)
 CHUNK_MIN = 1024  # discs per work chunk at least (more chunks than this allows: fewer)
 REORDER_MIN = 16384  # from this many discs, discs are periodically put in cell order in memory
 REORDER_EVERY = 8  # steps between reorderings (Simulation's default)
 REORDER_CELLS = 1 << 19  # the reordering grid: cells of 2 r_max, at most about this many
-PAIR_SKIN = 1.0  # the pair list's skin, in cell radii (docs/performance.md)
-PAIR_CAP = 2  # listed pairs the pair list has room for per disc at first (doubled when full)
 PAIR_MIN_STEPS = 32  # calls of fewer steps use the per-substep scan: the list is built at the
 # start of each call (about 120 ns per disc), which a call of fewer steps does not earn back
 # (new / old 1.07 at 4 steps per call, 1.01 at 16, 0.99 at 32, 0.89 at 200: docs/performance.md)
@@ -126,426 +117,6 @@ PAIR_MAX_DISCS = 1 << 17  # calls on more discs use the scan: the list's scatter
 # more than the scan once the state and the list outgrow the caches (list / scan 0.85 at
 # 10^5, 1.10 at 3 10^5, 1.30 at 10^6: docs/performance.md)
 
-
-
-# ----------------------------------------------------------------------------- phase 1: drift
-@kernel
-def _drift_range(lo, hi, h, pos, vel, species, sp_radius, bounds_kind, bounds_params, tlast,
-                 wall_t, wflag, wl, grid, cell_of, collide, nev, binx, biny, partner):
-    """Move discs [lo, hi) by h; note their wall contacts (and list the discs that have
-    one or were pushed inside in ``wl`` from ``lo`` on; returns how many); reset their
-    event counts; bin them (if collide: their cell, where they were binned, no partner
-    yet). One pass does it all (these were separate passes over the discs).
-
-    Bounds are unpacked to scalars once: helpers taking arrays cost a reference count per
-    call, which in this loop would dominate its time.
-    """
-    x0, y0, icx, icy = grid[0], grid[1], grid[2], grid[3]
-    ncx = int(grid[4])
-    ncy = int(grid[5])
-    rcell = grid[6]
-    nbc = ncx * ncy  # the big cell (celllist)
-    b0, b1, b2, b3 = bounds_params[0], bounds_params[1], bounds_params[2], bounds_params[3]
-    m = lo
-    for i in range(lo, hi):
-        vx = vel[i, 0]
-        vy = vel[i, 1]
-        x = pos[i, 0] + h * vx
-        y = pos[i, 1] + h * vy
-        pos[i, 0] = x
-        pos[i, 1] = y
-        tlast[i] = -h
-        r = sp_radius[species[i]]
-        if bounds_kind == 0:
-            t, axis, inward = box_contact(x, y, vx, vy, r, b0, b1, b2, b3)
-        else:
-            t, axis, inward = circle_contact(x, y, vx, vy, r, b0, b1, b2)
-        wall_t[i] = max(t, -h)
-        wflag[i] = 0
-        nev[i] = 0
-        if inward:
-            push_inside(i, pos, r, bounds_kind, bounds_params)
-            wflag[i] = 1
-            x = pos[i, 0]
-            y = pos[i, 1]
-        if inward or t < math.inf:
-            wl[m] = i
-            m += 1
-        if collide:
-            if r > rcell:
-                cell_of[i] = nbc
-            else:
-                cell_of[i] = cell_coord(x, icx, x0, ncx) + ncx * cell_coord(y, icy, y0, ncy)
-            binx[i] = x
-            biny[i] = y
-            partner[i] = -1
-    return m - lo
-
-
-@kernel(parallel=True)
-def _drift_parallel(nch, n, h, pos, vel, species, sp_radius, bounds_kind, bounds_params, tlast,
-                    wall_t, wflag, wl, grid, cell_of, collide, nev, binx, biny, partner):
-    """_drift_range in nch chunks of discs; returns how many discs are listed in ``wl``."""
-    starts = np.empty(nch, dtype=np.int64)
-    counts = np.empty(nch, dtype=np.int64)
-    for c in prange(nch):
-        lo = c * n // nch
-        starts[c] = lo
-        counts[c] = _drift_range(lo, (c + 1) * n // nch, h, pos, vel, species, sp_radius,
-                                 bounds_kind, bounds_params, tlast, wall_t, wflag, wl, grid,
-                                 cell_of, collide, nev, binx, biny, partner)
-    return close_lists(wl, starts, counts)
-
-
-# ----------------------------------------------------------------------- phase 2: broad phase
-@kernel
-def _sort(n, cell_of, cell_start, cell_items):
-    """Counting sort of discs [0, n) by ``cell_of`` (all live)."""
-    nc = cell_start.shape[0] - 1
-    cell_start[:] = 0
-    for i in range(n):
-        cell_start[cell_of[i] + 1] += 1
-    for c in range(nc):
-        cell_start[c + 1] += cell_start[c]
-    for i in range(n):
-        c = cell_of[i]
-        cell_items[cell_start[c]] = i
-        cell_start[c] += 1
-    for c in range(nc, 0, -1):
-        cell_start[c] = cell_start[c - 1]
-    cell_start[0] = 0
-
-
-@kernel
-def _scan_rows(r0, r1, grid, cell_start, sx, sy, sr, ov_n, ov_b, ol):
-    """Overlapping pairs among discs binned in rows [r0, r1), in sorted order.
-
-    Reads the gathered (sorted, contiguous) ``sx, sy, sr``. ``ov_n[a]`` gets the number of
-    partners b > a (in the half stencil, ``contacts.half_stencil``) of sorted disc a, the first
-    OV_SLOTS of them, in increasing b, in ``ov_b[a]``; the discs with any are listed in
-    ``ol`` from the rows' first sorted disc on (returns how many). Each call writes only its
-    own rows' discs, so row chunks run in parallel.
-
-    The loop runs over the discs of a row (a disc's column from its x, as it was binned),
-    not over the cells: most cells are empty (about 60% at packing 0.3), and a branch on
-    that mispredicts. (Testing a fixed window of candidates without branches was slower:
-    docs/performance.md.)
-    """
-    x0, icx = grid[0], grid[2]
-    ncx = int(grid[4])
-    ncy = int(grid[5])
-    m = cell_start[r0 * ncx]
-    for cy in range(r0, r1):
-        rowc = ncx * cy
-        below = cy + 1 < ncy
-        for a in range(cell_start[rowc], cell_start[rowc + ncx]):
-            xi = sx[a]
-            yi = sy[a]
-            ri = sr[a]
-            cx = cell_coord(xi, icx, x0, ncx)
-            c = rowc + cx
-            e1 = cell_start[c + 2] if cx + 1 < ncx else cell_start[c + 1]
-            if below:
-                lo2 = cell_start[c + ncx - 1] if cx > 0 else cell_start[c + ncx]
-                hi2 = cell_start[c + ncx + 2] if cx + 1 < ncx else cell_start[c + ncx + 1]
-            else:
-                lo2 = 0
-                hi2 = 0
-            k = _overlaps_in(a, a + 1, e1, 0, xi, yi, ri, sx, sy, sr, ov_b)
-            k = _overlaps_in(a, lo2, hi2, k, xi, yi, ri, sx, sy, sr, ov_b)
-            ov_n[a] = k
-            if k > 0:
-                ol[m] = a
-                m += 1
-    return m - cell_start[r0 * ncx]
-
-
-@njit(cache=True, inline="always")
-def _overlaps_in(a, lo, hi, k, xi, yi, ri, sx, sy, sr, ov_b):
-    """Note the sorted discs [lo, hi) overlapping disc ``a`` (at xi, yi, radius ri) in its
-    overlap slots from count ``k`` on; returns the new count (slots beyond OV_SLOTS are
-    counted, not stored)."""
-    for b in range(lo, hi):
-        dx = sx[b] - xi
-        dy = sy[b] - yi
-        R = ri + sr[b]
-        if dx * dx + dy * dy < R * R:
-            if k < OV_SLOTS:
-                ov_b[a, k] = b
-            k += 1
-    return k
-
-
-@kernel
-def _gather(lo, hi, cell_items, pos, species, sp_radius, sx, sy, sr):
-    for a in range(lo, hi):
-        i = cell_items[a]
-        sx[a] = pos[i, 0]
-        sy[a] = pos[i, 1]
-        sr[a] = sp_radius[species[i]]
-
-
-@kernel(parallel=True)
-def _broad_parallel(nch, n, ncy, grid, cell_start, cell_items, pos, species, sp_radius, sx, sy,
-                    sr, ov_n, ov_b, ol):
-    """_gather and _scan_rows in nch chunks; returns how many discs are listed in ``ol``."""
-    ncx = int(grid[4])
-    for c in prange(nch):
-        _gather(c * n // nch, (c + 1) * n // nch, cell_items, pos, species, sp_radius, sx, sy, sr)
-    starts = np.empty(nch, dtype=np.int64)
-    counts = np.empty(nch, dtype=np.int64)
-    for c in prange(nch):
-        r0 = c * ncy // nch
-        starts[c] = cell_start[r0 * ncx]
-        counts[c] = _scan_rows(r0, (c + 1) * ncy // nch, grid, cell_start, sx, sy, sr, ov_n,
-                               ov_b, ol)
-    return close_lists(ol, starts, counts)
-
-
-# ------------------------------------------------------------ phase 2 (list): the pair list
-# The broad phase of a call of PAIR_MIN_STEPS or more steps: a flat list of the pairs of
-# small discs whose reference positions are closer than 2 rcell + skin (PairList), kept
-# across substeps. Each substep, a disc that has moved more than skin / 2 from its reference
-# position (or is not listed yet) is "refreshed": its pairs are dropped, its reference
-# position set to where it is, and its pairs searched anew in this substep's grid; the
-# other pairs are tested for an overlap in one pass over the list. The overlapping pairs
-# found are exactly the scan's (the invariant of PairList), so the same contacts are queued
-# and, as the heap pops them by (t, i, j), the trajectory is the same bit for bit.
-@kernel
-def new_pairlist(ws, cap):
-    """An empty pair list for ``ws`` discs and ``cap`` pairs (no disc listed)."""
-    return PairList(np.empty((ws, 2), dtype=FLOAT), np.zeros(ws, dtype=INDEX),
-                    np.zeros(ws, dtype=INDEX), np.empty(ws, dtype=INDEX),
-                    np.empty(cap, dtype=INDEX), np.empty(cap, dtype=INDEX),
-                    np.empty(cap, dtype=INDEX), np.empty(cap, dtype=INDEX),
-                    np.zeros(2, dtype=np.int64))
-
-
-@kernel
-def _pl_resize(pl, ws, cap):
-    """``pl`` with room for ``ws`` discs and ``cap`` pairs, its entries kept, the refresh's
-    marks and to-do list too (discs past the old size not listed)."""
-    q = new_pairlist(ws, cap)
-    # (loops, not slice assignments: numba compiles a formatted error message for the shape
-    # check of each of those, seconds of a first compile)
-    for i in range(min(pl.ref.shape[0], ws)):
-        q.ref[i, 0] = pl.ref[i, 0]
-        q.ref[i, 1] = pl.ref[i, 1]
-        q.listed[i] = pl.listed[i]
-        q.mark[i] = pl.mark[i]
-        q.todo[i] = pl.todo[i]
-    for i in range(pl.count[0]):
-        q.pi[i] = pl.pi[i]
-        q.pj[i] = pl.pj[i]
-    for i in range(pl.count[1]):
-        q.ovi[i] = pl.ovi[i]
-        q.ovj[i] = pl.ovj[i]
-    for i in range(pl.count.shape[0]):
-        q.count[i] = pl.count[i]
-    return q
-
-
-@kernel
-def _pl_stale(n, pos, species, sp_radius, rcell, half, big, pl):
-    """Mark the discs to refresh in this substep (``pl.mark``), small ones in ``pl.todo``:
-    every listed disc farther than ``half`` (skin / 2) from its reference position, every
-    small disc not listed. If ``big`` (the scene has discs larger than rcell), a listed disc
-    that has become big (a reaction) is marked, to drop its pairs, and unlisted: big discs
-    are queued by :func:`_queue_initial`. Returns how many discs are in ``pl.todo``."""
-    ref, listed, mark, todo = pl.ref, pl.listed, pl.mark, pl.todo
-    h2 = half * half
-    m = 0
-    if not big:
-        for i in range(n):  # (without branches: the test goes either way)
-            dx = pos[i, 0] - ref[i, 0]
-            dy = pos[i, 1] - ref[i, 1]
-            st = (dx * dx + dy * dy > h2) | (listed[i] == 0)
-            mark[i] = st
-            todo[m] = i
-            m += st
-        return m
-    for i in range(n):
-        small = sp_radius[species[i]] <= rcell
-        dx = pos[i, 0] - ref[i, 0]
-        dy = pos[i, 1] - ref[i, 1]
-        st = (dx * dx + dy * dy > h2) | (listed[i] == 0)
-        if not small:
-            st = listed[i] != 0
-            listed[i] = 0
-        mark[i] = st
-        if st and small:
-            todo[m] = i
-            m += 1
-    return m
-
-
-@kernel
-def _pl_test(pos, species, sp_radius, rmono, pl):
-    """Drop the pairs of the marked discs from the list and test the others for an overlap,
-    in one pass: the overlapping pairs go to ``pl.ovi``, ``pl.ovj`` (their number to
-    ``pl.count[1]``). ``rmono`` > 0: every small disc has this radius (no lookup)."""
-    pi, pj, ovi, ovj, mark = pl.pi, pl.pj, pl.ovi, pl.ovj, pl.mark
-    w = 0
-    v = 0
-    R = rmono + rmono
-    for p in range(pl.count[0]):
-        i = pi[p]
-        j = pj[p]
-        keep = (mark[i] | mark[j]) == 0
-        pi[w] = i
-        pj[w] = j
-        w += keep
-        dx = pos[j, 0] - pos[i, 0]
-        dy = pos[j, 1] - pos[i, 1]
-        if rmono == 0.0:
-            R = sp_radius[species[i]] + sp_radius[species[j]]
-        if keep and dx * dx + dy * dy < R * R:
-            ovi[v] = i
-            ovj[v] = j
-            v += 1
-    pl.count[0] = w
-    pl.count[1] = v
-
-
-@kernel
-def _pl_refresh(m, pos, species, sp_radius, pl, grid, cell_start, cell_items, cut, reach):
-    """Re-list the ``m`` discs of ``pl.todo`` (their pairs dropped already): each one's
-    reference position is set to where it is, and its pairs (reference positions closer than
-    ``cut``) searched for in this substep's grid (the discs binned where they are now, within
-    ``reach - cut`` of their reference positions), appended to the list and tested for an
-    overlap. Returns False, the list left to be refreshed again, when it is full: the
-    caller grows it and calls again."""
-    ref, listed, mark, todo = pl.ref, pl.listed, pl.mark, pl.todo
-    pi, pj, ovi, ovj = pl.pi, pl.pj, pl.ovi, pl.ovj
-    cap = pi.shape[0]
-    ncx = int(grid[4])
-    for q in range(m):
-        v = todo[q]
-        ref[v, 0] = pos[v, 0]
-        ref[v, 1] = pos[v, 1]
-        listed[v] = 1
-    cut2 = cut * cut
-    p = pl.count[0]
-    o = pl.count[1]
-    for q in range(m):
-        v = todo[q]
-        x = ref[v, 0]
-        y = ref[v, 1]
-        rv = sp_radius[species[v]]
-        p1 = p
-        cx0, cx1, cy0, cy1 = cell_range(x, y, reach, grid)
-        for cy in range(cy0, cy1 + 1):
-            a0 = cell_start[cx0 + ncx * cy]
-            a1 = cell_start[cx1 + 1 + ncx * cy]
-            if p + (a1 - a0) > cap:
-                return False
-            for a in range(a0, a1):
-                # written whatever the test says, kept if it passes: no branch to mispredict
-                # (a pair of two refreshed discs is listed from the lower one)
-                k = cell_items[a]
-                dx = ref[k, 0] - x
-                dy = ref[k, 1] - y
-                keep = (dx * dx + dy * dy < cut2) & (k != v) & ((mark[k] == 0) | (k > v))
-                pi[p] = v
-                pj[p] = k
-                p += keep
-        for b in range(p1, p):  # the pairs just listed that overlap now
-            k = pj[b]
-            dx = pos[k, 0] - x
-            dy = pos[k, 1] - y
-            R = rv + sp_radius[species[k]]
-            if dx * dx + dy * dy < R * R:
-                ovi[o] = v
-                ovj[o] = k
-                o += 1
-    pl.count[0] = p
-    pl.count[1] = o
-    return True
-
-
-@kernel
-def _mono_radius(sp_radius, rcell):
-    """rcell if every species no larger than rcell has radius rcell (so every small disc
-    has), else 0."""
-    for s in range(sp_radius.shape[0]):
-        if sp_radius[s] < rcell:
-            return 0.0
-    return rcell
-
-
-@kernel
-def _pl_broad(n, pos, species, sp_radius, grid, sc, pl, full, big):
-    """The broad phase through the pair list (after :func:`_sort`): refresh the discs that
-    need it (every small disc if ``full``: the list is built anew), test the listed pairs.
-    Returns the pair list (a new one when it had to grow)."""
-    rcell = grid[6]
-    skin = PAIR_SKIN * rcell
-    cut = 2.0 * rcell + skin
-    if full:
-        pl.listed[:n] = 0
-    m = _pl_stale(n, pos, species, sp_radius, rcell, 0.5 * skin, big, pl)
-    _pl_test(pos, species, sp_radius, _mono_radius(sp_radius, rcell), pl)
-    p0 = pl.count[0]
-    o0 = pl.count[1]
-    # (a disc not refreshed is within skin / 2 of its reference position)
-    while not _pl_refresh(m, pos, species, sp_radius, pl, grid, sc.cell_start, sc.cell_items,
-                          cut, cut + 0.5 * skin):
-        pl.count[0] = p0
-        pl.count[1] = o0
-        pl = _pl_resize(pl, pl.ref.shape[0], 2 * pl.pi.shape[0])
-    nbc = int(grid[4]) * int(grid[5])
-    # the big discs' positions, for _queue_initial
-    _gather(np.int64(sc.cell_start[nbc]), np.int64(sc.cell_start[nbc + 1]), sc.cell_items, pos,
-            species, sp_radius, sc.sx, sc.sy, sc.sr)  # (int64: _drift_and_bin's signature)
-    return pl
-
-
-@kernel
-def _pl_compact(n, species, pl, newidx):
-    """Follow :func:`compact` (to be called before it, on the same discs): drop the pairs
-    of the removed discs (species < 0) and renumber the others. ``newidx``: (n,) scratch."""
-    ref, listed, pi, pj = pl.ref, pl.listed, pl.pi, pl.pj
-    m = 0
-    for i in range(n):
-        if species[i] >= 0:
-            newidx[i] = m
-            ref[m, 0] = ref[i, 0]
-            ref[m, 1] = ref[i, 1]
-            listed[m] = listed[i]
-            m += 1
-        else:
-            newidx[i] = -1
-    listed[m:n] = 0
-    w = 0
-    for p in range(pl.count[0]):
-        a = newidx[pi[p]]
-        b = newidx[pj[p]]
-        if a >= 0 and b >= 0:
-            pi[w] = a
-            pj[w] = b
-            w += 1
-    pl.count[0] = w
-
-
-@kernel
-def _pl_permute(n, perm, pl, inv, fs):
-    """Follow :func:`_reorder` (called after it): disc ``perm[a]`` is now disc a. ``inv``
-    (n,) INDEX and ``fs`` (2 n,) FLOAT: scratch."""
-    ref, listed, pi, pj = pl.ref, pl.listed, pl.pi, pl.pj
-    lt = pl.mark  # (free between substeps)
-    for a in range(n):
-        inv[perm[a]] = a
-        lt[a] = listed[a]
-        fs[a] = ref[a, 0]
-        fs[n + a] = ref[a, 1]
-    for a in range(n):
-        b = perm[a]
-        listed[a] = lt[b]
-        ref[a, 0] = fs[b]
-        ref[a, 1] = fs[n + b]
-    for p in range(pl.count[0]):
-        pi[p] = inv[pi[p]]
-        pj[p] = inv[pj[p]]
 
 
 # ------------------------------------------------------------- phase 4: first-order reactions
@@ -667,7 +238,7 @@ def _reorder(n, pos, vel, species, internal_energy, ids, grid, work):
     u2 = fw[4 * n:5 * n]
     s2 = iw[2 * n:3 * n]
     d2 = cw[0:n]
-    for i in range(n):  # (a loop, not slice assignments: see _pl_resize)
+    for i in range(n):  # (a loop, not slice assignments: see pl_resize)
         p2[i, 0] = pos[i, 0]
         p2[i, 1] = pos[i, 1]
         v2[i, 0] = vel[i, 0]
@@ -926,7 +497,7 @@ def advance(discs, n, n_steps, dt, bounds, tables, params, flags, rng, cnt, thre
             _reorder(n, pos, vel, species, internal_energy, ids, rgrid, work)
             if lists is not None:
                 if listed:  # (perm and free scratch: see _reorder)
-                    _pl_permute(n, work[1][n:2 * n], pl, work[1][0:n], work[0])
+                    pl_permute(n, work[1][n:2 * n], pl, work[1][0:n], work[0])
         # first-order reactions run only if some disc has a first-order channel: a scene
         # whose first-order species are absent pays this lookup, not a pass per substep
         uni_live = False
@@ -941,10 +512,10 @@ def advance(discs, n, n_steps, dt, bounds, tables, params, flags, rng, cnt, thre
         while sub < k:
             icnt[IC_SUBSTEPS] += 1
             if clusters is None:  # (a single-threaded caller: no parallel code compiled)
-                pl = _drift_and_bin(None, n, h, pos, vel, species, sp_radius, bounds_kind,
+                pl = drift_and_bin(None, n, h, pos, vel, species, sp_radius, bounds_kind,
                                     bounds_params, grid, sc, collide, pl, listed, full, big)
             else:
-                pl = _drift_and_bin(threads, n, h, pos, vel, species, sp_radius, bounds_kind,
+                pl = drift_and_bin(threads, n, h, pos, vel, species, sp_radius, bounds_kind,
                                     bounds_params, grid, sc, collide, pl, listed, full, big)
             full = False
             left0 = icnt[IC_LEFT_OVERLAPPING]
@@ -1005,14 +576,14 @@ def advance(discs, n, n_steps, dt, bounds, tables, params, flags, rng, cnt, thre
                     sc = _carve(work, ws, nstart)
                     if lists is not None:
                         if listed:
-                            pl = _pl_resize(pl, ws, pl.pi.shape[0])
+                            pl = pl_resize(pl, ws, pl.pi.shape[0])
                 if lists is not None:
                     if listed:
                         pl.listed[n_before:n] = 0  # fragments: listed at the next substep
             if n_dead:
                 if lists is not None:
                     if listed:
-                        _pl_compact(n, species, pl, pl.todo)
+                        pl_compact(n, species, pl, pl.todo)
                 n = compact(n, pos, vel, species, internal_energy, ids)
             sub += 1
             # Energy released in this substep may have made a disc faster than the remaining
@@ -1058,49 +629,6 @@ def _first_split(vel, n, dt, maxdisp, icnt):
         else:
             k = max(int(math.ceil(q)), 1)
     return k, capped, math.sqrt(v2max)
-
-
-@kernel
-def _drift_and_bin(threads, n, h, pos, vel, species, sp_radius, bounds_kind, bounds_params, grid,
-                   sc, collide, pl, listed, full, big):
-    """Phases 1 and 2 of a substep: the drift (and wall contacts), then, if ``collide``, the
-    discs sorted into their cells and the overlapping pairs found, by the pair list ``pl``
-    if ``listed`` (built anew if ``full``; ``big``: the scene has big discs), else by the
-    scan (in parallel over ``threads`` chunks from PARALLEL_MIN discs, as the drift);
-    resets the per-disc event counts.
-    Returns the pair list (a new one if it had to grow). ``threads`` None: a single-threaded
-    caller; numba prunes the parallel drift and scan and never compiles them. ``pl`` None:
-    a caller without pair lists (:func:`advance`'s ``lists``); numba prunes them."""
-    sc.nlist[1] = 0  # (no scan: no overlapping discs listed)
-    par = False
-    if threads is not None:
-        par = threads > 1 and n >= PARALLEL_MIN
-        if par:
-            sc.nlist[0] = _drift_parallel(threads, n, h, pos, vel, species, sp_radius,
-                                          bounds_kind, bounds_params, sc.tlast, sc.wall_t,
-                                          sc.wflag, sc.wl, grid, sc.cell_of, collide, sc.nev,
-                                          sc.binx, sc.biny, sc.partner)
-    if not par:
-        sc.nlist[0] = _drift_range(np.int64(0), n, h, pos, vel, species, sp_radius, bounds_kind,
-                                   bounds_params, sc.tlast, sc.wall_t, sc.wflag, sc.wl, grid,
-                                   sc.cell_of, collide, sc.nev, sc.binx, sc.biny, sc.partner)
-    if collide:
-        ncy = int(grid[5])
-        cell_start, cell_items = sc.cell_start, sc.cell_items
-        _sort(n, sc.cell_of, cell_start, cell_items)
-        if pl is not None:  # (pruned by numba when None: advance's lists)
-            if listed:
-                return _pl_broad(n, pos, species, sp_radius, grid, sc, pl, full, big)
-        if threads is not None:
-            if par:
-                sc.nlist[1] = _broad_parallel(threads, n, ncy, grid, cell_start, cell_items,
-                                              pos, species, sp_radius, sc.sx, sc.sy, sc.sr,
-                                              sc.ov_n, sc.ov_b, sc.ol)
-        if not par:
-            _gather(np.int64(0), n, cell_items, pos, species, sp_radius, sc.sx, sc.sy, sc.sr)
-            sc.nlist[1] = _scan_rows(np.int64(0), ncy, grid, cell_start, sc.sx, sc.sy, sc.sr,
-                                     sc.ov_n, sc.ov_b, sc.ol)
-    return pl
 
 
 @kernel
