@@ -121,10 +121,9 @@ def profiled_advance(discs, n, n_steps, dt, bounds, tables, params, flags, rng, 
         for _ in range(k):
             icnt[S.IC_SUBSTEPS] += 1
             t0 = _now(clk)
-            sc.nlist[0] = DR.drift_range(0, n, h, pos, vel, species, sp_radius, bounds_kind,
-                                         bounds_params, sc.tlast, sc.wall_t, sc.wflag, sc.wl,
-                                         grid, sc.cell_of, collide, sc.nev, sc.binx, sc.biny,
-                                         sc.partner)
+            sc.nlist[0] = DR.drift_range(0, n, h, Discs(pos, vel, species, internal_energy, ids,
+                                                        idctr), sp_radius, bounds, grid, sc,
+                                         collide)
             t1 = _now(clk)
             T[2] += t1 - t0
             DR.sort_cells(n, sc.cell_of, sc.cell_start, sc.cell_items)
@@ -172,8 +171,7 @@ def profiled_advance(discs, n, n_steps, dt, bounds, tables, params, flags, rng, 
             t0 = _now(clk)
             T[10] += t0 - t1
             if dropped or icnt[S.IC_LEFT_OVERLAPPING] != left0:
-                S._repair(dropped, n, pos, vel, species, tables, e, collide, bounds_kind,
-                          bounds_params, grid, sc, cnt)
+                S._repair(dropped, n, ph, cnt)
             T[11] += _now(clk) - t0
     C[2] += pl.count[0]  # the list's pairs at the end
     return work

@@ -20,17 +20,20 @@ PARALLEL_MIN = 8192  # below this many discs a step runs on one thread: waking n
 # 1: 1.3-1.4x at 8,200 discs, docs/performance.md)
 
 
-@kernel
-def drift_range(lo, hi, h, pos, vel, species, sp_radius, bounds_kind, bounds_params, tlast,
-                 wall_t, wflag, wl, grid, cell_of, collide, nev, binx, biny, partner):
-    """Move discs [lo, hi) by h; note their wall contacts (and list the discs that have
-    one or were pushed inside in ``wl`` from ``lo`` on; returns how many); reset their
-    event counts; bin them (if collide: their cell, where they were binned, no partner
-    yet). One pass does it all (these were separate passes over the discs).
+@kernel(_nrt=False)  # (allocates nothing: no reference counts of the structs' arrays)
+def drift_range(lo, hi, h, discs, sp_radius, bounds, grid, sc, collide):
+    """Move discs [lo, hi) of ``discs`` by h; note their wall contacts (and list the discs
+    that have one or were pushed inside in ``sc.wl`` from ``lo`` on; returns how many);
+    reset their event counts; bin them (if collide: their cell, where they were binned, no
+    partner yet). One pass does it all (these were separate passes over the discs).
 
     Bounds are unpacked to scalars once: helpers taking arrays cost a reference count per
     call, which in this loop would dominate its time.
     """
+    pos, vel, species = discs.pos, discs.vel, discs.species
+    bounds_kind, bounds_params = bounds.kind, bounds.params
+    tlast, wall_t, wflag, wl, nev = sc.tlast, sc.wall_t, sc.wflag, sc.wl, sc.nev
+    cell_of, binx, biny, partner = sc.cell_of, sc.binx, sc.biny, sc.partner
     x0, y0, icx, icy = grid[0], grid[1], grid[2], grid[3]
     ncx = int(grid[4])
     ncy = int(grid[5])
@@ -74,18 +77,16 @@ def drift_range(lo, hi, h, pos, vel, species, sp_radius, bounds_kind, bounds_par
 
 
 @kernel(parallel=True)
-def _drift_parallel(nch, n, h, pos, vel, species, sp_radius, bounds_kind, bounds_params, tlast,
-                    wall_t, wflag, wl, grid, cell_of, collide, nev, binx, biny, partner):
+def _drift_parallel(nch, n, h, discs, sp_radius, bounds, grid, sc, collide):
     """drift_range in nch chunks of discs; returns how many discs are listed in ``wl``."""
     starts = np.empty(nch, dtype=np.int64)
     counts = np.empty(nch, dtype=np.int64)
     for c in prange(nch):
         lo = c * n // nch
         starts[c] = lo
-        counts[c] = drift_range(lo, (c + 1) * n // nch, h, pos, vel, species, sp_radius,
-                                 bounds_kind, bounds_params, tlast, wall_t, wflag, wl, grid,
-                                 cell_of, collide, nev, binx, biny, partner)
-    return close_lists(wl, starts, counts)
+        counts[c] = drift_range(lo, (c + 1) * n // nch, h, discs, sp_radius, bounds, grid, sc,
+                                collide)
+    return close_lists(sc.wl, starts, counts)
 
 
 # ----------------------------------------------------------------------- phase 2: broad phase
@@ -177,10 +178,13 @@ def gather(lo, hi, cell_items, pos, species, sp_radius, sx, sy, sr):
 
 
 @kernel(parallel=True)
-def _broad_parallel(nch, n, ncy, grid, cell_start, cell_items, pos, species, sp_radius, sx, sy,
-                    sr, ov_n, ov_b, ol):
-    """gather and scan_rows in nch chunks; returns how many discs are listed in ``ol``."""
+def _broad_parallel(nch, n, grid, discs, sp_radius, sc):
+    """gather and scan_rows in nch chunks; returns how many discs are listed in ``sc.ol``."""
+    pos, species = discs.pos, discs.species
+    cell_start, cell_items, sx, sy, sr = sc.cell_start, sc.cell_items, sc.sx, sc.sy, sc.sr
+    ov_n, ov_b, ol = sc.ov_n, sc.ov_b, sc.ol
     ncx = int(grid[4])
+    ncy = int(grid[5])
     for c in prange(nch):
         gather(c * n // nch, (c + 1) * n // nch, cell_items, pos, species, sp_radius, sx, sy, sr)
     starts = np.empty(nch, dtype=np.int64)
@@ -194,29 +198,27 @@ def _broad_parallel(nch, n, ncy, grid, cell_start, cell_items, pos, species, sp_
 
 
 @kernel
-def drift_and_bin(threads, n, h, pos, vel, species, sp_radius, bounds_kind, bounds_params, grid,
-                   sc, collide, pl, listed, full, big):
-    """Phases 1 and 2 of a substep: the drift (and wall contacts), then, if ``collide``, the
-    discs sorted into their cells and the overlapping pairs found, by the pair list ``pl``
-    if ``listed`` (built anew if ``full``; ``big``: the scene has big discs), else by the
-    scan (in parallel over ``threads`` chunks from PARALLEL_MIN discs, as the drift);
-    resets the per-disc event counts.
+def drift_and_bin(threads, n, h, ph, pl, listed, full, big):
+    """Phases 1 and 2 of a substep (``ph``: the :class:`~.structs.Phase`): the drift (and
+    wall contacts), then, if the discs collide, the discs sorted into their cells and the
+    overlapping pairs found, by the pair list ``pl`` if ``listed`` (built anew if ``full``;
+    ``big``: the scene has big discs), else by the scan (in parallel over ``threads`` chunks
+    from PARALLEL_MIN discs, as the drift); resets the per-disc event counts.
     Returns the pair list (a new one if it had to grow). ``threads`` None: a single-threaded
     caller; numba prunes the parallel drift and scan and never compiles them. ``pl`` None:
-    a caller without pair lists (:func:`advance`'s ``lists``); numba prunes them."""
+    a caller without pair lists (``step.advance``'s ``lists``); numba prunes them."""
+    discs, sp_radius, bounds, grid, sc = ph.discs, ph.tables.sp_radius, ph.bounds, ph.grid, ph.sc
+    collide = ph.rc.collide
+    pos, species = discs.pos, discs.species
     sc.nlist[1] = 0  # (no scan: no overlapping discs listed)
     par = False
     if threads is not None:
         par = threads > 1 and n >= PARALLEL_MIN
         if par:
-            sc.nlist[0] = _drift_parallel(threads, n, h, pos, vel, species, sp_radius,
-                                          bounds_kind, bounds_params, sc.tlast, sc.wall_t,
-                                          sc.wflag, sc.wl, grid, sc.cell_of, collide, sc.nev,
-                                          sc.binx, sc.biny, sc.partner)
+            sc.nlist[0] = _drift_parallel(threads, n, h, discs, sp_radius, bounds, grid, sc,
+                                          collide)
     if not par:
-        sc.nlist[0] = drift_range(np.int64(0), n, h, pos, vel, species, sp_radius, bounds_kind,
-                                   bounds_params, sc.tlast, sc.wall_t, sc.wflag, sc.wl, grid,
-                                   sc.cell_of, collide, sc.nev, sc.binx, sc.biny, sc.partner)
+        sc.nlist[0] = drift_range(np.int64(0), n, h, discs, sp_radius, bounds, grid, sc, collide)
     if collide:
         ncy = int(grid[5])
         cell_start, cell_items = sc.cell_start, sc.cell_items
@@ -231,13 +233,9 @@ def drift_and_bin(threads, n, h, pos, vel, species, sp_radius, bounds_kind, boun
                 return pl
         if threads is not None:
             if par:
-                sc.nlist[1] = _broad_parallel(threads, n, ncy, grid, cell_start, cell_items,
-                                              pos, species, sp_radius, sc.sx, sc.sy, sc.sr,
-                                              sc.ov_n, sc.ov_b, sc.ol)
+                sc.nlist[1] = _broad_parallel(threads, n, grid, discs, sp_radius, sc)
         if not par:
             gather(np.int64(0), n, cell_items, pos, species, sp_radius, sc.sx, sc.sy, sc.sr)
             sc.nlist[1] = scan_rows(np.int64(0), ncy, grid, cell_start, sc.sx, sc.sy, sc.sr,
-                                     sc.ov_n, sc.ov_b, sc.ol)
+                                    sc.ov_n, sc.ov_b, sc.ol)
     return pl
-
-

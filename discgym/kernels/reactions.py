@@ -291,8 +291,7 @@ def released_energy(i, c, tables, species, internal_energy):
 
 
 @kernel
-def first_order_draws(n, h, sp_form, ch_kind, ch_prod, ch_rate, ch_energy, uni_start,
-                      uni_chan, species, internal_energy, rng, out_disc, out_chan):
+def first_order_draws(n, h, tables, species, internal_energy, rng, out_disc, out_chan):
     """Draw which discs [0, n) undergo a first-order reaction in a step of length h.
 
     Each disc's competing channels with rates k_c (only those whose energy condition holds
@@ -302,6 +301,9 @@ def first_order_draws(n, h, sp_form, ch_kind, ch_prod, ch_rate, ch_energy, uni_s
     taking arrays cost a reference count per array per call, many times the cost of the
     rate computation written out, as here.
     """
+    sp_form, ch_kind, ch_prod, ch_rate = tables.sp_form, tables.ch_kind, tables.ch_prod, \
+        tables.ch_rate
+    ch_energy, uni_start, uni_chan = tables.ch_energy, tables.uni_start, tables.uni_chan
     m = 0
     for i in range(n):
         s = species[i]

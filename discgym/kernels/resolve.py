@@ -156,10 +156,15 @@ def _repair_pair(i, j, pos, vel, species, sp_radius, sp_mass, e, bounds_kind, bo
 
 
 @kernel
-def resolve(n, pos, vel, species, sp_radius, sp_mass, e, collide, bounds_kind, bounds_params,
-            grid, cell_start, cell_items, cell_of):
-    """Repair discs [0, n) (see the module docstring). Leaves the cell list built at the final
-    positions. Returns ``(repairs, wall_momentum, dissipated)``."""
+def resolve(n, ph):
+    """Repair discs [0, n) of the :class:`~.structs.Phase` ``ph`` (see the module
+    docstring). Leaves the cell list built at the final positions. Returns ``(repairs,
+    wall_momentum, dissipated)``."""
+    pos, vel, species = ph.discs.pos, ph.discs.vel, ph.discs.species
+    sp_radius, sp_mass = ph.tables.sp_radius, ph.tables.sp_mass
+    e, collide = ph.rc.restitution, ph.rc.collide
+    bounds_kind, bounds_params, grid = ph.bounds.kind, ph.bounds.params, ph.grid
+    cell_start, cell_items, cell_of = ph.sc.cell_start, ph.sc.cell_items, ph.sc.cell_of
     ncx = int(grid[4])
     ncy = int(grid[5])
     rcell = grid[6]

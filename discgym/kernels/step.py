@@ -121,15 +121,16 @@ PAIR_MAX_DISCS = 1 << 17  # calls on more discs use the scan: the list's scatter
 
 # ------------------------------------------------------------- phase 4: first-order reactions
 @kernel
-def _first_order(n, h, tables, discs, fission_possible, bounds, grid, sc, delta, rc, rng, cnt):
-    """Each disc present at the start of the pass draws its first-order reactions (structs:
-    see :func:`_events`).
+def _first_order(n, h, ph, fission_possible, delta, rng, cnt):
+    """Each disc present at the start of the pass draws its first-order reactions (``ph``:
+    the :class:`~.structs.Phase`).
 
     Capacity for one fission per disc is made before the loop (so no array is reallocated
     inside it). A new disc gets the identity ``discs.next_id[0]`` (then incremented). Returns
     the state arrays (new ones if they grew) as :class:`~.structs.Discs`, the new n and the
     largest speed of a fragment made (0 if none).
     """
+    discs, tables, bounds, grid, sc, rc = ph
     pos, vel, species, internal_energy = discs.pos, discs.vel, discs.species, discs.internal_energy
     ids, idctr = discs.ids, discs.next_id
     cell_start, cell_items, cell_of = sc.cell_start, sc.cell_items, sc.cell_of
@@ -152,10 +153,7 @@ def _first_order(n, h, tables, discs, fission_possible, bounds, grid, sc, delta,
         build(n, pos, species, tables.sp_radius, grid, cell_start, cell_items, cell_of)
     react = np.empty(n0, dtype=INDEX)
     chan = np.empty(n0, dtype=INDEX)
-    m = first_order_draws(n0, h, tables.sp_form, ch_kind, tables.ch_prod, tables.ch_rate,
-                          tables.ch_energy, tables.uni_start, tables.uni_chan, species,
-                              internal_energy, rng,
-                          react, chan)
+    m = first_order_draws(n0, h, tables, species, internal_energy, rng, react, chan)
     vfrag = 0.0
     for q in range(m):
         i = react[q]
@@ -258,15 +256,16 @@ def _reorder(n, pos, vel, species, internal_energy, ids, grid, work):
 
 
 @kernel
-def _resplit(n, vel, species, rem, h, cut, dt, maxdisp, vfast, capped, k, sub, icnt):
+def _resplit(n, vel, species, rem, cut, dt, maxdisp, split, icnt):
     """Split the time ``rem`` left in a step anew after energy was released in its last
     substep (of length ``h``; ``cut``: ended early, see :func:`_events`), into substeps of
     at most ``maxdisp`` for the fastest disc now. As for the first split of a step, the
     substeps are no shorter than the capped ones (the remainder's share of MAX_SUBSTEPS);
     a step that needed shorter ones counts once in IC_SUBSTEPS_CAPPED. Nothing changes when
     the fastest disc is within the current substeps after all (and the substep was not cut).
-    Returns ``(k, h, vfast, capped, sub)`` for the substep loop (unchanged when the
-    substeps are capped already and the last one was not cut)."""
+    ``split``: the substep loop's ``(k, h, vfast, capped, sub)``, returned new (unchanged when
+    the substeps are capped already and the last one was not cut)."""
+    k, h, vfast, capped, sub = split
     if not rem > 0.0:
         return k, h, vfast, capped, sub
     v2max = 0.0
@@ -511,12 +510,12 @@ def advance(discs, n, n_steps, dt, bounds, tables, params, flags, rng, cnt, thre
         sub = 0
         while sub < k:
             icnt[IC_SUBSTEPS] += 1
+            ph = Phase(Discs(pos, vel, species, internal_energy, ids, idctr), tables, bounds, grid,
+                       sc, rc)
             if clusters is None:  # (a single-threaded caller: no parallel code compiled)
-                pl = drift_and_bin(None, n, h, pos, vel, species, sp_radius, bounds_kind,
-                                    bounds_params, grid, sc, collide, pl, listed, full, big)
+                pl = drift_and_bin(None, n, h, ph, pl, listed, full, big)
             else:
-                pl = drift_and_bin(threads, n, h, pos, vel, species, sp_radius, bounds_kind,
-                                    bounds_params, grid, sc, collide, pl, listed, full, big)
+                pl = drift_and_bin(threads, n, h, ph, pl, listed, full, big)
             full = False
             left0 = icnt[IC_LEFT_OVERLAPPING]
             # a substep is cut short (at a reaction, see _events) only while the step has
@@ -524,27 +523,14 @@ def advance(discs, n, n_steps, dt, bounds, tables, params, flags, rng, cnt, thre
             # dt / MAX_SUBSTEPS: a step of a finite number of substeps, each of them useful
             cut_after = dt / MAX_SUBSTEPS if taken < MAX_SUBSTEPS else math.inf
             taken += 1
-            # the event phase by clusters where the scene allows (no big discs now), on the
-            # threads from PARALLEL_MIN discs or on this one above PAIR_MAX_DISCS; else (or
-            # if it declines) the serial one
-            done = False
-            queued = False
-            ph = Phase(Discs(pos, vel, species, internal_energy, ids, idctr), tables, bounds, grid,
-                       sc, rc)
             sub_c = Substep(icnt[IC_SUBSTEPS], h, cut_after, EVENTS_PER_DISC * n + 1024)
-            if clusters is not None:
-                if clustered and sc.cell_start[nbc + 1] == sc.cell_start[nbc]:
-                    done, H, size, delta, dropped, vfast = cluster_events(
-                        n, H, ph, cnt, sub_c, vfast, own, threads)
-                    queued = True
-                    n_dead = 0
-                    vrel = 0.0
-                    t_cut = 0.0
-            if not queued:
-                H, size = queue_initial(n, ph, H, icnt, pl, listed)
-            if not done:
-                _code, _other, H, _ev, n_dead, delta, dropped, vfast, vrel, t_cut = run_events(
-                    H, size, n, ph, cnt, sub_c, vfast, rng, None)
+            if clusters is None:
+                H, n_dead, delta, dropped, vfast, vrel, t_cut = _event_phase(
+                    n, ph, cnt, sub_c, vfast, rng, H, pl, listed, None)
+            else:  # (by clusters where the scene allows and there are no big discs now)
+                go = clustered and sc.cell_start[nbc + 1] == sc.cell_start[nbc]
+                H, n_dead, delta, dropped, vfast, vrel, t_cut = _event_phase(
+                    n, ph, cnt, sub_c, vfast, rng, H, pl, listed, (own, threads, go))
             hu = h  # the length of this substep
             if t_cut < 0.0:
                 icnt[IC_CUTS] += 1
@@ -552,17 +538,13 @@ def advance(discs, n, n_steps, dt, bounds, tables, params, flags, rng, cnt, thre
                 hu = h + t_cut
             left = icnt[IC_LEFT_OVERLAPPING] != left0
             if dropped or left:
-                _repair(dropped, n, pos, vel, species, tables, e, collide, bounds_kind,
-                        bounds_params, grid, sc, cnt)
+                _repair(dropped, n, ph, cnt)
                 delta = 0.0  # resolve() leaves the grid built at the final positions
             # (a reactive collision may have made a species with first-order channels)
             if has_uni and (uni_live or icnt[IC_REACTIVE] != reactive0):
                 uni_live = True
                 n_before = n
-                grown, n, vfrag = _first_order(
-                    n, hu, tables, Discs(pos, vel, species, internal_energy, ids, idctr),
-                        fission_possible,
-                    bounds, grid, sc, delta, rc, rng, cnt)
+                grown, n, vfrag = _first_order(n, hu, ph, fission_possible, delta, rng, cnt)
                 pos, vel = grown.pos, grown.vel
                 species, internal_energy = grown.species, grown.internal_energy
                 ids = grown.ids
@@ -592,9 +574,9 @@ def advance(discs, n, n_steps, dt, bounds, tables, params, flags, rng, cnt, thre
             # of internal energy are checked (vrel, from their products alone), so a substep
             # without them costs one comparison.
             if t_cut < 0.0 or vrel * h > maxdisp:
-                k, h, vfast, capped, sub = _resplit(n, vel, species, (k - sub) * h + (h - hu), h,
-                                                    t_cut < 0.0, dt, maxdisp, vfast, capped,
-                                                    k, sub, icnt)
+                k, h, vfast, capped, sub = _resplit(n, vel, species, (k - sub) * h + (h - hu),
+                                                    t_cut < 0.0, dt, maxdisp,
+                                                    (k, h, vfast, capped, sub), icnt)
     return Discs(pos, vel, species, internal_energy, ids, idctr), n, work
 
 
@@ -632,8 +614,7 @@ def _first_split(vel, n, dt, maxdisp, icnt):
 
 
 @kernel
-def _repair(dropped, n, pos, vel, species, tables, e, collide, bounds_kind, bounds_params, grid,
-            sc, cnt):
+def _repair(dropped, n, ph, cnt):
     """The fallback after a substep that ran out of events (``dropped``) or left a pair
     overlapping: :func:`~discgym.kernels.resolve.resolve`, and its counts."""
     icnt, fsum = cnt.icnt, cnt.fsum
@@ -641,9 +622,29 @@ def _repair(dropped, n, pos, vel, species, tables, e, collide, bounds_kind, boun
         icnt[IC_EVENTS_CAPPED] += 1
     else:
         icnt[IC_GRAZE_REPAIRS] += 1
-    fixes, wdp, lost = resolve(n, pos, vel, species, tables.sp_radius, tables.sp_mass, e, collide,
-                               bounds_kind, bounds_params, grid, sc.cell_start, sc.cell_items,
-                               sc.cell_of)
+    fixes, wdp, lost = resolve(n, ph)
     icnt[IC_RESOLVED] += fixes
     fsum[FS_WALL_MOMENTUM] += wdp
     fsum[FS_DISSIPATED] += lost
+
+
+@kernel
+def _event_phase(n, ph, cnt, sub, vfast, rng, H, pl, listed, by_clusters):
+    """Phase 3 of a substep: its contacts queued and processed (:mod:`.events`), by clusters
+    where ``by_clusters`` (``(own, threads, go)``; None: a caller without the clusters, whose
+    code numba then never compiles) says ``go`` and they do not decline (:mod:`.clusters`),
+    else serially. Returns ``(H, n_dead, delta, dropped, vfast, vrel, t_cut)``."""
+    queued = False
+    if by_clusters is not None:
+        own, threads, go = by_clusters
+        if go:
+            done, H, size, delta, dropped, vfast = cluster_events(n, H, ph, cnt, sub, vfast, own,
+                                                                  threads)
+            if done:
+                return H, 0, delta, dropped, vfast, 0.0, 0.0
+            queued = True  # (declined: the serial phase, on the queue it made)
+    if not queued:
+        H, size = queue_initial(n, ph, H, cnt.icnt, pl, listed)
+    _code, _other, H, _ev, n_dead, delta, dropped, vfast, vrel, t_cut = run_events(
+        H, size, n, ph, cnt, sub, vfast, rng, None)
+    return H, n_dead, delta, dropped, vfast, vrel, t_cut
