@@ -35,6 +35,8 @@ import discgym as dg
 from discgym.bench import bench_scene, format_table, n_label
 from discgym.compiled import kernel_bounds
 from discgym.kernels import event_driven as ev
+from discgym.kernels import event_handlers as eh
+from discgym.kernels import event_predict as ep
 from discgym.kernels import step as S
 from discgym.kernels.event_structs import EVENT_COLUMNS, NEXT_CODE, NEXT_STAMP, Queue
 from discgym.kernels.heap import IndexedHeap
@@ -76,7 +78,7 @@ def _phased_loop(fl, cells, queue, run, tables, rng, counters, P):
             break
         events += 1
         code = int(queue.event[d, NEXT_CODE])
-        ev._advance(d, t, fl.path)
+        ep.fly_to(d, t, fl.path)
         p1 = -1
         entered = 0
         c1 = _cycles()
@@ -84,24 +86,24 @@ def _phased_loop(fl, cells, queue, run, tables, rng, counters, P):
         if code >= 0 and fl.stamp[code] != int(queue.event[d, NEXT_STAMP]):
             k = 3
         elif code >= 0:
-            p1 = ev._collision(d, code, t, fl, cells, queue, run, tables, rng, counters)
+            p1 = eh.collision(d, code, t, fl, cells, queue, run, tables, rng, counters)
             k = 0
         elif code == ev.EV_CELL:
-            entered = ev._crossing(d, cells, queue, counters.stats)
+            entered = eh.crossing(d, cells, queue, counters.stats)
             k = 1
         elif code == ev.EV_WALL:
-            ev._wall_hit(d, fl, queue, run, counters, rng)
+            eh.wall_event(d, fl, cells, queue, run, tables, counters, rng)
             k = 2
         else:
             raise ValueError("profile_event: only an elastic gas")
         c0 = _cycles()
         P[k] += c0 - c1
-        ev._predict(d, t, fl, cells, queue, run, entered)
+        ep.predict(d, t, fl, cells, queue, run, entered)
         c1 = _cycles()
         P[4 if entered == 0 else 5] += c1 - c0
         c0 = c1
         if p1 >= 0:
-            ev._predict(p1, t, fl, cells, queue, run, 0)
+            ep.predict(p1, t, fl, cells, queue, run, 0)
             c0 = _cycles()
             P[4] += c0 - c1
     return events
@@ -112,7 +114,7 @@ def _setup(state, n, n_steps, bounds, tables, params, flags, rng, counters):
     run = ev._run_constants(n, n_steps, DT, state.vel, state.species, tables, params, flags,
                             bounds)
     cap = state.pos.shape[0]
-    cells = ev._make_cells(n, cap, run, ev.CELLS_PER_DISC)
+    cells = ep.make_cells(n, cap, run, ev.CELLS_PER_DISC)
     fl = ev._load(n, cap, state, cells, tables)
     queue = Queue(np.zeros((cap, EVENT_COLUMNS), dtype=FLOAT),
                   IndexedHeap(np.full(cap, np.inf, dtype=FLOAT), np.arange(cap).astype(INDEX),
@@ -125,9 +127,10 @@ def _args(sim, n):
     cs = sim._cs
     discs = Discs(sim.positions.copy(), sim.velocities.copy(), sim.species.copy(),
                   np.zeros(n), np.arange(n), np.array([n]))
-    counters = ev.Counters(np.zeros_like(sim._icnt), np.zeros_like(sim._fsum),
-                           np.zeros_like(sim._ch_count), np.zeros(ev.N_STATS, dtype=np.int64),
-                           np.zeros_like(sim._outflow))
+    counters = ev.EventCounters(np.zeros_like(sim._icnt), np.zeros_like(sim._fsum),
+                                np.zeros_like(sim._ch_count),
+                                np.zeros(ev.N_STATS, dtype=np.int64),
+                                np.zeros_like(sim._outflow))
     return discs, Bounds(*kernel_bounds(sim.bounds), sim._walls), cs, counters
 
 

@@ -257,9 +257,9 @@ def test_a_step_past_the_event_bound_is_finished_by_the_time_stepped_integrator(
     discs = Discs(pos, vel, spc, np.zeros(2), np.arange(2), np.array([2]))
     _, n = ev.run_steps(discs, 2, 1, sc.dt, Bounds(*kernel_bounds(sim.bounds), sim._walls),
                         cs.tables, cs.params, cs.flags, np.random.default_rng(0),
-                        ev.Counters(icnt, np.zeros_like(sim._fsum),
-                                    np.zeros_like(sim._ch_count), stats,
-                                    np.zeros_like(sim._outflow)), ev.CELLS_PER_DISC)
+                        ev.EventCounters(icnt, np.zeros_like(sim._fsum),
+                                         np.zeros_like(sim._ch_count), stats,
+                                         np.zeros_like(sim._outflow)), ev.CELLS_PER_DISC)
     k = ksub(sim)
     assert stats[ev.ST_EVENTS] == k * (ev.EVENTS_PER_DISC * 2 + 1024)
     # (the time-stepped integrator's substeps in the cage reach their own bound too)
@@ -287,8 +287,8 @@ def one_run(sim, n_steps):
     booked as ``Simulation.step`` books them: the reference of the split calls."""
     cs = sim._cs
     d = Discs(sim._pos, sim._vel, sim._species, sim._internal_energy, sim._ids, sim._idctr)
-    cnt = ev.Counters(sim._icnt, sim._fsum, sim._ch_count, np.zeros(ev.N_STATS, np.int64),
-                      sim._outflow)
+    cnt = ev.EventCounters(sim._icnt, sim._fsum, sim._ch_count,
+                           np.zeros(ev.N_STATS, np.int64), sim._outflow)
     d, n = ev.run_steps(d, sim._n, n_steps, sim.scene.dt,
                         Bounds(*kernel_bounds(sim.bounds), sim._walls), cs.tables, cs.params,
                         cs.flags, sim._rngs[0], cnt, ev.CELLS_PER_DISC)

@@ -498,7 +498,8 @@ def test_event_statistics_and_restart_on_growth():
                             Bounds(*kernel_bounds(sim.bounds), sim._walls), cs.tables, cs.params,
                             cs.flags,
                             np.random.default_rng(1),
-                            ev.Counters(icnt, fsum, chc, stats, np.zeros_like(sim._outflow)),
+                            ev.EventCounters(icnt, fsum, chc, stats,
+                                             np.zeros_like(sim._outflow)),
                             ev.CELLS_PER_DISC)
     pos, spc, ids = discs.pos, discs.species, discs.ids
     assert stats[ev.ST_RESTARTS] >= 1 and n > 150 and pos.shape[0] >= n

@@ -13,7 +13,9 @@
 - :mod:`.placement`: placing and relocating discs without overlap.
 - :mod:`.controls`: energy sums and the in-place pieces of the controls.
 - :mod:`.step`: the time-stepped integrator, composing the effects a scene calls for.
-- :mod:`.event_driven` (with :mod:`.event_structs`): the exact event-driven integrator.
+- :mod:`.event_driven`: the exact event-driven integrator (its grid and predictions in
+  :mod:`.event_predict`, its event handlers in :mod:`.event_handlers`, its structs in
+  :mod:`.event_structs`).
 - :mod:`.batch`: many reactors of an environment in one compiled call.
 
 Kernels never touch global random state: a ``numpy.random.Generator`` is passed in.

@@ -40,7 +40,7 @@ from numba import njit, prange
 
 from .controls import RESIZED, heat, inject, resize
 from .event_driven import CELLS_PER_DISC, N_STATS, finish_capped, run_exact
-from .event_structs import Counters as EventCounters
+from .event_structs import EventCounters
 from .jit import kernel
 from .step import FS_WALL_HEAT, advance, empty_work, lists_for
 from .structs import (

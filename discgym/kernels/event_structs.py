@@ -1,10 +1,12 @@
-"""The structs of the event-driven integrator (:mod:`discgym.kernels.event_driven`).
+"""The structs of the event-driven integrator (:mod:`discgym.kernels.event_driven`) and the
+codes stored in them.
 
 NamedTuples of arrays and scalars, so the kernels take a few named arguments; C is the
 capacity of the state arrays, discs [0, n) are in use. The reactor's own state is the shared
-:class:`discgym.kernels.structs.Discs`; the counters here add the integrator's statistics to
-those of :class:`discgym.kernels.structs.Counters`. The per-disc tables are one row per
-disc, so that a prediction, which reads a neighbour's whole row, touches one cache line.
+:class:`discgym.kernels.structs.Discs`; :class:`EventCounters` adds the integrator's
+statistics to the counters of :class:`discgym.kernels.structs.Counters`. The per-disc tables
+are one row per disc, so that a prediction, which reads a neighbour's whole row, touches one
+cache line.
 """
 
 from typing import NamedTuple
@@ -24,17 +26,35 @@ PATH_COLUMNS = 8
 NEXT_T, NEXT_CODE, NEXT_STAMP, NEXT_AUX, KEPT_T, KEPT_CODE, KEPT_STAMP, KEPT_AUX = range(8)
 EVENT_COLUMNS = 8
 
+# Event codes (NEXT_CODE, KEPT_CODE: the partner of a disc's event): >= 0 is a disc.
+EV_WALL = -1
+EV_CELL = -2
+EV_REACT = -3
+EV_NONE = -4
 
-class Counters(NamedTuple):
+# Statistics (columns of EventCounters.stats).
+ST_EVENTS = 0  # events popped (valid or stale)
+ST_STALE = 1  # events found stale (partner changed since the prediction)
+ST_CROSSINGS = 2  # cell crossings
+ST_PREDICTIONS = 3  # disc predictions
+ST_RESTARTS = 4  # growths of the state arrays in a step (a fission found them full)
+ST_GRAZES = 5  # predicted contacts found tangential at the contact (round-off); no impulse
+ST_CELLS = 6  # cells in the grid (last restart)
+N_STATS = 7
+
+
+class EventCounters(NamedTuple):
     """Accumulated in place: icnt (IC_*,) int64 and fsum (FS_*,) float64 of
-    :mod:`discgym.kernels.step`; ch_count (channels,) int64 reactions fired per channel;
-    stats (N_STATS,) int64 the integrator's own statistics (ST_*)."""
+    :mod:`discgym.kernels.structs`; ch_count (channels,) int64 reactions fired per channel;
+    stats (N_STATS,) int64 the integrator's own statistics (ST_*); outflow (S,) int64 discs
+    that left through an outlet, per species (the fields of
+    :class:`~discgym.kernels.structs.Counters` with ``stats`` added)."""
 
     icnt: np.ndarray
     fsum: np.ndarray
     ch_count: np.ndarray
     stats: np.ndarray
-    outflow: np.ndarray  #: (S,) discs that left through an outlet (none here: refused)
+    outflow: np.ndarray
 
 
 class Flights(NamedTuple):
