@@ -49,11 +49,11 @@ from .structs import (
     EVENT,
     JACKET,
     N_SIDES,
-    P_RMAX,
     Bounds,
     Counters,
     Discs,
     Episodes,
+    Injection,
     ReactorConsts,
     Reactors,
     Tables,
@@ -281,8 +281,8 @@ def reactor_step(r, rx, ep, tables, params, flags, consts, rngs, act, exact, ste
     if ep.steps[r] == ep.feed_switch[r]:  # the inlet temperature changes (flow tasks)
         ep.feed_kT[r] = ep.feed_kT_next[r]
     if not bad_wall:
-        _wall(r, a[1], discs, rx, ep, tables.sp_radius, params, consts, rngs)
-    if not _inject_feed(r, a, discs, rx, ep, tables, consts, rngs):
+        _wall(r, a[1], discs, rx.n[r], bounds, ep, tables.sp_radius, consts, rngs)
+    if not _inject_feed(r, a, discs, bounds, rx, ep, tables, consts, rngs):
         return
     # the physics
     cap = discs.pos.shape[0]
@@ -407,10 +407,10 @@ def _heat(r, a0, discs, n, ep, sp_mass, consts):
 
 
 @kernel
-def _wall(r, a1, discs, rx, ep, sp_radius, params, consts, rngs):
+def _wall(r, a1, discs, n, bounds, ep, sp_radius, consts, rngs):
     """Wall control: the size toward its target by at most wall_speed, the box's width (origin
     kept) or the circle's radius ``size`` x the scene's (blocked: the size stays and
-    ``iout[r, O_BLOCKED]`` is set)."""
+    ``iout[r, O_BLOCKED]`` is set). ``bounds``: reactor r's (views of its rows)."""
     size = ep.size
     lo_s = consts.size_min
     hi_s = consts.size_max
@@ -423,8 +423,7 @@ def _wall(r, a1, discs, rx, ep, sp_radius, params, consts, rngs):
     nb = np.empty(4)
     nb[0] = ref[0]
     nb[1] = ref[1]
-    kind = rx.bounds_kind[r]
-    if kind == BOX:
+    if bounds.kind == BOX:
         w = ref[2] * new
         h = ref[3]
         nb[2] = ref[0] + w
@@ -437,18 +436,18 @@ def _wall(r, a1, discs, rx, ep, sp_radius, params, consts, rngs):
         nb[3] = 0.0
         fit_radius = rad
         area = math.pi * rad * rad
-    done, _ = resize(discs.pos, discs.species, rx.n[r], sp_radius, params[P_RMAX], kind, nb,
-                     fit_radius, area, consts.packing, rngs, r, consts.attempts)
+    done, _ = resize(discs, n, sp_radius, Bounds(bounds.kind, nb, bounds.walls), fit_radius,
+                     area, consts.packing, rngs, r, consts.attempts)
     if done == RESIZED:
         for k in range(nb.shape[0]):  # (a loop: numba's slice assignment compiles an error)
-            rx.bounds_params[r, k] = nb[k]
+            bounds.params[k] = nb[k]
         size[r] = new
     else:
         ep.iout[r, O_BLOCKED] = 1
 
 
 @kernel
-def _inject_feed(r, a, discs, rx, ep, tables, consts, rngs):
+def _inject_feed(r, a, discs, bounds, rx, ep, tables, consts, rngs):
     """Injection control: round(a * inject_max) discs of each feed species for a > 0, within
     the budget left, at the current kT. Returns False when they do not fit the arrays
     (status FULL)."""
@@ -469,10 +468,10 @@ def _inject_feed(r, a, discs, rx, ep, tables, consts, rngs):
             if m + todo > cap:
                 iout[r, O_STATUS] = FULL
                 return False
-            placed, energy, _ = inject(discs, m, feed[k], np.full((todo, 2), np.nan),
-                                       ep.feed_kT[r],
-                                       consts.temperature, consts.speed_limit, tables,
-                                       rx.bounds_kind[r], rx.bounds_params[r], rngs, r,
+            # (the species as int64, as Simulation.inject gives it: one compiled inject)
+            what = Injection(np.int64(feed[k]), np.full((todo, 2), np.nan), ep.feed_kT[r])
+            placed, energy, _ = inject(discs, m, what, consts.temperature,
+                                       consts.speed_limit, tables, bounds, rngs, r,
                                        consts.attempts)
             ep.fout[r, 2 + k] = energy
             m += placed
