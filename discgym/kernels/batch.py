@@ -587,13 +587,11 @@ def observe_one(r, rx, ep, sp_mass, consts):
         k += S
     B = consts.energy_bins
     if B > 0:
-        _energy_histogram(o, k, vel, species, n, sp_mass, st, consts.energy_edges, B, low,
-                          high)
+        _energy_histogram(o, k, r, rx, sp_mass, st, consts)
         k += S * B
     G = consts.grid
     if G > 0:
-        _spatial_histogram(o, k, rx.pos[r], vel, species, n, sp_mass, st, rx.bounds_kind[r],
-                           rx.bounds_params[r], G, low, high)
+        _spatial_histogram(o, k, r, rx, sp_mass, st, consts)
         k += (S + 1) * G * G
     if consts.obs_reactions:
         last = ep.ch_last[r]
@@ -611,50 +609,55 @@ def _jacket_kT(walls):
 
 
 @kernel
-def _energy_histogram(o, k, vel, species, n, sp_mass, st, edges, B, low, high):
-    """Slots [k, k + S B) of ``o``: per species s, the share of its discs whose kinetic energy
-    falls in each bin (bin b: edges[b - 1] <= E < edges[b], the first from 0, the last open)."""
+def _energy_histogram(o, k, r, rx, sp_mass, st, consts):
+    """Slots [k, k + S B) of ``o``: per species s, the share of reactor r's discs whose kinetic
+    energy falls in each bin (bin b: edges[b - 1] <= E < edges[b], the first from 0, the last
+    open; B and the edges of ``consts``). ``st``: its :func:`species_stats`."""
+    vel = rx.vel[r]
+    species = rx.species[r]
+    edges = consts.energy_edges
+    B = consts.energy_bins
     S = sp_mass.shape[0]
     for j in range(k, k + S * B):
         o[j] = 0.0
-    for i in range(n):
+    for i in range(rx.n[r]):
         s = species[i]
         e = 0.5 * sp_mass[s] * (vel[i, 0] * vel[i, 0] + vel[i, 1] * vel[i, 1])
         b = 0
         while b < B - 1 and e >= edges[b]:
             b += 1
         o[k + s * B + b] += 1.0
-    for s in range(S):
-        c = max(st[s], 1.0)
-        for b in range(B):
-            j = k + s * B + b
-            o[j] = _clip(o[j] / c, low[j], high[j])
+    _shares(o, k, S, B, st, consts)
 
 
 @kernel
-def _spatial_histogram(o, k, pos, vel, species, n, sp_mass, st, bounds_kind, bounds_params, G,
-                       low, high):
-    """Slots [k, k + (S + 1) G^2) of ``o``: per species the share of its discs in each cell of
-    a G x G grid over the bounds' bounding box (cell (i, j): column i from the left, row j
-    from the bottom, at k + s G^2 + j G + i), then the mean kinetic energy per disc of each
-    cell (kT; 0 if empty)."""
+def _spatial_histogram(o, k, r, rx, sp_mass, st, consts):
+    """Slots [k, k + (S + 1) G^2) of ``o``: per species the share of reactor r's discs in each
+    cell of a G x G grid over its bounds' bounding box (cell (i, j): column i from the left,
+    row j from the bottom, at k + s G^2 + j G + i), then the mean kinetic energy per disc of
+    each cell (kT; 0 if empty). ``st``: its :func:`species_stats`."""
+    pos = rx.pos[r]
+    vel = rx.vel[r]
+    species = rx.species[r]
+    b = rx.bounds_params[r]
+    G = consts.grid
     S = sp_mass.shape[0]
     GG = G * G
-    if bounds_kind == BOX:
-        x0 = bounds_params[0]
-        y0 = bounds_params[1]
-        w = bounds_params[2] - x0
-        h = bounds_params[3] - y0
+    if rx.bounds_kind[r] == BOX:
+        x0 = b[0]
+        y0 = b[1]
+        w = b[2] - x0
+        h = b[3] - y0
     else:
-        x0 = bounds_params[0] - bounds_params[2]
-        y0 = bounds_params[1] - bounds_params[2]
-        w = 2.0 * bounds_params[2]
+        x0 = b[0] - b[2]
+        y0 = b[1] - b[2]
+        w = 2.0 * b[2]
         h = w
     for j in range(k, k + (S + 1) * GG):
         o[j] = 0.0
     cnt = np.zeros(GG)
     ke = np.zeros(GG)
-    for i in range(n):
+    for i in range(rx.n[r]):
         s = species[i]
         ci = min(max(int((pos[i, 0] - x0) / w * G), 0), G - 1)
         cj = min(max(int((pos[i, 1] - y0) / h * G), 0), G - 1)
@@ -662,14 +665,22 @@ def _spatial_histogram(o, k, pos, vel, species, n, sp_mass, st, bounds_kind, bou
         o[k + s * GG + c] += 1.0
         cnt[c] += 1.0
         ke[c] += 0.5 * sp_mass[s] * (vel[i, 0] * vel[i, 0] + vel[i, 1] * vel[i, 1])
-    for s in range(S):
-        m = max(st[s], 1.0)
-        for c in range(GG):
-            j = k + s * GG + c
-            o[j] = _clip(o[j] / m, low[j], high[j])
+    _shares(o, k, S, GG, st, consts)
     for c in range(GG):
         j = k + S * GG + c
-        o[j] = _clip(ke[c] / cnt[c] if cnt[c] > 0.0 else 0.0, low[j], high[j])
+        o[j] = _clip(ke[c] / cnt[c] if cnt[c] > 0.0 else 0.0, consts.obs_low[j],
+                     consts.obs_high[j])
+
+
+@kernel
+def _shares(o, k, S, width, st, consts):
+    """Slots [k, k + S width) of ``o``, counts of species s's discs at k + s width + b, made
+    shares of its discs (``st[s]``, at least 1) and clipped to the observation's bounds."""
+    for s in range(S):
+        c = max(st[s], 1.0)
+        for b in range(width):
+            j = k + s * width + b
+            o[j] = _clip(o[j] / c, consts.obs_low[j], consts.obs_high[j])
 
 
 @kernel
