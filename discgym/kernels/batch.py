@@ -3,18 +3,19 @@ observation), and the per-species sums it observes.
 
 A batch of R reactors of the same scene is a :class:`~discgym.kernels.structs.Reactors`
 (padded rows, one per reactor) with the environment's per-episode state in an
-:class:`~discgym.kernels.structs.Episodes` and its constants in a
-:class:`~discgym.kernels.structs.ReactorConsts`. :func:`env_step` applies one action to
-every active reactor and advances it, one reactor after the other; :func:`env_step_parallel`
-does the same in a ``prange`` over reactors (numba's threads). Both run the same
-:func:`reactor_step` for each reactor, and each reactor draws from its own
-``np.random.Generator`` (a ``numba.typed.List`` of them: a tuple would compile once per batch
-size, and numba refuses tuples of more than 100 items in a parallel region), so a reactor of
-a batch follows bit for bit the trajectory of a lone environment (``R = 1``) with the same
-state, generator and actions. The physics of a step is the kernel :meth:`Simulation.step
-<discgym.Simulation.step>` calls, single-threaded for each reactor: the time-stepped
-:func:`discgym.kernels.step.advance` or, with ``consts.integrator`` = ``EVENT``, one exact run
-of :func:`discgym.kernels.event_driven.run_steps` over the whole env step (as
+:class:`~discgym.kernels.structs.Episodes`, its constants in a
+:class:`~discgym.kernels.structs.ReactorConsts` and its compiled scene in a :class:`Physics`.
+:func:`env_step` applies one action to every active reactor and advances it, one reactor
+after the other; :func:`env_step_parallel` does the same in a ``prange`` over reactors
+(numba's threads). Both run the same :func:`reactor_step` for each reactor, and each
+reactor draws from its own ``np.random.Generator`` (a ``numba.typed.List`` of them: a tuple
+would compile once per batch size, and numba refuses tuples of more than 100 items in a
+parallel region), so a reactor of a batch follows bit for bit the trajectory of a lone
+environment (``R = 1``) with the same state, generator and actions. The physics of a step
+is the kernel :meth:`Simulation.step <discgym.Simulation.step>` calls, single-threaded for
+each reactor: the time-stepped :func:`discgym.kernels.step.advance` or, with
+``consts.integrator`` = ``EVENT``, one exact run of
+:func:`discgym.kernels.event_driven.run_steps` over the whole env step (as
 ``Simulation(..., integrator="event").step(steps_per_action)``); the controls are those of
 :mod:`~discgym.kernels.controls`, which the ``Simulation`` methods call. Which integrator is
 a compile-time choice, made in Python (:func:`env_step`): a stepped environment never
@@ -34,6 +35,7 @@ Physics-free glue: this module imports numpy and numba only.
 """
 
 import math
+from typing import NamedTuple
 
 import numpy as np
 from numba import njit, prange
@@ -72,17 +74,26 @@ O_HEAT, O_ENERGY_HEAT = range(2)  # then the energy each feed species' injection
 O_STATUS, O_BLOCKED, O_INVALID = range(3)  # then injected (F), then refused (F)
 
 
+class Physics(NamedTuple):
+    """What a reactor's physics reads of its compiled scene
+    (:class:`~discgym.compiled.CompiledScene`)."""
+
+    tables: Tables  #: the scene's tables (a reactor's kinetics: rows of Episodes)
+    params: np.ndarray  #: FLOAT the scene's parameters (P_* of kernels.structs)
+    flags: np.ndarray  #: INDEX the scene's effects (F_* of kernels.structs)
+
+
 _INTEGRATOR = ReactorConsts._fields.index("integrator")
 _STEPS = ReactorConsts._fields.index("steps_per_action")
 _IOUT = Episodes._fields.index("iout")
 
 
-def env_step(rx, ep, tables, params, flags, consts, rngs, active, act):
+def env_step(rx, ep, physics, consts, rngs, active, act):
     """One environment step of every active reactor, one after the other (see
     :func:`reactor_step` for the arguments; ``active`` (R,) bool). The structs ``rx``, ``ep``,
-    ``tables`` and ``consts`` come as plain tuples of their fields: numba types those in C,
-    a NamedTuple field by field in Python (about 0.5 us per field per call, some 30 us for
-    these four).
+    ``physics`` (its tables too) and ``consts`` come as plain tuples of their fields: numba
+    types those in C, a NamedTuple field by field in Python (about 0.5 us per field per
+    call, some 30 us for these).
 
     The integrator is chosen here, in Python, as :class:`~discgym.Simulation` chooses its
     entry point: the compiled step is :func:`_env_step` with ``exact=None`` for a stepped
@@ -93,23 +104,24 @@ def env_step(rx, ep, tables, params, flags, consts, rngs, active, act):
     keep a pair list (``lists``: ``steps_per_action`` of PAIR_MIN_STEPS or more), and numba
     compiles no pair-list code for an env of fewer steps per action."""
     exact, stepped = _integrators(consts)
-    _env_step(rx, ep, tables, params, flags, consts, rngs, active, act, exact, stepped,
+    _env_step(rx, ep, physics, consts, rngs, active, act, exact, stepped,
               lists_for(consts[_STEPS]))
     if exact:
-        _finish_capped_rows(rx, ep, tables, params, flags, consts, rngs, active)
+        _finish_capped_rows(rx, ep, physics, consts, rngs, active)
 
 
-def env_step_parallel(rx, ep, tables, params, flags, consts, rngs, active, act, order, starts):
+def env_step_parallel(rx, ep, physics, consts, rngs, active, act, order, starts):
     """:func:`env_step` in parallel: a ``prange`` over T work lists, list t being the
-    reactors ``order[starts[t]:starts[t + 1]]`` (see :func:`balance`; T = the number of
-    threads gives each thread one list). Each reactor touches only its own rows, so there
-    are no races, and the result is the same bits whatever the lists. The structs come as
-    plain tuples, and the integrator is chosen, as for :func:`env_step`."""
+    reactors ``order[starts[t]:starts[t + 1]]``: the active ones, as :func:`balance` writes
+    them (T = the number of threads gives each thread one list). Each reactor touches only
+    its own rows, so there are no races, and the result is the same bits whatever the lists.
+    The structs come as plain tuples, and the integrator is chosen, as for
+    :func:`env_step`."""
     exact, stepped = _integrators(consts)
-    _env_step_parallel(rx, ep, tables, params, flags, consts, rngs, active, act, order, starts,
-                       exact, stepped, lists_for(consts[_STEPS]))
+    _env_step_parallel(rx, ep, physics, consts, rngs, act, order, starts, exact, stepped,
+                       lists_for(consts[_STEPS]))
     if exact:
-        _finish_capped_rows(rx, ep, tables, params, flags, consts, rngs, active)
+        _finish_capped_rows(rx, ep, physics, consts, rngs, active)
 
 
 def _integrators(consts) -> tuple:
@@ -118,28 +130,29 @@ def _integrators(consts) -> tuple:
     return (True, None) if consts[_INTEGRATOR] == EVENT else (None, True)
 
 
-def _finish_capped_rows(rx, ep, tables, params, flags, consts, rngs, active):
+def _finish_capped_rows(rx, ep, physics, consts, rngs, active):
     """Finish the step of every active reactor whose exact run reached its event bound (one
     after the other; each has its own rows and generator, so the order changes nothing)."""
     capped = active & (ep[_IOUT][:, O_STATUS] == CAPPED)
     if capped.any():
-        _finish_capped(rx, ep, tables, params, flags, consts, rngs, capped)
+        _finish_capped(rx, ep, physics, consts, rngs, capped)
 
 
 @njit(cache=True)
-def _finish_capped(rx, ep, tables, params, flags, consts, rngs, capped):
+def _finish_capped(rx, ep, physics, consts, rngs, capped):
     """The rest of the step of each reactor r with ``capped[r]``, which :func:`reactor_step`
     left at its exact run's event bound (``ep.pending[r]``: the time left, the thermal walls'
     heat before the step): the time-stepped integrator to the end of the step
     (:func:`~discgym.kernels.event_driven.finish_capped`, as ``run_steps`` would in one call),
     then what follows the physics (:func:`_book`)."""
-    rx, ep, tables, consts = _structs(rx, ep, tables, consts)
+    rx, ep, physics, consts = _structs(rx, ep, physics, consts)
     for r in range(capped.shape[0]):
         if capped[r]:
-            discs, own, bounds = _views(r, rx, ep, tables)
+            discs, own, bounds = _views(r, rx, ep, physics.tables)
             ep.iout[r, O_STATUS] = 0
             after, m = finish_capped(discs, rx.n[r], consts.steps_per_action, consts.dt,
-                                     ep.pending[r, 0], bounds, own, params, flags, rngs[r],
+                                     ep.pending[r, 0], bounds, own, physics.params,
+                                     physics.flags, rngs[r],
                                      Counters(rx.icnt[r], rx.fsum[r], rx.ch_count[r],
                                               rx.outflow[r]))
             _book(r, after.pos.shape[0] != discs.pos.shape[0], m, rx, ep, own.sp_mass, consts,
@@ -147,37 +160,39 @@ def _finish_capped(rx, ep, tables, params, flags, consts, rngs, capped):
 
 
 @njit(cache=True)
-def _env_step(rx, ep, tables, params, flags, consts, rngs, active, act, exact, stepped, lists):
-    rx, ep, tables, consts = _structs(rx, ep, tables, consts)
+def _env_step(rx, ep, physics, consts, rngs, active, act, exact, stepped, lists):
+    rx, ep, physics, consts = _structs(rx, ep, physics, consts)
     for r in range(rx.pos.shape[0]):
         if active[r]:
-            reactor_step(r, rx, ep, tables, params, flags, consts, rngs, act, exact, stepped,
-                         lists)
+            reactor_step(r, rx, ep, physics, consts, rngs, act, exact, stepped, lists)
 
 
 @njit(cache=True)
-def _env_step_parallel(rx, ep, tables, params, flags, consts, rngs, active, act, order, starts,
-                       exact, stepped, lists):
-    rx, ep, tables, consts = _structs(rx, ep, tables, consts)
-    _in_parallel(rx, ep, tables, params, flags, consts, rngs, active, act, order, starts, exact,
-                 stepped, lists)
+def _env_step_parallel(rx, ep, physics, consts, rngs, act, order, starts, exact, stepped,
+                       lists):
+    rx, ep, physics, consts = _structs(rx, ep, physics, consts)
+    _in_parallel(rx, ep, physics, consts, rngs, act, order, starts, exact, stepped, lists)
 
 
 @kernel(parallel=True)
-def _in_parallel(rx, ep, tables, params, flags, consts, rngs, active, act, order, starts, exact,
-                 stepped, lists):
-    # (apart from _env_step_parallel: numba's parfor lowering fails on the unpacked structs)
+def _in_parallel(rx, ep, physics, consts, rngs, act, order, starts, exact, stepped, lists):
+    # (apart from _env_step_parallel: numba's parfor lowering fails on the unpacked structs.
+    # It passes a struct into the loop body field by field, arrays and scalars only, and
+    # needs the struct's class from the call that made it or from an argument: so the
+    # tables go in as a struct rebuilt here, and physics is made inside the loop)
+    tables = Tables(*physics.tables)
+    params = physics.params
+    flags = physics.flags
     for t in prange(starts.shape[0] - 1):
         for q in range(starts[t], starts[t + 1]):
-            r = order[q]
-            if active[r]:
-                _reactor_step(r, rx, ep, tables, params, flags, consts, rngs, act, exact,
-                              stepped, lists)
+            _reactor_step(order[q], rx, ep, Physics(tables, params, flags), consts, rngs,
+                          act, exact, stepped, lists)
 
 
 @njit(cache=True, inline="always")
-def _structs(rx, ep, tables, consts):
-    return Reactors(*rx), Episodes(*ep), Tables(*tables), ReactorConsts(*consts)
+def _structs(rx, ep, physics, consts):
+    return (Reactors(*rx), Episodes(*ep), Physics(Tables(*physics[0]), physics[1], physics[2]),
+            ReactorConsts(*consts))
 
 
 @njit(cache=True, inline="always")
@@ -229,7 +244,7 @@ def balance(cost, active, T, order, starts):
 
 
 @njit(cache=True, inline="always")
-def reactor_step(r, rx, ep, tables, params, flags, consts, rngs, act, exact, stepped, lists):
+def reactor_step(r, rx, ep, physics, consts, rngs, act, exact, stepped, lists):
     """Apply the action ``act[r]`` to reactor r (heat, then the wall, then injection), advance
     it ``consts.steps_per_action`` steps of ``consts.dt`` (``exact`` not None: one exact
     event-driven run of that time; ``stepped`` not None: the time-stepped integrator), count
@@ -244,8 +259,8 @@ def reactor_step(r, rx, ep, tables, params, flags, consts, rngs, act, exact, ste
 
     ``rx`` the batch's :class:`~discgym.kernels.structs.Reactors` (rows r), ``ep`` its
     :class:`~discgym.kernels.structs.Episodes` (``ep.temperature`` and ``ep.kinetic``, those
-    of the last observation, are read by the heat control, then overwritten); ``tables``,
-    ``params``, ``flags`` the compiled scene; ``consts`` a
+    of the last observation, are read by the heat control, then overwritten); ``physics``
+    a :class:`Physics` (the compiled scene); ``consts`` a
     :class:`~discgym.kernels.structs.ReactorConsts`; ``rngs`` a typed list of R generators.
     Actions ``act`` (R, A) float64, as given: a NaN or infinite component does nothing
     (counted in ``iout[r, O_INVALID]``), others are clipped to [-1, 1].
@@ -271,7 +286,7 @@ def reactor_step(r, rx, ep, tables, params, flags, consts, rngs, act, exact, ste
         fout[r, k] = 0.0
     for k in range(iout.shape[1]):
         iout[r, k] = 0
-    discs, tables, bounds = _views(r, rx, ep, tables)
+    discs, tables, bounds = _views(r, rx, ep, physics.tables)
     a, bad_heat, bad_wall = _read_action(r, act, iout)
     if consts.heating == JACKET:
         if not bad_heat:
@@ -298,7 +313,7 @@ def reactor_step(r, rx, ep, tables, params, flags, consts, rngs, act, exact, ste
     wall_heat0 = _wall_heat(fsum)
     if exact is not None:  # one exact run of the step (Simulation.step's call)
         after, m, rest = run_exact(discs, rx.n[r], consts.steps_per_action, consts.dt, bounds,
-                                   tables, params, flags, rngs[r],
+                                   tables, physics.params, physics.flags, rngs[r],
                                    EventCounters(rx.icnt[r], fsum, ch_count,
                                                  np.zeros(N_STATS, dtype=COUNT), outflow),
                                    CELLS_PER_DISC)
@@ -310,11 +325,16 @@ def reactor_step(r, rx, ep, tables, params, flags, consts, rngs, act, exact, ste
             return
     if stepped is not None:
         after, m, _w = advance(discs, rx.n[r], consts.steps_per_action, consts.dt, bounds,
-                               tables, params, flags, rngs[r],
+                               tables, physics.params, physics.flags, rngs[r],
                                Counters(rx.icnt[r], rx.fsum[r], ch_count, rx.outflow[r]),
                                np.int64(1), rx.ksteps[r], consts.reorder_every,
                                empty_work(), lists=lists)
     _book(r, after.pos.shape[0] != cap, m, rx, ep, tables.sp_mass, consts, wall_heat0)
+
+
+# reactor_step compiled as a function of its own, for the prange body of _in_parallel:
+# inlined there, numba's parfor lowering changed the results (tests/test_env_event.py)
+_reactor_step = kernel(reactor_step.py_func)
 
 
 @kernel
@@ -341,11 +361,6 @@ def _book(r, grew, m, rx, ep, sp_mass, consts, wall_heat0):
     rx.ksteps[r] += consts.steps_per_action
     ep.steps[r] += 1
     observe_one(r, rx, ep, sp_mass, consts)
-
-
-# reactor_step compiled as a function of its own, for the prange body of _in_parallel:
-# inlined there, numba's parfor lowering changed the results (tests/test_env_event.py)
-_reactor_step = kernel(reactor_step.py_func)
 
 
 @kernel
