@@ -185,8 +185,8 @@ def _in_parallel(rx, ep, physics, consts, rngs, act, order, starts, exact, stepp
     flags = physics.flags
     for t in prange(starts.shape[0] - 1):
         for q in range(starts[t], starts[t + 1]):
-            _reactor_step(order[q], rx, ep, Physics(tables, params, flags), consts, rngs,
-                          act, exact, stepped, lists)
+            reactor_step(order[q], rx, ep, Physics(tables, params, flags), consts, rngs, act,
+                         exact, stepped, lists)
 
 
 @njit(cache=True, inline="always")
@@ -243,7 +243,9 @@ def balance(cost, active, T, order, starts):
     starts[T] = m
 
 
-@njit(cache=True, inline="always")
+# A kernel, not inlined: the serial loop and the prange body call the one compiled version
+# (inlined into the prange body, numba's parfor lowering changed the results)
+@kernel
 def reactor_step(r, rx, ep, physics, consts, rngs, act, exact, stepped, lists):
     """Apply the action ``act[r]`` to reactor r (heat, then the wall, then injection), advance
     it ``consts.steps_per_action`` steps of ``consts.dt`` (``exact`` not None: one exact
@@ -330,11 +332,6 @@ def reactor_step(r, rx, ep, physics, consts, rngs, act, exact, stepped, lists):
                                np.int64(1), rx.ksteps[r], consts.reorder_every,
                                empty_work(), lists=lists)
     _book(r, after.pos.shape[0] != cap, m, rx, ep, tables.sp_mass, consts, wall_heat0)
-
-
-# reactor_step compiled as a function of its own, for the prange body of _in_parallel:
-# inlined there, numba's parfor lowering changed the results (tests/test_env_event.py)
-_reactor_step = kernel(reactor_step.py_func)
 
 
 @kernel
