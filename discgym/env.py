@@ -1436,7 +1436,7 @@ class DiscReactorEnv(gym.Env):
                             self._bounds_params, icnt[None], fsum[None], ch_count[None],
                             outflow[None], sim.kernel_walls()[None])
         # (the structs as plain tuples of their fields: see kernels.batch.env_step)
-        self._args = (tuple(self._rx), tuple(self._ep), tuple(cfg.tables), cs.params, cs.flags,
+        self._args = (tuple(self._rx), tuple(self._ep), (tuple(cfg.tables), cs.params, cs.flags),
                       tuple(cfg.consts), sim.kernel_rngs, _ONE, self._act)
 
     def _observe(self) -> np.ndarray:

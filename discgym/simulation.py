@@ -19,7 +19,6 @@ import numpy as np
 from numba import typed
 
 from .compiled import CIRCLE, compile_scene, kernel_bounds, kernel_walls
-from .compiled import P_RMAX as _P_RMAX
 from .kernels import controls as _controls
 from .kernels import event_driven as _event
 from .kernels import step as _step
@@ -31,7 +30,9 @@ from .kernels.structs import (
     INDEX,
     P_MAXDISP,
     P_RMIN,
+    Bounds,
     Discs,
+    Injection,
     speed_limit,
 )
 from .scene import (
@@ -222,7 +223,8 @@ class Simulation:
         self._new_ids(0, n)
         if scene.collisions and n > 1:
             bad = overlapping_pairs(self._pos, self._species, n, self._cs.sp_radius,
-                                    self._bounds_kind, self._bounds_params, 1e-12)
+                                    (self._bounds_kind, self._bounds_params, self._walls),
+                                    1e-12)
             if bad:
                 raise ValueError(f"{bad} pair(s) of discs overlap; discs must not overlap "
                                  "initially")
@@ -320,7 +322,8 @@ class Simulation:
         self._reserve(len(todo))
         return place_rngs(self._pos, self._species, self._n, todo,
                           np.ascontiguousarray(targets, dtype=FLOAT), self._cs.sp_radius,
-                          self._bounds_kind, self._bounds_params, self._rngs, PLACEMENT_ATTEMPTS)
+                          (self._bounds_kind, self._bounds_params, self._walls), self._rngs,
+                          PLACEMENT_ATTEMPTS)
 
     def _place_lattice(self, todo: np.ndarray) -> int:
         """Dense initial populations: a hexagonal lattice of the largest diameter."""
@@ -781,7 +784,8 @@ class Simulation:
         if self._n < 2:
             return 0
         return int(overlapping_pairs(self._pos, self._species, self._n, self._cs.sp_radius,
-                                     self._bounds_kind, self._bounds_params, tol))
+                                     (self._bounds_kind, self._bounds_params, self._walls),
+                                     tol))
 
     def outside(self, tol: float = 1e-9) -> int:
         """Number of discs reaching out of the bounds by more than ``tol`` of their radius."""
@@ -853,9 +857,10 @@ class Simulation:
         self._reserve(n)
         rng_state = self._rng.bit_generator.state
         placed, energy, fastest = _controls.inject(
-            self._discs(), self._n, s, targets, temperature if given else math.nan,
-            self.scene.temperature, self.speed_limit, self._cs.tables, self._bounds_kind,
-            self._bounds_params, self._rngs, 0, PLACEMENT_ATTEMPTS)
+            self._discs(), self._n, Injection(s, targets, temperature if given else math.nan),
+            self.scene.temperature, self.speed_limit, self._cs.tables,
+            Bounds(self._bounds_kind, self._bounds_params, self._walls), self._rngs, 0,
+            PLACEMENT_ATTEMPTS)
         if not fastest <= self.speed_limit:
             self._rng.bit_generator.state = rng_state  # refused: as if never tried
             raise ValueError(self._too_fast(fastest, f"inject(temperature={temperature})"))
@@ -877,10 +882,10 @@ class Simulation:
         _event_fit(self._integrator, self.scene, bounds)
         kind, params = kernel_bounds(bounds)
         rng_state = self._rng.bit_generator.state
-        done, failed = _controls.resize(self._pos, self._species, self._n, self._cs.sp_radius,
-                                        self._cs.params[_P_RMAX], kind, params,
-                                        bounds.max_radius(), bounds.area, HEX_PACKING,
-                                        self._rngs, 0, PLACEMENT_ATTEMPTS)
+        done, failed = _controls.resize(self._discs(), self._n, self._cs.sp_radius,
+                                        Bounds(kind, params, self._walls), bounds.max_radius(),
+                                        bounds.area, HEX_PACKING, self._rngs, 0,
+                                        PLACEMENT_ATTEMPTS)
         if done == _controls.RESIZED:
             self._bounds, self._bounds_kind, self._bounds_params = bounds, kind, params
             self._bounds_serial += 1

@@ -241,8 +241,9 @@ class DiscReactorVectorEnv(VectorEnv):
                             self._feed_kT_next, self._feed_switch, self._pending)
         # (the structs as plain tuples of their fields: see kernels.batch.env_step)
         cfg = self.config
-        self._fields = (tuple(self._rx), tuple(self._ep), tuple(cfg.tables),
-                        tuple(cfg.consts))
+        cs = cfg.compiled
+        self._fields = (tuple(self._rx), tuple(self._ep),
+                        (tuple(cfg.tables), cs.params, cs.flags), tuple(cfg.consts))
 
     # ------------------------------------------------------------------ pickle, deepcopy
     def __getstate__(self):
@@ -441,12 +442,11 @@ class DiscReactorVectorEnv(VectorEnv):
         reactors when more than one thread is asked for; then what ``Simulation.step`` and
         its controls book, for each reactor's ``Simulation``."""
         cfg = self.config
-        cs = cfg.compiled
         idx = np.flatnonzero(active).tolist()
         self._sync(idx)
         size0 = self._size.copy()
-        rx, ep, tables, consts = self._fields
-        args = (rx, ep, tables, cs.params, cs.flags, consts, self._rngs, active, act)
+        rx, ep, physics, consts = self._fields
+        args = (rx, ep, physics, consts, self._rngs, active, act)
         sub0 = self._icnt[:, _step.IC_SUBSTEPS].copy()
         ev0 = self._icnt[:, _EVENTS].sum(axis=1)
         if len(idx) <= 1 or self.threads == 1:  # (a lone reactor runs on the calling thread)

@@ -3,18 +3,19 @@ observation), and the per-species sums it observes.
 
 A batch of R reactors of the same scene is a :class:`~discgym.kernels.structs.Reactors`
 (padded rows, one per reactor) with the environment's per-episode state in an
-:class:`~discgym.kernels.structs.Episodes` and its constants in a
-:class:`~discgym.kernels.structs.ReactorConsts`. :func:`env_step` applies one action to
-every active reactor and advances it, one reactor after the other; :func:`env_step_parallel`
-does the same in a ``prange`` over reactors (numba's threads). Both run the same
-:func:`reactor_step` for each reactor, and each reactor draws from its own
-``np.random.Generator`` (a ``numba.typed.List`` of them: a tuple would compile once per batch
-size, and numba refuses tuples of more than 100 items in a parallel region), so a reactor of
-a batch follows bit for bit the trajectory of a lone environment (``R = 1``) with the same
-state, generator and actions. The physics of a step is the kernel :meth:`Simulation.step
-<discgym.Simulation.step>` calls, single-threaded for each reactor: the time-stepped
-:func:`discgym.kernels.step.advance` or, with ``consts.integrator`` = ``EVENT``, one exact run
-of :func:`discgym.kernels.event_driven.run_steps` over the whole env step (as
+:class:`~discgym.kernels.structs.Episodes`, its constants in a
+:class:`~discgym.kernels.structs.ReactorConsts` and its compiled scene in a :class:`Physics`.
+:func:`env_step` applies one action to every active reactor and advances it, one reactor
+after the other; :func:`env_step_parallel` does the same in a ``prange`` over reactors
+(numba's threads). Both run the same :func:`reactor_step` for each reactor, and each
+reactor draws from its own ``np.random.Generator`` (a ``numba.typed.List`` of them: a tuple
+would compile once per batch size, and numba refuses tuples of more than 100 items in a
+parallel region), so a reactor of a batch follows bit for bit the trajectory of a lone
+environment (``R = 1``) with the same state, generator and actions. The physics of a step
+is the kernel :meth:`Simulation.step <discgym.Simulation.step>` calls, single-threaded for
+each reactor: the time-stepped :func:`discgym.kernels.step.advance` or, with
+``consts.integrator`` = ``EVENT``, one exact run of
+:func:`discgym.kernels.event_driven.run_steps` over the whole env step (as
 ``Simulation(..., integrator="event").step(steps_per_action)``); the controls are those of
 :mod:`~discgym.kernels.controls`, which the ``Simulation`` methods call. Which integrator is
 a compile-time choice, made in Python (:func:`env_step`): a stepped environment never
@@ -34,6 +35,7 @@ Physics-free glue: this module imports numpy and numba only.
 """
 
 import math
+from typing import NamedTuple
 
 import numpy as np
 from numba import njit, prange
@@ -49,11 +51,11 @@ from .structs import (
     EVENT,
     JACKET,
     N_SIDES,
-    P_RMAX,
     Bounds,
     Counters,
     Discs,
     Episodes,
+    Injection,
     ReactorConsts,
     Reactors,
     Tables,
@@ -72,17 +74,26 @@ O_HEAT, O_ENERGY_HEAT = range(2)  # then the energy each feed species' injection
 O_STATUS, O_BLOCKED, O_INVALID = range(3)  # then injected (F), then refused (F)
 
 
+class Physics(NamedTuple):
+    """What a reactor's physics reads of its compiled scene
+    (:class:`~discgym.compiled.CompiledScene`)."""
+
+    tables: Tables  #: the scene's tables (a reactor's kinetics: rows of Episodes)
+    params: np.ndarray  #: FLOAT the scene's parameters (P_* of kernels.structs)
+    flags: np.ndarray  #: INDEX the scene's effects (F_* of kernels.structs)
+
+
 _INTEGRATOR = ReactorConsts._fields.index("integrator")
 _STEPS = ReactorConsts._fields.index("steps_per_action")
 _IOUT = Episodes._fields.index("iout")
 
 
-def env_step(rx, ep, tables, params, flags, consts, rngs, active, act):
+def env_step(rx, ep, physics, consts, rngs, active, act):
     """One environment step of every active reactor, one after the other (see
     :func:`reactor_step` for the arguments; ``active`` (R,) bool). The structs ``rx``, ``ep``,
-    ``tables`` and ``consts`` come as plain tuples of their fields: numba types those in C,
-    a NamedTuple field by field in Python (about 0.5 us per field per call, some 30 us for
-    these four).
+    ``physics`` (its tables too) and ``consts`` come as plain tuples of their fields: numba
+    types those in C, a NamedTuple field by field in Python (about 0.5 us per field per
+    call, some 30 us for these).
 
     The integrator is chosen here, in Python, as :class:`~discgym.Simulation` chooses its
     entry point: the compiled step is :func:`_env_step` with ``exact=None`` for a stepped
@@ -93,23 +104,24 @@ def env_step(rx, ep, tables, params, flags, consts, rngs, active, act):
     keep a pair list (``lists``: ``steps_per_action`` of PAIR_MIN_STEPS or more), and numba
     compiles no pair-list code for an env of fewer steps per action."""
     exact, stepped = _integrators(consts)
-    _env_step(rx, ep, tables, params, flags, consts, rngs, active, act, exact, stepped,
+    _env_step(rx, ep, physics, consts, rngs, active, act, exact, stepped,
               lists_for(consts[_STEPS]))
     if exact:
-        _finish_capped_rows(rx, ep, tables, params, flags, consts, rngs, active)
+        _finish_capped_rows(rx, ep, physics, consts, rngs, active)
 
 
-def env_step_parallel(rx, ep, tables, params, flags, consts, rngs, active, act, order, starts):
+def env_step_parallel(rx, ep, physics, consts, rngs, active, act, order, starts):
     """:func:`env_step` in parallel: a ``prange`` over T work lists, list t being the
-    reactors ``order[starts[t]:starts[t + 1]]`` (see :func:`balance`; T = the number of
-    threads gives each thread one list). Each reactor touches only its own rows, so there
-    are no races, and the result is the same bits whatever the lists. The structs come as
-    plain tuples, and the integrator is chosen, as for :func:`env_step`."""
+    reactors ``order[starts[t]:starts[t + 1]]``: the active ones, as :func:`balance` writes
+    them (T = the number of threads gives each thread one list). Each reactor touches only
+    its own rows, so there are no races, and the result is the same bits whatever the lists.
+    The structs come as plain tuples, and the integrator is chosen, as for
+    :func:`env_step`."""
     exact, stepped = _integrators(consts)
-    _env_step_parallel(rx, ep, tables, params, flags, consts, rngs, active, act, order, starts,
-                       exact, stepped, lists_for(consts[_STEPS]))
+    _env_step_parallel(rx, ep, physics, consts, rngs, act, order, starts, exact, stepped,
+                       lists_for(consts[_STEPS]))
     if exact:
-        _finish_capped_rows(rx, ep, tables, params, flags, consts, rngs, active)
+        _finish_capped_rows(rx, ep, physics, consts, rngs, active)
 
 
 def _integrators(consts) -> tuple:
@@ -118,28 +130,29 @@ def _integrators(consts) -> tuple:
     return (True, None) if consts[_INTEGRATOR] == EVENT else (None, True)
 
 
-def _finish_capped_rows(rx, ep, tables, params, flags, consts, rngs, active):
+def _finish_capped_rows(rx, ep, physics, consts, rngs, active):
     """Finish the step of every active reactor whose exact run reached its event bound (one
     after the other; each has its own rows and generator, so the order changes nothing)."""
     capped = active & (ep[_IOUT][:, O_STATUS] == CAPPED)
     if capped.any():
-        _finish_capped(rx, ep, tables, params, flags, consts, rngs, capped)
+        _finish_capped(rx, ep, physics, consts, rngs, capped)
 
 
 @njit(cache=True)
-def _finish_capped(rx, ep, tables, params, flags, consts, rngs, capped):
+def _finish_capped(rx, ep, physics, consts, rngs, capped):
     """The rest of the step of each reactor r with ``capped[r]``, which :func:`reactor_step`
     left at its exact run's event bound (``ep.pending[r]``: the time left, the thermal walls'
     heat before the step): the time-stepped integrator to the end of the step
     (:func:`~discgym.kernels.event_driven.finish_capped`, as ``run_steps`` would in one call),
     then what follows the physics (:func:`_book`)."""
-    rx, ep, tables, consts = _structs(rx, ep, tables, consts)
+    rx, ep, physics, consts = _structs(rx, ep, physics, consts)
     for r in range(capped.shape[0]):
         if capped[r]:
-            discs, own, bounds = _views(r, rx, ep, tables)
+            discs, own, bounds = _views(r, rx, ep, physics.tables)
             ep.iout[r, O_STATUS] = 0
             after, m = finish_capped(discs, rx.n[r], consts.steps_per_action, consts.dt,
-                                     ep.pending[r, 0], bounds, own, params, flags, rngs[r],
+                                     ep.pending[r, 0], bounds, own, physics.params,
+                                     physics.flags, rngs[r],
                                      Counters(rx.icnt[r], rx.fsum[r], rx.ch_count[r],
                                               rx.outflow[r]))
             _book(r, after.pos.shape[0] != discs.pos.shape[0], m, rx, ep, own.sp_mass, consts,
@@ -147,37 +160,39 @@ def _finish_capped(rx, ep, tables, params, flags, consts, rngs, capped):
 
 
 @njit(cache=True)
-def _env_step(rx, ep, tables, params, flags, consts, rngs, active, act, exact, stepped, lists):
-    rx, ep, tables, consts = _structs(rx, ep, tables, consts)
+def _env_step(rx, ep, physics, consts, rngs, active, act, exact, stepped, lists):
+    rx, ep, physics, consts = _structs(rx, ep, physics, consts)
     for r in range(rx.pos.shape[0]):
         if active[r]:
-            reactor_step(r, rx, ep, tables, params, flags, consts, rngs, act, exact, stepped,
-                         lists)
+            reactor_step(r, rx, ep, physics, consts, rngs, act, exact, stepped, lists)
 
 
 @njit(cache=True)
-def _env_step_parallel(rx, ep, tables, params, flags, consts, rngs, active, act, order, starts,
-                       exact, stepped, lists):
-    rx, ep, tables, consts = _structs(rx, ep, tables, consts)
-    _in_parallel(rx, ep, tables, params, flags, consts, rngs, active, act, order, starts, exact,
-                 stepped, lists)
+def _env_step_parallel(rx, ep, physics, consts, rngs, act, order, starts, exact, stepped,
+                       lists):
+    rx, ep, physics, consts = _structs(rx, ep, physics, consts)
+    _in_parallel(rx, ep, physics, consts, rngs, act, order, starts, exact, stepped, lists)
 
 
 @kernel(parallel=True)
-def _in_parallel(rx, ep, tables, params, flags, consts, rngs, active, act, order, starts, exact,
-                 stepped, lists):
-    # (apart from _env_step_parallel: numba's parfor lowering fails on the unpacked structs)
+def _in_parallel(rx, ep, physics, consts, rngs, act, order, starts, exact, stepped, lists):
+    # (apart from _env_step_parallel: numba's parfor lowering fails on the unpacked structs.
+    # It passes a struct into the loop body field by field, arrays and scalars only, and
+    # needs the struct's class from the call that made it or from an argument: so the
+    # tables go in as a struct rebuilt here, and physics is made inside the loop)
+    tables = Tables(*physics.tables)
+    params = physics.params
+    flags = physics.flags
     for t in prange(starts.shape[0] - 1):
         for q in range(starts[t], starts[t + 1]):
-            r = order[q]
-            if active[r]:
-                _reactor_step(r, rx, ep, tables, params, flags, consts, rngs, act, exact,
-                              stepped, lists)
+            reactor_step(order[q], rx, ep, Physics(tables, params, flags), consts, rngs, act,
+                         exact, stepped, lists)
 
 
 @njit(cache=True, inline="always")
-def _structs(rx, ep, tables, consts):
-    return Reactors(*rx), Episodes(*ep), Tables(*tables), ReactorConsts(*consts)
+def _structs(rx, ep, physics, consts):
+    return (Reactors(*rx), Episodes(*ep), Physics(Tables(*physics[0]), physics[1], physics[2]),
+            ReactorConsts(*consts))
 
 
 @njit(cache=True, inline="always")
@@ -228,8 +243,10 @@ def balance(cost, active, T, order, starts):
     starts[T] = m
 
 
-@njit(cache=True, inline="always")
-def reactor_step(r, rx, ep, tables, params, flags, consts, rngs, act, exact, stepped, lists):
+# A kernel, not inlined: the serial loop and the prange body call the one compiled version
+# (inlined into the prange body, numba's parfor lowering changed the results)
+@kernel
+def reactor_step(r, rx, ep, physics, consts, rngs, act, exact, stepped, lists):
     """Apply the action ``act[r]`` to reactor r (heat, then the wall, then injection), advance
     it ``consts.steps_per_action`` steps of ``consts.dt`` (``exact`` not None: one exact
     event-driven run of that time; ``stepped`` not None: the time-stepped integrator), count
@@ -244,8 +261,8 @@ def reactor_step(r, rx, ep, tables, params, flags, consts, rngs, act, exact, ste
 
     ``rx`` the batch's :class:`~discgym.kernels.structs.Reactors` (rows r), ``ep`` its
     :class:`~discgym.kernels.structs.Episodes` (``ep.temperature`` and ``ep.kinetic``, those
-    of the last observation, are read by the heat control, then overwritten); ``tables``,
-    ``params``, ``flags`` the compiled scene; ``consts`` a
+    of the last observation, are read by the heat control, then overwritten); ``physics``
+    a :class:`Physics` (the compiled scene); ``consts`` a
     :class:`~discgym.kernels.structs.ReactorConsts`; ``rngs`` a typed list of R generators.
     Actions ``act`` (R, A) float64, as given: a NaN or infinite component does nothing
     (counted in ``iout[r, O_INVALID]``), others are clipped to [-1, 1].
@@ -271,7 +288,7 @@ def reactor_step(r, rx, ep, tables, params, flags, consts, rngs, act, exact, ste
         fout[r, k] = 0.0
     for k in range(iout.shape[1]):
         iout[r, k] = 0
-    discs, tables, bounds = _views(r, rx, ep, tables)
+    discs, tables, bounds = _views(r, rx, ep, physics.tables)
     a, bad_heat, bad_wall = _read_action(r, act, iout)
     if consts.heating == JACKET:
         if not bad_heat:
@@ -281,8 +298,8 @@ def reactor_step(r, rx, ep, tables, params, flags, consts, rngs, act, exact, ste
     if ep.steps[r] == ep.feed_switch[r]:  # the inlet temperature changes (flow tasks)
         ep.feed_kT[r] = ep.feed_kT_next[r]
     if not bad_wall:
-        _wall(r, a[1], discs, rx, ep, tables.sp_radius, params, consts, rngs)
-    if not _inject_feed(r, a, discs, rx, ep, tables, consts, rngs):
+        _wall(r, a[1], discs, rx.n[r], bounds, ep, tables.sp_radius, consts, rngs)
+    if not _inject_feed(r, a, discs, bounds, rx, ep, tables, consts, rngs):
         return
     # the physics
     cap = discs.pos.shape[0]
@@ -298,7 +315,7 @@ def reactor_step(r, rx, ep, tables, params, flags, consts, rngs, act, exact, ste
     wall_heat0 = _wall_heat(fsum)
     if exact is not None:  # one exact run of the step (Simulation.step's call)
         after, m, rest = run_exact(discs, rx.n[r], consts.steps_per_action, consts.dt, bounds,
-                                   tables, params, flags, rngs[r],
+                                   tables, physics.params, physics.flags, rngs[r],
                                    EventCounters(rx.icnt[r], fsum, ch_count,
                                                  np.zeros(N_STATS, dtype=COUNT), outflow),
                                    CELLS_PER_DISC)
@@ -310,7 +327,7 @@ def reactor_step(r, rx, ep, tables, params, flags, consts, rngs, act, exact, ste
             return
     if stepped is not None:
         after, m, _w = advance(discs, rx.n[r], consts.steps_per_action, consts.dt, bounds,
-                               tables, params, flags, rngs[r],
+                               tables, physics.params, physics.flags, rngs[r],
                                Counters(rx.icnt[r], rx.fsum[r], ch_count, rx.outflow[r]),
                                np.int64(1), rx.ksteps[r], consts.reorder_every,
                                empty_work(), lists=lists)
@@ -341,11 +358,6 @@ def _book(r, grew, m, rx, ep, sp_mass, consts, wall_heat0):
     rx.ksteps[r] += consts.steps_per_action
     ep.steps[r] += 1
     observe_one(r, rx, ep, sp_mass, consts)
-
-
-# reactor_step compiled as a function of its own, for the prange body of _in_parallel:
-# inlined there, numba's parfor lowering changed the results (tests/test_env_event.py)
-_reactor_step = kernel(reactor_step.py_func)
 
 
 @kernel
@@ -407,10 +419,10 @@ def _heat(r, a0, discs, n, ep, sp_mass, consts):
 
 
 @kernel
-def _wall(r, a1, discs, rx, ep, sp_radius, params, consts, rngs):
+def _wall(r, a1, discs, n, bounds, ep, sp_radius, consts, rngs):
     """Wall control: the size toward its target by at most wall_speed, the box's width (origin
     kept) or the circle's radius ``size`` x the scene's (blocked: the size stays and
-    ``iout[r, O_BLOCKED]`` is set)."""
+    ``iout[r, O_BLOCKED]`` is set). ``bounds``: reactor r's (views of its rows)."""
     size = ep.size
     lo_s = consts.size_min
     hi_s = consts.size_max
@@ -423,8 +435,7 @@ def _wall(r, a1, discs, rx, ep, sp_radius, params, consts, rngs):
     nb = np.empty(4)
     nb[0] = ref[0]
     nb[1] = ref[1]
-    kind = rx.bounds_kind[r]
-    if kind == BOX:
+    if bounds.kind == BOX:
         w = ref[2] * new
         h = ref[3]
         nb[2] = ref[0] + w
@@ -437,18 +448,18 @@ def _wall(r, a1, discs, rx, ep, sp_radius, params, consts, rngs):
         nb[3] = 0.0
         fit_radius = rad
         area = math.pi * rad * rad
-    done, _ = resize(discs.pos, discs.species, rx.n[r], sp_radius, params[P_RMAX], kind, nb,
-                     fit_radius, area, consts.packing, rngs, r, consts.attempts)
+    done, _ = resize(discs, n, sp_radius, Bounds(bounds.kind, nb, bounds.walls), fit_radius,
+                     area, consts.packing, rngs, r, consts.attempts)
     if done == RESIZED:
         for k in range(nb.shape[0]):  # (a loop: numba's slice assignment compiles an error)
-            rx.bounds_params[r, k] = nb[k]
+            bounds.params[k] = nb[k]
         size[r] = new
     else:
         ep.iout[r, O_BLOCKED] = 1
 
 
 @kernel
-def _inject_feed(r, a, discs, rx, ep, tables, consts, rngs):
+def _inject_feed(r, a, discs, bounds, rx, ep, tables, consts, rngs):
     """Injection control: round(a * inject_max) discs of each feed species for a > 0, within
     the budget left, at the current kT. Returns False when they do not fit the arrays
     (status FULL)."""
@@ -469,10 +480,10 @@ def _inject_feed(r, a, discs, rx, ep, tables, consts, rngs):
             if m + todo > cap:
                 iout[r, O_STATUS] = FULL
                 return False
-            placed, energy, _ = inject(discs, m, feed[k], np.full((todo, 2), np.nan),
-                                       ep.feed_kT[r],
-                                       consts.temperature, consts.speed_limit, tables,
-                                       rx.bounds_kind[r], rx.bounds_params[r], rngs, r,
+            # (the species as int64, as Simulation.inject gives it: one compiled inject)
+            what = Injection(np.int64(feed[k]), np.full((todo, 2), np.nan), ep.feed_kT[r])
+            placed, energy, _ = inject(discs, m, what, consts.temperature,
+                                       consts.speed_limit, tables, bounds, rngs, r,
                                        consts.attempts)
             ep.fout[r, 2 + k] = energy
             m += placed
@@ -588,13 +599,11 @@ def observe_one(r, rx, ep, sp_mass, consts):
         k += S
     B = consts.energy_bins
     if B > 0:
-        _energy_histogram(o, k, vel, species, n, sp_mass, st, consts.energy_edges, B, low,
-                          high)
+        _energy_histogram(o, k, r, rx, sp_mass, st, consts)
         k += S * B
     G = consts.grid
     if G > 0:
-        _spatial_histogram(o, k, rx.pos[r], vel, species, n, sp_mass, st, rx.bounds_kind[r],
-                           rx.bounds_params[r], G, low, high)
+        _spatial_histogram(o, k, r, rx, sp_mass, st, consts)
         k += (S + 1) * G * G
     if consts.obs_reactions:
         last = ep.ch_last[r]
@@ -612,50 +621,55 @@ def _jacket_kT(walls):
 
 
 @kernel
-def _energy_histogram(o, k, vel, species, n, sp_mass, st, edges, B, low, high):
-    """Slots [k, k + S B) of ``o``: per species s, the share of its discs whose kinetic energy
-    falls in each bin (bin b: edges[b - 1] <= E < edges[b], the first from 0, the last open)."""
+def _energy_histogram(o, k, r, rx, sp_mass, st, consts):
+    """Slots [k, k + S B) of ``o``: per species s, the share of reactor r's discs whose kinetic
+    energy falls in each bin (bin b: edges[b - 1] <= E < edges[b], the first from 0, the last
+    open; B and the edges of ``consts``). ``st``: its :func:`species_stats`."""
+    vel = rx.vel[r]
+    species = rx.species[r]
+    edges = consts.energy_edges
+    B = consts.energy_bins
     S = sp_mass.shape[0]
     for j in range(k, k + S * B):
         o[j] = 0.0
-    for i in range(n):
+    for i in range(rx.n[r]):
         s = species[i]
         e = 0.5 * sp_mass[s] * (vel[i, 0] * vel[i, 0] + vel[i, 1] * vel[i, 1])
         b = 0
         while b < B - 1 and e >= edges[b]:
             b += 1
         o[k + s * B + b] += 1.0
-    for s in range(S):
-        c = max(st[s], 1.0)
-        for b in range(B):
-            j = k + s * B + b
-            o[j] = _clip(o[j] / c, low[j], high[j])
+    _shares(o, k, S, B, st, consts)
 
 
 @kernel
-def _spatial_histogram(o, k, pos, vel, species, n, sp_mass, st, bounds_kind, bounds_params, G,
-                       low, high):
-    """Slots [k, k + (S + 1) G^2) of ``o``: per species the share of its discs in each cell of
-    a G x G grid over the bounds' bounding box (cell (i, j): column i from the left, row j
-    from the bottom, at k + s G^2 + j G + i), then the mean kinetic energy per disc of each
-    cell (kT; 0 if empty)."""
+def _spatial_histogram(o, k, r, rx, sp_mass, st, consts):
+    """Slots [k, k + (S + 1) G^2) of ``o``: per species the share of reactor r's discs in each
+    cell of a G x G grid over its bounds' bounding box (cell (i, j): column i from the left,
+    row j from the bottom, at k + s G^2 + j G + i), then the mean kinetic energy per disc of
+    each cell (kT; 0 if empty). ``st``: its :func:`species_stats`."""
+    pos = rx.pos[r]
+    vel = rx.vel[r]
+    species = rx.species[r]
+    b = rx.bounds_params[r]
+    G = consts.grid
     S = sp_mass.shape[0]
     GG = G * G
-    if bounds_kind == BOX:
-        x0 = bounds_params[0]
-        y0 = bounds_params[1]
-        w = bounds_params[2] - x0
-        h = bounds_params[3] - y0
+    if rx.bounds_kind[r] == BOX:
+        x0 = b[0]
+        y0 = b[1]
+        w = b[2] - x0
+        h = b[3] - y0
     else:
-        x0 = bounds_params[0] - bounds_params[2]
-        y0 = bounds_params[1] - bounds_params[2]
-        w = 2.0 * bounds_params[2]
+        x0 = b[0] - b[2]
+        y0 = b[1] - b[2]
+        w = 2.0 * b[2]
         h = w
     for j in range(k, k + (S + 1) * GG):
         o[j] = 0.0
     cnt = np.zeros(GG)
     ke = np.zeros(GG)
-    for i in range(n):
+    for i in range(rx.n[r]):
         s = species[i]
         ci = min(max(int((pos[i, 0] - x0) / w * G), 0), G - 1)
         cj = min(max(int((pos[i, 1] - y0) / h * G), 0), G - 1)
@@ -663,14 +677,22 @@ def _spatial_histogram(o, k, pos, vel, species, n, sp_mass, st, bounds_kind, bou
         o[k + s * GG + c] += 1.0
         cnt[c] += 1.0
         ke[c] += 0.5 * sp_mass[s] * (vel[i, 0] * vel[i, 0] + vel[i, 1] * vel[i, 1])
-    for s in range(S):
-        m = max(st[s], 1.0)
-        for c in range(GG):
-            j = k + s * GG + c
-            o[j] = _clip(o[j] / m, low[j], high[j])
+    _shares(o, k, S, GG, st, consts)
     for c in range(GG):
         j = k + S * GG + c
-        o[j] = _clip(ke[c] / cnt[c] if cnt[c] > 0.0 else 0.0, low[j], high[j])
+        o[j] = _clip(ke[c] / cnt[c] if cnt[c] > 0.0 else 0.0, consts.obs_low[j],
+                     consts.obs_high[j])
+
+
+@kernel
+def _shares(o, k, S, width, st, consts):
+    """Slots [k, k + S width) of ``o``, counts of species s's discs at k + s width + b, made
+    shares of its discs (``st[s]``, at least 1) and clipped to the observation's bounds."""
+    for s in range(S):
+        c = max(st[s], 1.0)
+        for b in range(width):
+            j = k + s * width + b
+            o[j] = _clip(o[j] / c, consts.obs_low[j], consts.obs_high[j])
 
 
 @kernel

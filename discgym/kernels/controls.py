@@ -98,24 +98,26 @@ def heat(vel, species, sp_mass, n, factor, speed_limit, clip):
 
 
 @njit(cache=True)
-def resize(pos, species, n, sp_radius, r_max, bounds_kind, bounds_params, fit_radius, area,
-           packing, rngs, r, attempts):
-    """Put discs [0, n) into new bounds (``bounds_kind``, ``bounds_params`` (4,)) whose
-    largest disc radius is ``fit_radius`` and whose area is ``area``: a disc left outside moves
-    to the nearest free spot found inside (:func:`~discgym.kernels.placement.relocate`;
-    velocities kept, so no energy changes).
+def resize(discs, n, sp_radius, bounds, fit_radius, area, packing, rngs, r, attempts):
+    """Put discs [0, n) of ``discs`` (a :class:`~discgym.kernels.structs.Discs`) into new
+    ``bounds`` (a :class:`~discgym.kernels.structs.Bounds`) whose largest disc radius is
+    ``fit_radius`` and whose area is ``area``: a disc left outside moves to the nearest free
+    spot found inside (:func:`~discgym.kernels.placement.relocate`; velocities kept, so no
+    energy changes).
 
     Returns ``(outcome, discs without room)``: :data:`RESIZED`, or, with nothing moved,
-    :data:`TOO_BIG` (the largest species, radius ``r_max``, does not fit), :data:`TOO_DENSE`
-    (the discs would cover more than ``packing`` of the area), :data:`NO_ROOM` (discs outside
-    found no free spot; the generator ``rngs[r]`` has been drawn from).
+    :data:`TOO_BIG` (the largest species does not fit), :data:`TOO_DENSE` (the discs would
+    cover more than ``packing`` of the area), :data:`NO_ROOM` (discs outside found no free
+    spot; the generator ``rngs[r]`` has been drawn from).
     """
-    if r_max > fit_radius:
+    if sp_radius.max() > fit_radius:
         return TOO_BIG, 0
+    pos = discs.pos
+    species = discs.species
     all_in = True
     for i in range(n):
-        if not inside(pos[i, 0], pos[i, 1], sp_radius[species[i]], bounds_kind,
-                      bounds_params):
+        if not inside(pos[i, 0], pos[i, 1], sp_radius[species[i]], bounds.kind,
+                      bounds.params):
             all_in = False
             break
     if all_in:  # (e.g. the wall moved out)
@@ -126,18 +128,20 @@ def resize(pos, species, n, sp_radius, r_max, bounds_kind, bounds_params, fit_ra
         disc_area += math.pi * q * q
     if disc_area > packing * area:
         return TOO_DENSE, 0
-    failed = relocate(pos, species, n, sp_radius, bounds_kind, bounds_params, rngs[r], attempts)
+    failed = relocate(pos, species, n, sp_radius, bounds, rngs[r], attempts)
     return (NO_ROOM, failed) if failed else (RESIZED, 0)
 
 
 @njit(cache=True)
-def inject(discs, n, sp, targets, temperature, temperature_if_empty, speed_limit, tables,
-           bounds_kind, bounds_params, rngs, r, attempts):
-    """Add up to ``len(targets)`` discs of species ``sp`` after discs [0, n) of ``discs`` (a
-    :class:`~discgym.kernels.structs.Discs` with room for them), each at a free random spot
-    (near its row of ``targets`` (M, 2) if that is not NaN), with Maxwell-Boltzmann
-    velocities at ``temperature`` (NaN: the current kT, ``temperature_if_empty`` for an
-    empty reactor), internal energy 0 and fresh identities.
+def inject(discs, n, what, temperature_if_empty, speed_limit, tables, bounds, rngs, r,
+           attempts):
+    """Add up to ``len(what.targets)`` discs of species ``what.species`` (an
+    :class:`~discgym.kernels.structs.Injection`) after discs [0, n) of ``discs`` (a
+    :class:`~discgym.kernels.structs.Discs` with room for them), each at a free random spot in
+    ``bounds`` (a :class:`~discgym.kernels.structs.Bounds`; near its row of the targets if
+    that is not NaN), with Maxwell-Boltzmann velocities at ``what.temperature`` (NaN: the
+    current kT, ``temperature_if_empty`` for an empty reactor), internal energy 0 and fresh
+    identities.
 
     Returns ``(placed, energy added, fastest speed drawn)``. Placing stops at the first disc
     that finds no room. If a drawn speed passes ``speed_limit`` the whole injection is
@@ -152,12 +156,13 @@ def inject(discs, n, sp, targets, temperature, temperature_if_empty, speed_limit
     sp_form = tables.sp_form
     ke, ui, fo = energies(vel, species, internal_energy, sp_mass, sp_form, n)
     e0 = ke + ui + fo
+    temperature = what.temperature
     if not temperature >= 0.0:
         temperature = ke / n if n > 0 else temperature_if_empty
-    kinds = np.full(targets.shape[0], sp, dtype=INDEX)
-    placed = place(discs.pos, species, n, kinds, targets, tables.sp_radius, bounds_kind,
-                   bounds_params, rng, attempts)
-    sd = math.sqrt(temperature / sp_mass[sp])
+    kinds = np.full(what.targets.shape[0], what.species, dtype=INDEX)
+    placed = place(discs.pos, species, n, kinds, what.targets, tables.sp_radius, bounds, rng,
+                   attempts)
+    sd = math.sqrt(temperature / sp_mass[what.species])
     fastest = 0.0
     for i in range(n, n + placed):
         vx = rng.standard_normal() * sd

@@ -125,6 +125,14 @@ class Bounds(NamedTuple):
     #: read only where flags[F_THERMAL] is set
 
 
+class Injection(NamedTuple):
+    """Discs to add to a reactor (``kernels.controls.inject``)."""
+
+    species: int  #: the species index
+    targets: np.ndarray  #: (M, 2) FLOAT where each disc should go if free (NaN: anywhere)
+    temperature: float  #: kT of their velocities (NaN: the reactor's own)
+
+
 class Counters(NamedTuple):
     """The counters a run accumulates in place."""
 
