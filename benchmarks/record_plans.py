@@ -3,8 +3,8 @@
 and no helper resets and steps the env, and numba's ``numba:compile`` events say which
 kernels it compiled, with which argument types, in which order and for how long.
 
-    python benchmarks/record_plans.py              # every plan
-    python benchmarks/record_plans.py env-event    # one, the others kept
+    python benchmarks/record_plans.py --write              # every plan
+    python benchmarks/record_plans.py --write env-event    # one, the others kept
 
 Run it with the numba the plans are for (CI's latest, a version of
 ``discgym.kernels.jit.TESTED_NUMBA``); ``tests/test_compile_scope.py`` fails when a plan no
@@ -13,6 +13,7 @@ longer matches what the envs compile.
 
 from __future__ import annotations
 
+import argparse
 import json
 import os
 import subprocess
@@ -64,9 +65,9 @@ def record_compile(env_id: str, integrator: str) -> list[dict]:
     return out
 
 
-def record(names=None) -> dict:
+def record(names=None, write: bool = True) -> dict:
     """Record the plans ``names`` (all by default; each in a child process with an empty
-    cache) and write :data:`helper.PLANS_FILE`."""
+    cache) and, with ``write``, write them into :data:`helper.PLANS_FILE`."""
     if jit.LAYER != jit.LINK_ONLY:
         raise SystemExit(f"the plans are for the linked-only layer, not in effect here "
                          f"(numba {helper.numba_version()}, {jit.ENV_VAR})")
@@ -80,23 +81,33 @@ def record(names=None) -> dict:
             subprocess.run([sys.executable, __file__, "--one", env_id, integrator, str(out)],
                            env=env, check=True)
             plans[name] = [tuple(k) for k in json.loads(out.read_text())]
-    helper.write_plans(plans)
+    if write:
+        helper.write_plans(plans)
     return plans
 
 
 def main(argv=None) -> int:
-    argv = sys.argv[1:] if argv is None else argv
-    if argv[:1] == ["--one"] and len(argv) == 4:
-        plan = helper.make_plan(record_compile(argv[1], argv[2]))
-        Path(argv[3]).write_text(json.dumps(
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("plans", nargs="*", metavar="PLAN",
+                    help=f"the plans to record ({', '.join(RECORDED)}; default: all)")
+    ap.add_argument("--write", action="store_true",
+                    help=f"write them into {helper.PLANS_FILE.name} (else only print them)")
+    ap.add_argument("--one", nargs=3, metavar=("ENV", "INTEGRATOR", "OUT"),
+                    help=argparse.SUPPRESS)  # (the child process recording one plan)
+    a = ap.parse_args(argv)
+    unknown = [p for p in a.plans if p not in RECORDED]
+    if unknown:
+        ap.error(f"no plan {', '.join(unknown)} (plans: {', '.join(RECORDED)})")
+    if a.one:
+        env_id, integrator, out = a.one
+        plan = helper.make_plan(record_compile(env_id, integrator))
+        Path(out).write_text(json.dumps(
             [(q, [helper.encode_type(t) for t in args], s) for q, args, s in plan]))
         return 0
-    unknown = [a for a in argv if a not in RECORDED]
-    if unknown:
-        print(f"usage: record_plans.py [{' '.join(RECORDED)}]", file=sys.stderr)
-        return 2
-    for name, plan in record(argv or None).items():
+    for name, plan in record(a.plans or None, write=a.write).items():
         print(f"{name}: {len(plan)} kernels: {', '.join(q for q, _, _ in plan)}")
+    if not a.write:
+        print(f"(not written: --write writes {helper.PLANS_FILE})")
     return 0
 
 

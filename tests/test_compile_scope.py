@@ -117,7 +117,7 @@ def test_each_env_compiles_its_own_integrator_and_links_its_kernels():
             g["machine"]
 
     # the compile helper's plans (kernels.helper) are kernels the envs compile, with those
-    # argument types: else re-record them (python benchmarks/record_plans.py)
+    # argument types: else re-record them (python benchmarks/record_plans.py --write)
     plans = helper.load_plans()
     if plans:  # (recorded with this numba)
         for plan, g in (("env-step", stepped), ("env-event", exact)):

@@ -7,9 +7,9 @@ the entry points to link. A kernel compiled by another process is loaded from th
 so two processes can share the kernels of a first compile.
 
 **Plans.** Which kernels, with which argument types, an env's first step compiles is
-recorded in ``plans.json`` beside this module (``python benchmarks/record_plans.py``;
-``tests/test_compile_scope.py`` fails when a plan no longer matches what the envs
-compile). A plan is the later :data:`SHARE` of that compile's kernel time, in the order
+recorded in ``plans.json`` beside this module (``python benchmarks/record_plans.py
+--write``; ``tests/test_compile_scope.py`` fails when a plan no longer matches what the
+envs compile). A plan is the later :data:`SHARE` of that compile's kernel time, in the order
 compiled (:func:`make_plan`): about what follows the reset's kernels, the step's controls,
 the integrator's phases and the step's bookkeeping. Each kernel is named by its qualified
 name and its argument types are written as JSON (:func:`encode_type`), read back into numba
