@@ -60,7 +60,7 @@ from discgym.kernels import helper  # noqa: E402
 
 assert helper.PLANS_FILE.is_file(), f"no {helper.PLANS_FILE}"
 assert helper.load_plans() or __import__("numba").__version__ != \
-    __import__("pickle").loads(helper.PLANS_FILE.read_bytes())["numba"], "plans unreadable"
+    __import__("json").loads(helper.PLANS_FILE.read_text())["numba"], "plans unreadable"
 
 print(f"discgym {discgym.__version__} from {where.parent}: made {', '.join(ids)}; "
       f"{len(shipped)} scenes")

@@ -1229,7 +1229,7 @@ class Simulation:
 
 
 # ------------------------------------------------------------------ set_state's checks
-_INT64_MAX = np.iinfo(np.int64).max
+_INT64_MAX = int(np.iinfo(np.int64).max)
 # numpy bit generators a state may name (a Generator made from a seed uses PCG64)
 _BIT_GENERATORS = ("PCG64", "PCG64DXSM", "MT19937", "Philox", "SFC64")
 
@@ -1266,7 +1266,8 @@ def _state_array(state, key: str, shape: tuple, integer: bool = False,
                            f"got {a.shape}")
     item = "disc" if shape[0] is None and key not in ("icnt", "ch_count", "fsum") else "entry"
     if integer:
-        if a.size and (a.min() < 0 or a.max() > _INT64_MAX):
+        # (as Python ints: numpy 1.x compares uint64 with int64 as float64, 2**63 <= 2**63 - 1)
+        if a.size and (int(a.min()) < 0 or int(a.max()) > _INT64_MAX):
             k = int(np.argmin(a)) if a.min() < 0 else int(np.argmax(a))
             raise _state_error(key, f"of {item} {k} is {a[k]}: must be in [0, 2**63)")
         return np.ascontiguousarray(a, dtype=COUNT)
@@ -1284,7 +1285,7 @@ def _state_whole(state, key, within: str | None = None) -> int:
     v = state[key]
     if isinstance(v, bool) or not isinstance(v, (int, np.integer)):
         raise _state_error(key, f"must be an integer, got {_short(v)}", within)
-    if not 0 <= v <= _INT64_MAX:
+    if not 0 <= int(v) <= _INT64_MAX:
         raise _state_error(key, f"must be in [0, 2**63), got {v}", within)
     return int(v)
 

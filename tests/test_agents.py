@@ -12,9 +12,9 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-import yaml
 
 pytest.importorskip("stable_baselines3")
+yaml = pytest.importorskip("yaml")  # (the agents extra)
 pytest.importorskip("matplotlib")
 pytest.importorskip("tyro")
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "agents"))

@@ -1,17 +1,29 @@
 """discgym.kernels.jit: kernels compiled without the wrappers only Python calls need, and a
-call from Python that still works (it runs the kernel's twin, never wrapperless code)."""
+call from Python that still works (it runs the kernel's twin, never wrapperless code); the
+choice of the layer (linked only on a numba it was tested on, plain ``njit`` elsewhere) and
+the plain layer's trajectories, which are the linked-only layer's."""
 
+import ast
+import json
+import os
 import re
+import subprocess
+import sys
 from pathlib import Path
 
+import numba
 import numpy as np
 import pytest
 from numba.core.registry import CPUDispatcher
 
-from discgym.kernels import controls
-from discgym.kernels.jit import KernelDispatcher, kernel, python_twin
+from discgym.kernels import controls, jit
+from discgym.kernels.jit import is_kernel, kernel, python_twin
 
 ROOT = Path(__file__).resolve().parents[1]
+linked_only = pytest.mark.skipif(
+    jit.LAYER != jit.LINK_ONLY,
+    reason=f"the plain kernel layer is in effect (numba {numba.__version__}, "
+           f"{jit.ENV_VAR}={os.environ.get(jit.ENV_VAR, '')!r})")
 
 
 def test_a_kernel_called_from_python_runs_its_twin():
@@ -21,6 +33,9 @@ def test_a_kernel_called_from_python_runs_its_twin():
     twin = python_twin(controls.scale)
     assert type(twin) is CPUDispatcher and twin.signatures
     assert twin.targetoptions.get("no_cpython_wrapper") is None
+    if jit.LAYER == jit.PLAIN:  # (the kernel is an ordinary njit function: its own twin)
+        assert twin is controls.scale and twin.py_func.__qualname__ == "scale__plain"
+        return
     # its own cache files: never the kernel's, whose entries have no wrapper
     assert twin.py_func.__qualname__ == "scale__py"
     assert controls.scale.targetoptions["no_cpython_wrapper"] is True
@@ -31,7 +46,7 @@ def test_options_pass_through_and_compiled_callers_get_the_kernel():
     def inner(x):
         return 2 * x
 
-    assert isinstance(inner, KernelDispatcher) and inner.targetoptions["fastmath"] is False
+    assert is_kernel(inner) and inner.targetoptions["fastmath"] is False
 
     def outer(x):
         return inner(x) + 1
@@ -40,7 +55,7 @@ def test_options_pass_through_and_compiled_callers_get_the_kernel():
     from numba import njit
 
     assert njit(outer)(3) == 7
-    assert inner.signatures  # compiled for outer, without wrappers
+    assert inner.signatures  # compiled for outer (linked only: without wrappers)
     assert inner(4) == 8 and python_twin(inner).signatures  # Python: the twin
 
 
@@ -53,7 +68,131 @@ def test_no_plain_dispatcher_shares_a_kernels_cache():
         for name in re.findall(r"njit\([^)]*\)\((\w+)\.py_func\)", path.read_text()):
             mod = importlib.import_module(
                 ".".join(path.relative_to(ROOT).with_suffix("").parts))
-            assert not isinstance(getattr(mod, name), KernelDispatcher), (path, name)
+            assert not is_kernel(getattr(mod, name)), (path, name)
+
+
+@pytest.mark.parametrize("version, setting, layer", [
+    ("0.68.1", None, "link-only"), ("0.68.1", "", "link-only"), ("0.68.1", "auto", "link-only"),
+    ("0.68.1", "plain", "plain"), ("0.68.1", " Plain ", "plain"),
+    ("0.61.2", "", "plain"), ("0.59.1", "auto", "plain"), ("0.69.0", "", "plain"),
+    ("0.61.2", "link-only", "link-only"),
+])
+def test_the_layer_is_linked_only_on_a_tested_numba_unless_told(monkeypatch, version,
+                                                                  setting, layer):
+    monkeypatch.setattr(jit, "TESTED_NUMBA", ("0.68.1",))
+    monkeypatch.delenv(jit.ENV_VAR, raising=False)
+    assert jit.choose_layer(version, setting) == layer
+    if setting is not None:
+        monkeypatch.setenv(jit.ENV_VAR, setting)
+        assert jit.choose_layer(version) == layer
+
+
+def test_an_unknown_layer_setting_warns_and_is_auto():
+    with pytest.warns(RuntimeWarning, match="DISCGYM_KERNEL_LAYER"):
+        assert jit.choose_layer("0.0.1", "fast") == jit.PLAIN
+
+
+def test_the_numba_ci_installs_is_one_the_layer_was_tested_on():
+    """CI's latest numba runs the linked-only layer (a new numba release runs the plain
+    layer, correct and slower to compile, until tested and added to TESTED_NUMBA): the
+    versions named are real releases, newest last."""
+    versions = [tuple(int(p) for p in v.split(".")) for v in jit.TESTED_NUMBA]
+    assert versions and versions == sorted(versions)
+    if jit.LAYER == jit.PLAIN and os.environ.get(jit.ENV_VAR, "auto") in ("", "auto"):
+        assert numba.__version__ not in jit.TESTED_NUMBA
+
+
+def _imports(path: Path) -> set[str]:
+    """Every module ``path`` imports, anywhere in it (absolute names; relative ones as
+    ``.name`` with one dot per level)."""
+    out = set()
+    for node in ast.walk(ast.parse(path.read_text())):
+        if isinstance(node, ast.Import):
+            out.update(a.name for a in node.names)
+        elif isinstance(node, ast.ImportFrom):  # (the names imported: numba.core.event)
+            base = "." * node.level + (node.module + "." if node.module else "")
+            out.update(base + a.name for a in node.names)
+    return out
+
+
+def test_numbas_internals_are_used_by_one_module_only():
+    """Only kernels/linkonly.py imports numba's internals (``numba.core`` beyond its public
+    event API) or llvmlite; jit.py imports it only on a tested numba."""
+    users = []
+    for path in sorted((ROOT / "discgym").rglob("*.py")):
+        internal = [m for m in _imports(path)
+                    if m.startswith("llvmlite") or (m.startswith("numba.core")
+                                                    and m != "numba.core.event")]
+        if internal:
+            users.append(path.relative_to(ROOT).as_posix())
+    assert users == ["discgym/kernels/linkonly.py"]
+
+
+def test_the_kernel_layer_imports_nothing_above_it_and_jit_and_helper_no_cycle():
+    kernels = ROOT / "discgym" / "kernels"
+    graph = {}
+    for path in sorted(kernels.glob("*.py")):
+        mods = _imports(path)
+        above = [m for m in mods if m.startswith("..") or (m.startswith("discgym")
+                                                          and not m.startswith("discgym.kernels"))]
+        assert not above, (path.name, above)
+        graph[path.stem] = {m.lstrip(".").split(".")[0] for m in mods if m.startswith(".")
+                            and not m.startswith("..")} | {
+            m.split(".")[2] for m in mods if m.startswith("discgym.kernels.")}
+    assert "helper" not in graph["jit"] and "helper" not in graph["linkonly"]
+    assert "jit" not in graph["linkonly"] and "helper" not in graph["locks"]
+
+    def reaches(a, b, seen=()):
+        return any(n == b or (n not in seen and reaches(n, b, (*seen, n)))
+                   for n in graph.get(a, ()))
+
+    for a in graph:
+        assert not reaches(a, a), f"an import cycle through kernels/{a}.py"
+
+
+PLAIN_CHILD = r"""
+import json, sys
+sys.path.insert(0, sys.argv[1])
+import golden
+import numpy as np
+from discgym.kernels import controls, jit
+assert jit.LAYER == "plain", jit.LAYER
+vel = np.ones((2, 2))
+controls.scale(vel, 1, 3.0)  # (a kernel called from Python: under the plain layer, itself)
+assert vel.tolist() == [[3.0, 3.0], [1.0, 1.0]]
+assert jit.python_twin(controls.scale) is controls.scale
+golden.dg.scenes.names = lambda: ["reactor"]
+print(json.dumps({**golden.scene_runs(("step",), (0,)), **golden.control_runs(("step",), (0,))}))
+"""
+
+
+@pytest.mark.slow
+def test_the_plain_layer_gives_the_trajectories_of_the_linked_only_layer(tmp_path):
+    """A fresh process on an empty cache with ``DISCGYM_KERNEL_LAYER=plain``: a small scene's
+    golden fingerprints (tests/golden.py), as this process computes them with its layer,
+    and as tests/golden.json recorded them where the platform is the one recorded."""
+    sys.path.insert(0, str(ROOT / "tests"))
+    import golden
+
+    env = dict(os.environ, DISCGYM_KERNEL_LAYER="plain", NUMBA_CACHE_DIR=str(tmp_path),
+               DISCGYM_COMPILE_NOTICE="0")
+    out = subprocess.run([sys.executable, "-c", PLAIN_CHILD, str(ROOT / "tests")], env=env,
+                         capture_output=True, text=True, timeout=1800)
+    assert out.returncode == 0, out.stderr[-3000:]
+    plain = json.loads(out.stdout.strip().splitlines()[-1])
+    assert sorted(plain) == ["controls/reactor/step/seed0", "scene/reactor/step/seed0"]
+    cached = sorted(p.name for p in tmp_path.rglob("*.nbi"))
+    assert cached and any("__plain" in n for n in cached)
+    assert not [n for n in cached if n.split(".")[1].split("-")[0].endswith("__py")], cached
+    golden.dg.scenes.names, names = (lambda: ["reactor"]), golden.dg.scenes.names
+    try:
+        here = {**golden.scene_runs(("step",), (0,)), **golden.control_runs(("step",), (0,))}
+    finally:
+        golden.dg.scenes.names = names
+    assert plain == here, jit.LAYER
+    recorded = json.loads((ROOT / "tests" / "golden.json").read_text())
+    if recorded["platform"] == golden.platform_key():
+        assert plain == {k: recorded["fingerprints"][k] for k in plain}
 
 
 def _emit(get_meminfos, ty):
@@ -81,15 +220,18 @@ def _emit(get_meminfos, ty):
     return found, len(builder.block.instructions)
 
 
+@linked_only
 def test_lean_meminfos_finds_what_numba_finds_from_less_ir(monkeypatch):
-    """The reference counts a struct of arrays gets (kernels.jit, "Reference counts without
+    """The reference counts a struct of arrays gets (kernels.linkonly, "Reference counts without
     dead code"): the same meminfos, in the same order, as numba's own method, which extracts
     every field of every array on the way."""
     import numba
     from numba.core import types
     from numba.core.runtime.context import NRTContext
 
-    from discgym.kernels.jit import LEAN_MEMINFOS, _lean_meminfos, numba_get_meminfos
+    linkonly = pytest.importorskip("discgym.kernels.linkonly")  # (internals of a numba)
+    LEAN_MEMINFOS, _lean_meminfos = linkonly.LEAN_MEMINFOS, linkonly._lean_meminfos
+    numba_get_meminfos = linkonly.numba_get_meminfos
     from discgym.kernels.structs import Discs
 
     discs = Discs(np.zeros((4, 2)), np.zeros((4, 2)), np.zeros(4, np.int32), np.zeros(4),
@@ -106,5 +248,38 @@ def test_lean_meminfos_finds_what_numba_finds_from_less_ir(monkeypatch):
         assert n_ours < n_numbas / 3, (n_ours, n_numbas)  # (Discs: 12 against 64)
     if not LEAN_MEMINFOS:
         pytest.skip(f"numba {numba.__version__}'s NRTContext.get_meminfos is not the one "
-                    "kernels.jit replaces: review _lean_meminfos against it and update "
+                    "kernels.linkonly replaces: review _lean_meminfos against it and update "
                     "_NUMBA_GET_MEMINFOS (numba's own method is in effect)")
+
+
+@linked_only
+def test_lean_meminfos_stand_in_only_while_a_discgym_function_compiles():
+    """numba's own method is in place outside discgym's compiles: a function of another
+    package is compiled as numba compiles it."""
+    from numba import njit
+    from numba.core import event
+    from numba.core.runtime.context import NRTContext
+
+    from discgym.kernels import linkonly
+
+    if not linkonly.LEAN_MEMINFOS:
+        pytest.skip(f"numba {numba.__version__}'s get_meminfos is its own here")
+    seen = {}
+
+    class Spy(event.Listener):  # (registered after linkonly's: sees what it put in place)
+        def on_start(self, ev):
+            seen[ev.data["dispatcher"].py_func.__module__] = NRTContext.get_meminfos
+
+        def on_end(self, ev):
+            pass
+
+    def probe(x):
+        return x + 1
+
+    with event.install_listener("numba:compile", Spy()):
+        for module in ("some_other_package", "discgym.kernels.probe"):
+            probe.__module__ = module
+            assert njit(probe)(1) == 2
+    assert seen == {"some_other_package": linkonly.numba_get_meminfos,
+                    "discgym.kernels.probe": linkonly._lean_meminfos}
+    assert NRTContext.get_meminfos is linkonly.numba_get_meminfos

@@ -109,3 +109,23 @@ def test_readme_links_are_absolute_for_the_package_index():
     assert targets
     relative = [t for t in targets if not re.match(r"(https?://|mailto:|#)", t)]
     assert relative == []
+
+
+def test_ci_tests_the_lowest_versions_pyproject_allows():
+    """CI's second run (.ci/run) installs .ci/lowest.txt: each pin there is the lower bound
+    of that dependency in pyproject.toml, and every dependency with a lower bound is pinned,
+    so the declared range is the tested range at both ends."""
+    bounds = {}
+    for dep in PROJECT["project"]["dependencies"]:
+        m = re.fullmatch(r"([A-Za-z0-9_.-]+)\s*>=\s*([0-9][0-9.]*)", dep)
+        assert m, f"{dep}: a dependency of pyproject.toml without a plain lower bound"
+        bounds[m.group(1).lower()] = m.group(2)
+    pins = {}
+    for line in (ROOT / ".ci" / "lowest.txt").read_text().splitlines():
+        line = line.split("#", 1)[0].strip()
+        if line:
+            m = re.fullmatch(r"([A-Za-z0-9_.-]+)==([0-9][0-9.]*)", line)
+            assert m, f".ci/lowest.txt: {line!r} is not name==version"
+            pins[m.group(1).lower()] = m.group(2)
+    assert pins == bounds
+    assert "lowest.txt" in (ROOT / ".ci" / "run").read_text()

@@ -168,13 +168,15 @@ def test_the_task_is_found_from_any_env_of_it():
     agents/train_ppo.py builds it); an env of no task is refused, naming it."""
     import dataclasses
 
-    from discgym.sb3 import DiscReactorSB3VecEnv
-
     for env_id, (env_cls, vec_cls) in TASKS.items():
         assert task_id(gym.make(env_id)) == env_id
         # (the base classes built directly may be any task: no id)
         mine = None if env_id == "DiscReactor-v0" else env_id
         assert task_id(env_cls()) == mine and task_id(vec_cls(num_envs=2)) == mine
+    assert task_id(object()) is None
+    pytest.importorskip("stable_baselines3")  # (the SB3 adapter: the agents extra)
+    from discgym.sb3 import DiscReactorSB3VecEnv
+
     kw = dict(TASKS["DiscFlow-v0"][0].defaults)
     sb3 = DiscReactorSB3VecEnv(num_envs=2, **kw)
     reactor = sb3.get_attr("unwrapped", [0])[0]

@@ -9,9 +9,9 @@ from pathlib import Path
 import gymnasium as gym
 import numpy as np
 import pytest
-import yaml
 
 pytest.importorskip("stable_baselines3")
+yaml = pytest.importorskip("yaml")  # (the agents extra)
 
 from discgym.baselines import run_episodes  # noqa: E402
 from discgym.controllers import SetpointActions, _Slots  # noqa: E402

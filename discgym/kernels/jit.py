@@ -1,298 +1,151 @@
-"""``kernel``: the decorator of the kernels that compiled code calls. A kernel is compiled
-without the wrappers that only a call from Python needs, and its code is *linked only*: it
-is optimised and turned into machine code once, inside each entry point that calls it.
+"""``kernel``: the decorator of the kernels that compiled code calls, over one of two layers.
 
-**No wrappers.** With every function numba compiles a CPython wrapper (it unboxes each
-argument, a struct field by field, and boxes the result) and a C wrapper. A kernel called
-only from other kernels never runs either. ``kernel`` is ``njit(cache=True)`` with numba's
-``no_cpython_wrapper`` and ``no_cfunc_wrapper`` options; the functions Python calls (the
-entry points a ``Simulation`` or an env calls) stay ``njit(cache=True)``.
+**The linked-only layer** (:mod:`.linkonly`, on the numba versions of :data:`TESTED_NUMBA`):
+a kernel is compiled without the CPython and C wrappers that only a call from Python needs
+(numba's ``no_cpython_wrapper`` and ``no_cfunc_wrapper`` options), and its code is *linked
+only*: optimised and turned into machine code once, inside each entry point (``njit``)
+that calls it, instead of again at every level of the call tree. A second process may
+compile part of a first compile (:mod:`.helper`). It rests on numba's internals, which
+change between releases: that module is the only one of discgym to use them, and it is
+imported only on a numba it was tested on.
 
-**Linked only.** numba compiles each function into an LLVM module of its own, links the
-modules of its callees into it, optimises the whole at -O3 and generates machine code for
-all of it. Down a call tree that work is done again at every level (``advance`` optimises
-and emits the whole stepped integrator, then the env's step all of it once more), about
-half of a stepped env's first compile. A kernel's module (:class:`LinkOnlyLibrary`) stops
-after the cheap per-function passes and after linking its callees: no -O3 of its own, no
-machine code. The entry point that calls it (an ``njit`` function) links the tree and
-optimises and emits it once. Everything compiled while a kernel is being lowered (the
-bodies and wrappers of a ``prange`` loop, numba's helpers) is linked only as well; numba's
-overloads typed for a kernel (``np.empty``...) are compiled as numba compiles them. The
-machine code of an entry point is the same computation (``tests/golden.py``'s
-fingerprints are unchanged); LLVM sees each kernel once, unoptimised, instead of already
-optimised. The cache keeps a kernel as its LLVM bitcode, ready to link; a process that
-compiles a new entry point loads its kernels from there instead of compiling them again.
+**The plain layer** (any other numba): a kernel is ``njit(cache=True, **options)``, the
+same computation (the same trajectories, ``tests/test_kernel_jit.py``), a slower first
+compile and no compile helper. Its functions are compiled under a cache name of their own
+(``<name>__plain``), so that the two layers never load each other's cache entries.
 
-**Reference counts without dead code.** numba increments and decrements the reference
-count of every array a value holds (``NRTContext.get_meminfos``) by walking the value's
-whole data model: for each array of a struct it extracts all seven fields and every shape
-and stride, of which only the meminfo is used. A kernel's state is a few structs of 6 to 20
-arrays, so much of the IR numba writes was such dead ``extractvalue`` s (half the lines of
-``step.advance``), which LLVM then parses and deletes. :func:`_lean_meminfos` walks
-only the members that hold a meminfo: the same meminfos in the same order, so the same
-code once LLVM has removed the dead instructions, from about 30 % less IR. It replaces
-numba's method when this module is imported (for every function numba compiles in the
-process: the result is the same code), and only if numba's method is the one it was written
-against (:data:`LEAN_MEMINFOS` says whether it is in effect).
-
-This hooks numba's code libraries (``numba.core.codegen.JITCodeLibrary``), the lowering
-pass of a kernel's pipeline and the NRT context's ``get_meminfos``, internals of numba that
-``tests/test_kernel_jit.py`` exercises; the versions it was written against are those of
-``pyproject.toml``.
+``DISCGYM_KERNEL_LAYER`` chooses: ``plain`` forces the plain layer on any numba;
+``link-only`` forces the linked-only layer on a numba it was not tested on (to try a new
+release: run the tests then); unset or ``auto``, the numba version decides. :data:`LAYER`
+says which is in effect.
 
 **A call from Python.** Calling code that has no CPython wrapper would crash the
-interpreter (and a linked-only kernel has no machine code of its own), so a call from
-Python (a test, a probe) goes to the kernel's *twin*: the same function compiled as an
-ordinary ``njit`` function, made on first use and cached under its own name
-(``<name>__py``), so that the two never share a cache entry. The twin's own calls are the
-kernels'. Never make a plain ``njit`` dispatcher of a kernel's ``py_func``: it would share
-the kernel's cache entries and load code it cannot call (use :func:`python_twin`).
+interpreter (and a linked-only kernel has no machine code of its own), so under the
+linked-only layer a call from Python (a test, a probe) goes to the kernel's *twin*: the
+same function compiled as an ordinary ``njit`` function, made on first use and cached
+under its own name (``<name>__py``), so that the two never share a cache entry. The twin's
+own calls are the kernels'. Never make a plain ``njit`` dispatcher of a kernel's
+``py_func``: it would share the kernel's cache entries and load code it cannot call (use
+:func:`python_twin`, which under the plain layer is the kernel itself).
 """
 
 from __future__ import annotations
 
-import contextlib
-import hashlib
-import inspect
+import os
 import types
+import warnings
 
-import llvmlite.binding as ll
-import llvmlite.ir as llvmir
-from numba.core import cgutils, config, sigutils
-from numba.core.caching import CompileResultCacheImpl, FunctionCache
-from numba.core.codegen import JITCodeLibrary
-from numba.core.compiler import Compiler
-from numba.core.compiler_lock import require_global_compiler_lock
-from numba.core.registry import CPUDispatcher
-from numba.core.runtime.context import NRTContext
+import numba
+from numba import njit
 
-from . import helper
+__all__ = ["kernel", "python_twin", "is_kernel", "is_linked_only", "LAYER", "TESTED_NUMBA"]
 
-__all__ = ["kernel", "KernelDispatcher", "LinkOnlyLibrary", "python_twin"]
+#: The environment variable choosing the layer: ``plain``, ``link-only`` or ``auto``.
+ENV_VAR = "DISCGYM_KERNEL_LAYER"
+LINK_ONLY, PLAIN = "link-only", "plain"
+#: The numba versions the linked-only layer was tested on (CI's latest; at the lowest numba
+#: pyproject.toml allows, the layer's internals differ, and the plain layer runs).
+TESTED_NUMBA = ("0.68.1",)
 
-#: What a kernel leaves out (numba's jit options).
+#: What a kernel leaves out under the linked-only layer (numba's jit options).
 _NO_WRAPPERS = {"no_cpython_wrapper": True, "no_cfunc_wrapper": True}
-#: The prefixes of numba's environment globals (one per compiled function) and of its CPython
-#: wrappers' names.
-_ENV_PREFIX, _PYTHON_ENTRY = "_ZN08NumbaEnv", "_ZN7cpython"
 
 
-def _lean_meminfos(self, builder, ty, val):
-    """``NRTContext.get_meminfos`` without the dead code (module docstring): the
-    ``(type, meminfo)`` of every array (or other reference-counted object) inside ``val``,
-    depth first as numba lists them, extracting only the members that hold one."""
-    dmm = self._context.data_model_manager
-    model = dmm[ty]
-    meminfos = []
-    if model.has_nrt_meminfo():
-        meminfos.append((ty, model.get_nrt_meminfo(builder, val)))
-    for mty, getter in model.traverse(builder):
-        holds = _HOLDS_MEMINFO.get(mty)
-        if holds is None:
-            holds = _HOLDS_MEMINFO[mty] = dmm[mty].contains_nrt_meminfo()
-        if holds:
-            meminfos.extend(_lean_meminfos(self, builder, mty, getter(val)))
-    return meminfos
+def choose_layer(version: str = numba.__version__, setting: str | None = None) -> str:
+    """The layer for numba ``version`` and the value of ``DISCGYM_KERNEL_LAYER``
+    (``setting``; by default the environment's)."""
+    if setting is None:
+        setting = os.environ.get(ENV_VAR, "")
+    setting = setting.strip().lower()
+    if setting in (PLAIN, LINK_ONLY):
+        return setting
+    if setting not in ("", "auto"):
+        warnings.warn(f"{ENV_VAR}={setting!r} is none of 'plain', 'link-only', 'auto': "
+                      "taken as 'auto'", RuntimeWarning, stacklevel=2)
+    return LINK_ONLY if version in TESTED_NUMBA else PLAIN
 
 
-#: Whether a type holds a reference-counted object (``_lean_meminfos``'s memo).
-_HOLDS_MEMINFO: dict = {}
-#: The SHA-256 of the source of numba's ``get_meminfos`` that ``_lean_meminfos`` replaces:
-#: any other version of numba keeps its own method.
-_NUMBA_GET_MEMINFOS = "4681e04e53a8b20959da49edce6ec02e70c0a68d3839323d874bfaab1d2d1af1"
-
-
-def _source_hash(f) -> str:
+def _load_layer(layer: str):
+    if layer != LINK_ONLY:
+        return None
     try:
-        return hashlib.sha256(inspect.getsource(f).encode()).hexdigest()
-    except (OSError, TypeError):
-        return ""
+        from . import linkonly
+    except (ImportError, AttributeError) as e:  # (forced onto a numba without those names)
+        warnings.warn(f"discgym: the linked-only kernel layer does not load on numba "
+                      f"{numba.__version__} ({e!r}): plain njit kernels instead",
+                      RuntimeWarning, stacklevel=2)
+        return None
+    linkonly.KernelDispatcher.twin_of = staticmethod(python_twin)
+    return linkonly
 
 
-#: numba's own method (the tests compare the two).
-numba_get_meminfos = NRTContext.__dict__.get("_discgym_numba_get_meminfos",
-                                              NRTContext.get_meminfos)
-#: Whether numba's reference counts are emitted by :func:`_lean_meminfos` in this process.
-LEAN_MEMINFOS = _source_hash(numba_get_meminfos) == _NUMBA_GET_MEMINFOS
-if LEAN_MEMINFOS:
-    NRTContext._discgym_numba_get_meminfos = numba_get_meminfos
-    NRTContext.get_meminfos = _lean_meminfos
-
-
-class LinkOnlyLibrary(JITCodeLibrary):
-    """The code library of everything compiled for a kernel (module docstring): unless it
-    has a CPython wrapper (a function Python may call), finalising it links the libraries
-    it calls and stops, without -O3 or machine code."""
-
-    #: The cache's name for a library kept as the bitcode of its module for linking.
-    KIND = "discgym-link-only"
-    #: Whether this library is linked only (decided when it is finalised).
-    link_only = False
-    #: Whether it is optimised (-O3) before it is linked (``kernel(optimise=True)``).
-    optimise = False
-
-    def finalize(self):
-        require_global_compiler_lock()
-        self._raise_if_finalized()
-        if any(fn.name.startswith(_PYTHON_ENTRY) and not fn.is_declaration
-               for fn in self._final_module.functions):
-            return super().finalize()  # (an njit function a kernel calls: Python may too)
-        self.link_only = True
-        seen = set()
-        for library in self._linking_libraries:
-            if library not in seen:
-                seen.add(library)
-                self._reload_init.update(library._reload_init)
-                self._final_module.link_in(library._get_module_for_linking(), preserve=True)
-        if self.optimise:
-            self._optimize_final_module()
-        self._finalize_dynamic_globals()
-        self._define_environments()
-        self._finalized = True
-
-    def _define_environments(self):
-        """Define in the engine the environment globals this module uses that it does not
-        have yet, in a module of their own, so that numba can point each at its function's
-        ``Environment`` now (``set_env``), as it does after compiling an ordinary function.
-        The entry points linking this code then refer to those same globals."""
-        engine = self._codegen._engine
-        names = [gv.name for gv in self._final_module.global_variables
-                 if gv.name.startswith(_ENV_PREFIX) and not engine.is_symbol_defined(gv.name)]
-        if not names:
-            return
-        module = self._codegen._create_empty_module(f"{self.name}.environments")
-        for name in names:
-            gv = llvmir.GlobalVariable(module, cgutils.voidptr_t, name=name)
-            gv.linkage = "common"
-            gv.initializer = cgutils.get_null_value(gv.type.pointee)
-        engine.add_module(ll.parse_assembly(str(module)))
-        engine.finalize_object()
-
-    def serialize_using_object_code(self):
-        # (numba's cache asks every library for its object code; a linked-only one has none)
-        self._ensure_finalized()
-        if not self.link_only:
-            return super().serialize_using_object_code()
-        return self.name, self.KIND, self._get_module_for_linking().as_bitcode()
-
-    @classmethod
-    def _unserialize(cls, codegen, state):
-        name, kind, data = state
-        if kind != cls.KIND:  # (object code: an njit function, or a kernel cached before)
-            with _libraries_of(codegen, JITCodeLibrary):
-                return codegen.unserialize_library(state)
-        self = cls(codegen, name)
-        self._final_module = self._shared_module = ll.parse_bitcode(data)
-        self.link_only = True
-        self._finalize_dynamic_globals()
-        self._define_environments()
-        self._finalized = True
-        return self
-
-
-@contextlib.contextmanager
-def _libraries_of(codegen, cls):
-    """Within: the code libraries ``codegen`` creates are ``cls``'s (numba creates them
-    through ``codegen._library_class``; the global compiler lock is held throughout)."""
-    saved = codegen.__dict__.get("_library_class")
-    codegen._library_class = cls
-    try:
-        yield
-    finally:
-        if saved is None:
-            del codegen._library_class
-        else:
-            codegen._library_class = saved
-
-
-class _KernelCompiler(Compiler):
-    """numba's default compiler, everything compiled within (the kernel, the kernels and
-    numba's overloads it calls, the bodies of its ``prange`` loops) in
-    :class:`LinkOnlyLibrary` s."""
-
-    def _compile_core(self):
-        codegen = self.state.targetctx.codegen()
-        with _libraries_of(codegen, LinkOnlyLibrary):
-            if self.state.library is None:  # (the kernel's own library: numba's, made here)
-                self.state.library = codegen.create_library(self.state.func_id.func_qualname)
-                self.state.library.enable_object_caching()
-                self.state.library.optimise = getattr(self.state.func_id.func,
-                                                      "_discgym_optimise", False)
-            return super()._compile_core()
-
-
-class _KernelCacheImpl(CompileResultCacheImpl):
-    def rebuild(self, target_context, payload):
-        with _libraries_of(target_context.codegen(), LinkOnlyLibrary):
-            return super().rebuild(target_context, payload)
-
-
-class _KernelCache(FunctionCache):
-    """numba's function cache, storing and loading a kernel as a linked-only library; a
-    version is saved under the lock of the function's index (kernels.helper)."""
-
-    _impl_class = _KernelCacheImpl
-
-    def save_overload(self, sig, data):
-        with helper.index_lock(self):
-            return super().save_overload(sig, data)
-
-
-class KernelDispatcher(CPUDispatcher):
-    """A dispatcher compiled without a Python entry and linked only; a call from Python
-    runs its twin."""
-
-    def __call__(self, *args, **kwargs):
-        return python_twin(self)(*args, **kwargs)
-
-    def compile(self, sig):
-        # (compiled or loaded under a lock shared with other processes: kernels.helper)
-        args = tuple(sigutils.normalize_signature(sig)[0])
-        if args in self.overloads:
-            return super().compile(sig)
-        with helper.compile_lock(self, args):
-            return super().compile(sig)
-
-    def enable_caching(self):
-        self._cache = _KernelCache(self.py_func)
-
-
-def _make_twin(disp: KernelDispatcher) -> CPUDispatcher:
-    f = disp.py_func
-    g = types.FunctionType(f.__code__, f.__globals__, f.__name__ + "__py", f.__defaults__,
+def _renamed(f, suffix: str):
+    """A copy of the function ``f`` whose name ends with ``suffix`` (numba names a
+    function's cache files after its qualified name)."""
+    g = types.FunctionType(f.__code__, f.__globals__, f.__name__ + suffix, f.__defaults__,
                            f.__closure__)
-    g.__qualname__ = f.__qualname__ + "__py"  # (its own cache files)
+    g.__qualname__ = f.__qualname__ + suffix
     g.__module__, g.__doc__, g.__kwdefaults__ = f.__module__, f.__doc__, f.__kwdefaults__
-    opts = {k: v for k, v in disp.targetoptions.items() if k not in _NO_WRAPPERS}
-    twin = CPUDispatcher(py_func=g, locals=disp.locals, targetoptions=opts)
-    twin.enable_caching()
+    return g
+
+
+def python_twin(disp):
+    """The dispatcher a call from Python runs: a linked-only kernel's twin (made on first
+    use), or ``disp`` itself (a plain kernel, an ``njit`` function)."""
+    if _layer is None or not isinstance(disp, _layer.KernelDispatcher):
+        return disp
+    twin = disp.__dict__.get("_discgym_twin")
+    if twin is None:
+        opts = {k: v for k, v in disp.targetoptions.items()
+                if k not in _NO_WRAPPERS and k != "nopython"}
+        twin = disp._discgym_twin = njit(cache=True, locals=disp.locals,
+                                         **opts)(_renamed(disp.py_func, "__py"))
     return twin
 
 
-def python_twin(disp: KernelDispatcher) -> CPUDispatcher:
-    """The dispatcher a call from Python runs (made on first use)."""
-    if disp.__dict__.get("_discgym_twin") is None:
-        disp._discgym_twin = _make_twin(disp)
-    return disp._discgym_twin
+def is_kernel(obj) -> bool:
+    """Whether ``obj`` is a dispatcher made by :func:`kernel`."""
+    if _layer is not None:
+        return isinstance(obj, _layer.KernelDispatcher)
+    return bool(getattr(obj, "_discgym_kernel", False))
+
+
+def is_linked_only(cres) -> bool:
+    """Whether a compile result (one of a dispatcher's ``overloads``) is linked only (no
+    machine code of its own); always False under the plain layer."""
+    return _layer is not None and _layer.is_linked_only(cres)
+
+
+def lock_folder(disp):
+    """The folder where the cross-process locks of ``disp``'s compiles are kept (its numba
+    cache folder), or None: no cache, or the plain layer (no locks)."""
+    return None if _layer is None else _layer.lock_folder(disp)
 
 
 def kernel(func=None, *, optimise=False, **options):
-    """``@kernel`` or ``@kernel(parallel=True, ...)``: ``njit(cache=True, **options)``
-    without the wrappers, linked only (module docstring). ``optimise=True``: its module is
-    optimised (-O3, with everything it calls) before entry points link it, still without
-    machine code of its own: for a kernel that runs a large, hot tree of its own which the
-    entry points calling it would otherwise optimise less well (the exact integrator's run,
-    ``event_driven._simulate``: an env's step, one large function, ran it about 10 % slower
-    as linked only)."""
+    """``@kernel`` or ``@kernel(parallel=True, ...)``: ``njit(cache=True, **options)``, under
+    the linked-only layer without the wrappers and linked only (module docstring).
+    ``optimise=True`` (linked-only layer): its module is optimised (-O3, with everything it
+    calls) before entry points link it, still without machine code of its own: for a
+    kernel that runs a large, hot tree of its own which the entry points calling it would
+    otherwise optimise less well (the exact integrator's run, ``event_driven._simulate``:
+    an env's step, one large function, ran it about 10 % slower as linked only)."""
 
     def wrap(f):
-        if config.DISABLE_JIT:
+        if numba.config.DISABLE_JIT:
             return f
-        f._discgym_optimise = bool(optimise)
+        if _layer is None:
+            disp = njit(cache=True, **options)(_renamed(f, "__plain"))
+            disp._discgym_kernel = True
+            return disp
         opts = {"nopython": True, "boundscheck": None, **options, **_NO_WRAPPERS}
-        disp = KernelDispatcher(py_func=f, locals=opts.pop("locals", {}), targetoptions=opts,
-                                pipeline_class=_KernelCompiler)
-        disp.enable_caching()
-        return disp
+        return _layer.make_kernel(f, opts, optimise)
 
     return wrap if func is None else wrap(func)
+
+
+#: The layer in effect in this process: ``"link-only"`` or ``"plain"``.
+LAYER = choose_layer()
+_layer = _load_layer(LAYER)
+if _layer is None:
+    LAYER = PLAIN
