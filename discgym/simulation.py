@@ -422,16 +422,15 @@ class Simulation:
                 # one: the serial entry)
                 k = chunks if threads == most else 1 if threads == 1 else \
                     max(chunks * threads // most, 2)
+                physics = (tables, cs.params, cs.flags)
                 if _step.serial_suffices(self._n, k):  # (compiles no parallel code)
-                    return _step.advance_serial_rngs(
-                        discs, self._n, n_steps, dt, bounds, tables, cs.params, cs.flags,
-                        self._rngs, counters, self._steps, _step.REORDER_EVERY, self._work,
-                        lists)
+                    call = (n_steps, dt, 1, self._steps, _step.REORDER_EVERY)
+                    return _step.advance_serial_rngs(discs, self._n, call, bounds, physics,
+                                                     self._rngs, counters, self._work, lists)
+                call = (n_steps, dt, k, self._steps, _step.REORDER_EVERY)
                 with numba_threads(threads):
-                    return _step.advance_rngs(
-                        discs, self._n, n_steps, dt, bounds, tables, cs.params, cs.flags,
-                        self._rngs, counters, k, self._steps, _step.REORDER_EVERY,
-                        self._work, lists)
+                    return _step.advance_rngs(discs, self._n, call, bounds, physics,
+                                              self._rngs, counters, self._work, lists)
 
             if _step.serial_suffices(self._n, chunks):
                 discs, n, self._work = run(most)

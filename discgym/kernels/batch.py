@@ -35,7 +35,6 @@ Physics-free glue: this module imports numpy and numba only.
 """
 
 import math
-from typing import NamedTuple
 
 import numpy as np
 from numba import njit, prange
@@ -52,10 +51,12 @@ from .structs import (
     JACKET,
     N_SIDES,
     Bounds,
+    Call,
     Counters,
     Discs,
     Episodes,
     Injection,
+    Physics,
     ReactorConsts,
     Reactors,
     Tables,
@@ -72,15 +73,6 @@ CAPPED = 3
 # Columns of the outputs: ``fout`` (R, 2 + F) and ``iout`` (R, 3 + 2 F)
 O_HEAT, O_ENERGY_HEAT = range(2)  # then the energy each feed species' injection put in (F)
 O_STATUS, O_BLOCKED, O_INVALID = range(3)  # then injected (F), then refused (F)
-
-
-class Physics(NamedTuple):
-    """What a reactor's physics reads of its compiled scene
-    (:class:`~discgym.compiled.CompiledScene`)."""
-
-    tables: Tables  #: the scene's tables (a reactor's kinetics: rows of Episodes)
-    params: np.ndarray  #: FLOAT the scene's parameters (P_* of kernels.structs)
-    flags: np.ndarray  #: INDEX the scene's effects (F_* of kernels.structs)
 
 
 _INTEGRATOR = ReactorConsts._fields.index("integrator")
@@ -326,10 +318,12 @@ def reactor_step(r, rx, ep, physics, consts, rngs, act, exact, stepped, lists):
             iout[r, O_STATUS] = CAPPED
             return
     if stepped is not None:
-        after, m, _w = advance(discs, rx.n[r], consts.steps_per_action, consts.dt, bounds,
-                               tables, physics.params, physics.flags, rngs[r],
+        call = Call(consts.steps_per_action, consts.dt, np.int64(1), rx.ksteps[r],
+                    consts.reorder_every)
+        # (tables: reactor r's kinetics, not the scene's)
+        after, m, _w = advance(discs, rx.n[r], call, bounds,
+                               Physics(tables, physics.params, physics.flags), rngs[r],
                                Counters(rx.icnt[r], rx.fsum[r], ch_count, rx.outflow[r]),
-                               np.int64(1), rx.ksteps[r], consts.reorder_every,
                                empty_work(), lists=lists)
     _book(r, after.pos.shape[0] != cap, m, rx, ep, tables.sp_mass, consts, wall_heat0)
 

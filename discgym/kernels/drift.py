@@ -225,12 +225,13 @@ def drift_and_bin(threads, n, h, ph, pl, listed, full, big):
         sort_cells(n, sc.cell_of, cell_start, cell_items)
         if pl is not None:  # (pruned by numba when None: advance's lists)
             if listed:
-                pl = pl_broad(n, pos, species, sp_radius, grid, sc, pl, full, big)
+                # (a new name: numba 0.59 prunes `pl is None` only where pl is never rebound)
+                grown = pl_broad(n, pos, species, sp_radius, grid, sc, pl, full, big)
                 # the big discs' positions, for events.queue_initial
                 nbc = int(grid[4]) * ncy
                 gather(np.int64(cell_start[nbc]), np.int64(cell_start[nbc + 1]), cell_items, pos,
                        species, sp_radius, sc.sx, sc.sy, sc.sr)
-                return pl
+                return grown
         if threads is not None:
             if par:
                 sc.nlist[1] = _broad_parallel(threads, n, grid, discs, sp_radius, sc)

@@ -153,8 +153,10 @@ from .structs import (
     P_RMAX,
     P_RMIN,
     Bounds,
+    Call,
     Counters,
     Discs,
+    Physics,
     Tables,
     fields,
 )
@@ -481,12 +483,13 @@ def finish_capped(state, n, n_steps, dt, rest, bounds, tables, params, flags, rn
     one = np.int64(1)
     # (lists None: no pair list, as in a stepped env's step, whose advance this is; a rare
     # rescue, whose broad phase scans each substep)
+    physics = Physics(tables, params, flags)
     if whole > 0:
-        state, n, _w = advance(state, n, whole, dt, bounds, tables, params, flags, rng, cnt,
-                               one, zero, zero, empty_work(), lists=None)
+        state, n, _w = advance(state, n, Call(whole, dt, one, zero, zero), bounds, physics,
+                               rng, cnt, empty_work(), lists=None)
     if rest - whole * dt > 0.0:
-        state, n, _w = advance(state, n, one, rest - whole * dt, bounds, tables, params,
-                               flags, rng, cnt, one, zero, zero, empty_work(), lists=None)
+        state, n, _w = advance(state, n, Call(one, rest - whole * dt, one, zero, zero), bounds,
+                               physics, rng, cnt, empty_work(), lists=None)
     return state, n
 
 

@@ -24,14 +24,29 @@ Which effects run is decided once per call from ``flags``; an absent effect is a
 branch per substep, not a per-disc cost (``benchmarks/bench_core.py`` measures it; the
 figures are in docs/performance.md).
 
-The driver is :func:`advance`; its state, bounds and counters are the structs of
-:mod:`discgym.kernels.structs`.
+The driver is :func:`advance`; its state, call, bounds, physics and counters are the structs
+of :mod:`discgym.kernels.structs`.
+
+**Who compiles what.** :func:`advance`'s two optional arguments decide at compile time what
+is compiled (numba prunes the branches of an omitted one); each path gives the same
+trajectory bit for bit. ``clusters`` given: a box scene whose events are local runs the event
+phase of its substeps by clusters (:mod:`~discgym.kernels.clusters`), on the threads from
+PARALLEL_MIN discs with ``threads`` > 1 and on the calling thread above PAIR_MAX_DISCS
+discs (below that, on one thread, the serial phase and the pair list are as fast or
+faster); the drift and the scan run in parallel. Omitted, as by the single-threaded callers
+(the vector env's reactors, the exact integrator's fallback, :func:`advance_serial_rngs`):
+everything on the calling thread, and only the owner array's one-line constructor compiled.
+``lists`` given: a call of PAIR_MIN_STEPS steps or more keeps a pair list
+(:mod:`~discgym.kernels.pairlist`) across its substeps, the broad phase of long calls.
+Omitted (None), as by a caller whose calls are all shorter (an env of fewer steps per
+action, a ``Simulation``'s short calls, the exact integrator's fallback): the scan only.
 """
 
 import math
 
 import numpy as np
 from numba import njit
+from numba.extending import register_jitable
 
 from .celllist import build, cell_coord, cell_radius, make_grid
 from .claims import new_owner
@@ -91,10 +106,12 @@ from .structs import (  # noqa: E402,F401,I001
     P_RESTITUTION,
     P_RMIN,
     Bounds,
+    Call,
     Counters,
     Discs,
     PairList,
     Phase,
+    Physics,
     RunConsts,
     Scratch,
     Search,
@@ -358,37 +375,40 @@ def _carve(work, ws, nstart):
 
 
 @njit(cache=True)
-def advance_rngs(discs, n, n_steps, dt, bounds, tables, params, flags, rngs, cnt, threads,
-                 step0, reorder_every, work, lists):
-    """:func:`advance` called from Python: the structs ``discs``, ``bounds``, ``tables``, ``cnt``
-    passed as plain tuples of their fields, the generator as ``rngs[0]``, a
-    ``numba.typed.List``. Both are for the cost of the call: numba types a plain tuple of
-    arrays in C but a NamedTuple field by field in Python (about 0.5 us per field), and it
-    rebuilds the ctypes interface of an ``np.random.Generator`` argument every time (a typed
-    list holding the same generator, same state, is an order of magnitude cheaper); a
-    Simulation makes many short calls. ``lists``: :func:`lists_for` the call. Returns
-    :func:`advance`'s ``(discs, n, work)`` with ``discs`` a plain tuple too (boxing a
+def advance_rngs(discs, n, call, bounds, physics, rngs, cnt, work, lists):
+    """:func:`advance` called from Python: the structs ``discs``, ``call``, ``bounds``,
+    ``physics`` (its tables too) and ``cnt`` passed as plain tuples of their fields, the
+    generator as ``rngs[0]``, a ``numba.typed.List``. Both are for the cost of the call: numba
+    types a plain tuple of arrays in C but a NamedTuple field by field in Python (about 0.5 us
+    per field), and it rebuilds the ctypes interface of an ``np.random.Generator`` argument
+    every time (a typed list holding the same generator, same state, is an order of magnitude
+    cheaper); a Simulation makes many short calls. ``lists``: :func:`lists_for` the call.
+    Returns :func:`advance`'s ``(discs, n, work)`` with ``discs`` a plain tuple too (boxing a
     NamedTuple unpickles its class at every return)."""
-    d, n, work = advance(Discs(*discs), n, n_steps, dt, Bounds(*bounds), Tables(*tables),
-                         params, flags, rngs[0], Counters(*cnt), threads, step0,
-                         reorder_every, work, np.bool_(True), lists)  # (bool, not a literal)
+    d, n, work = advance(Discs(*discs), n, Call(*call), Bounds(*bounds), _physics(physics),
+                         rngs[0], Counters(*cnt), work, np.bool_(True), lists)  # (not a literal)
     return fields(d), n, work
 
 
 @njit(cache=True)
-def advance_serial_rngs(discs, n, n_steps, dt, bounds, tables, params, flags, rngs, cnt,
-                        step0, reorder_every, work, lists):
+def advance_serial_rngs(discs, n, call, bounds, physics, rngs, cnt, work, lists):
     """:func:`advance_rngs` on the calling thread, without the event phase by clusters:
     ``clusters`` omitted, so numba compiles neither (nor the parallel drift and scan), as
     for the vector env's reactors, whose :func:`advance` this is (the same argument types:
     one compiled version, shared through the cache, for ``lists`` None: :func:`lists_for`
-    a call of fewer than PAIR_MIN_STEPS steps). A ``Simulation`` calls it when
-    :func:`advance_rngs` would not take those paths (:func:`serial_suffices`), which is the
-    same trajectory bit for bit; its first step compiles half as much."""
-    d, n, work = advance(Discs(*discs), n, n_steps, dt, Bounds(*bounds), Tables(*tables),
-                         params, flags, rngs[0], Counters(*cnt), np.int64(1), step0,
-                         reorder_every, work, lists=lists)
+    a call of fewer than PAIR_MIN_STEPS steps; ``call.threads`` must be 1). A
+    ``Simulation`` calls it when :func:`advance_rngs` would not take those paths
+    (:func:`serial_suffices`), which is the same trajectory bit for bit; its first step
+    compiles half as much."""
+    d, n, work = advance(Discs(*discs), n, Call(*call), Bounds(*bounds), _physics(physics),
+                         rngs[0], Counters(*cnt), work, lists=lists)
     return fields(d), n, work
+
+
+@register_jitable
+def _physics(physics):
+    """A :class:`~.structs.Physics` from a plain ``(tables, params, flags)`` tuple."""
+    return Physics(Tables(*physics[0]), physics[1], physics[2])
 
 
 def lists_for(n_steps: int):
@@ -408,110 +428,72 @@ def serial_suffices(n: int, threads: int) -> bool:
 
 
 @kernel
-def advance(discs, n, n_steps, dt, bounds, tables, params, flags, rng, cnt, threads, step0,
-            reorder_every, work, clusters=None, lists=None):
-    """Advance ``n_steps`` steps of length ``dt``.
+def advance(discs, n, call, bounds, physics, rng, cnt, work, clusters=None, lists=None):
+    """Advance ``call.n_steps`` steps of length ``call.dt`` (a :class:`~.structs.Call`).
 
-    ``discs``: the state (a :class:`~.structs.Discs`, capacity C >= n; discs are [0, n)),
-    ``bounds`` a :class:`~.structs.Bounds`. ``tables``: a :class:`~.structs.Tables`;
-    ``params``, ``flags``: see :mod:`discgym.compiled`. The counters ``cnt`` (a
-    :class:`~.structs.Counters`) are accumulated in place. ``threads``: the number of chunks
-    to split the drift and the broad phase into across numba's threads (4 per thread is a
-    good choice; at most one per CHUNK_MIN discs is used); 0 or 1 runs everything on the
-    calling thread (as it must inside another parallel loop). New discs take the identity
-    ``discs.next_id[0]``, which is incremented; when ``reorder_every`` > 0 and n >=
-    REORDER_MIN, the discs are put in cell order in memory before every step whose global
-    index ``step0 + s`` is a multiple of it (so the result does not depend on how a run is
-    split into calls).
-
-    ``work``: scratch buffers (a tuple of 1-D FLOAT, INDEX and COUNT arrays, e.g.
-    :func:`empty_work`), replaced by larger ones when they are too small.
-
-    ``clusters``: given (True), a box scene whose events are local runs the event phase of
-    its substeps by clusters (:mod:`~discgym.kernels.clusters`; the same trajectory bit for
-    bit): on the threads from PARALLEL_MIN discs with ``threads`` > 1, on the calling thread
-    above PAIR_MAX_DISCS discs (below that, on one thread, the serial phase and the pair list
-    are as fast or faster; a caller on one numba thread passes ``threads`` = 1).
-    Omitted, as the single-threaded callers (the vector env's reactors, the event-driven
-    integrator's fallback) omit it, numba prunes that code at compile time (it compiles
-    only the owner array's one-line constructor), and the parallel drift and scan too:
-    everything runs on the calling thread.
-
-    ``lists``: given (True), a call of PAIR_MIN_STEPS steps or more keeps a pair list across
-    its substeps (where the broad phase allows: see below). None (or omitted), as a caller
-    whose calls are all shorter passes it (an env of fewer steps per action, a
-    ``Simulation``'s short calls, the exact integrator's fallback), numba prunes the pair
-    list's code at compile time: the same trajectory, the list being no more than a faster
-    broad phase of long calls.
+    ``discs`` (capacity C >= n; discs are [0, n); new ones take the identity
+    ``discs.next_id[0]``, incremented), ``bounds``, ``physics`` and the counters ``cnt``
+    (accumulated in place): the structs of :mod:`~discgym.kernels.structs`. ``call.threads``
+    work chunks for numba's threads (4 per thread is a good choice; at most one per CHUNK_MIN
+    discs is used; 0 or 1: all on the calling thread). With ``call.reorder_every`` > 0 and
+    n >= REORDER_MIN, the discs are put in cell order before every step whose global index
+    ``call.step0 + s`` is a multiple of it (the result does not depend on how a run is split
+    into calls). ``work``: scratch buffers (:func:`empty_work`), replaced when too small.
+    ``clusters``, ``lists``: see "Who compiles what" above.
 
     Returns ``(discs, n, work)``: new (larger) state arrays when a decomposition needed more
     capacity, else the ones passed in; the scratch buffers used.
     """
-    pos, vel, species, internal_energy = discs.pos, discs.vel, discs.species, discs.internal_energy
-    ids, idctr = discs.ids, discs.next_id
-    bounds_kind, bounds_params = bounds.kind, bounds.params
+    tables, flags = physics.tables, physics.flags
+    d = discs
     icnt = cnt.icnt
     sp_radius = tables.sp_radius
-    e = params[P_RESTITUTION]
-    maxdisp = params[P_MAXDISP] * params[P_RMIN]
-    collide = flags[F_COLLISIONS] != 0
+    dt, reorder_every = call.dt, call.reorder_every
     has_uni = flags[F_UNI] != 0
-    fission_possible = flags[F_FISSION] != 0
-
     H = new_heap(256)
-    # cells sized by the small discs; the few much larger ones in the big cell (celllist)
-    rcell = cell_radius(species, n, sp_radius)
-    rc = RunConsts(e, params[P_RELAX], maxdisp, rcell, collide, flags[F_BI] != 0,
-                   flags[F_THERMAL] != 0, flags[F_OUTLETS] != 0)
-    grid = make_grid(bounds_kind, bounds_params, rcell, max(n, 1))
+    rc, grid, rgrid = _run_setup(d.species, n, bounds, physics)
+    collide, maxdisp = rc.collide, rc.maxdisp
     ncx = int(grid[4])
     ncy = int(grid[5])
     nstart = ncx * ncy + 2 if collide else 3
-    rgrid = make_grid(bounds_kind, bounds_params, sp_radius.max(),
-                      np.int64(REORDER_CELLS))  # (independent of n)
-    ws = pos.shape[0]  # per-disc workspace, reallocated when the state grows
+    ws = d.pos.shape[0]  # per-disc workspace, reallocated when the state grows
     work = _fit_work(work, ws, nstart)
     sc = _carve(work, ws, nstart)
-    # the broad phase: a pair list kept across the substeps of a call long enough to pay
-    # (on several threads, from PARALLEL_MIN discs, the scan runs in parallel and beats the
-    # serial list: docs/performance.md, "The event phase by clusters")
-    threads = min(threads, max(n // CHUNK_MIN, 1))
+    # a pair list for a call long enough to pay, not on threads (the parallel scan beats it)
+    threads = min(call.threads, max(n // CHUNK_MIN, 1))
     on_threads = threads > 1 and n >= PARALLEL_MIN
     if lists is not None:  # (pruned by numba when None: no pair-list code compiled)
-        listed = collide and n_steps >= PAIR_MIN_STEPS and n <= PAIR_MAX_DISCS and not on_threads
+        listed = (collide and call.n_steps >= PAIR_MIN_STEPS and n <= PAIR_MAX_DISCS
+                  and not on_threads)
         pl = new_pairlist(ws if listed else 0, PAIR_CAP * ws if listed else 0)
     else:
         listed = False
         pl = None
-    big = sp_radius.max() > rcell  # (discs not in the list: see PairList)
+    big = sp_radius.max() > rc.rcell  # (discs not in the list: see PairList)
     full = True  # (the list is built at the first substep, and after a reordering)
     # the event phase by clusters (kernels.clusters) where the scene's events are local
     clustered = False
     if clusters is not None:  # (pruned by numba when the argument is omitted)
-        clustered = eligible(rc, bounds_kind) and (on_threads or n > PAIR_MAX_DISCS)
+        clustered = eligible(rc, bounds.kind) and (on_threads or n > PAIR_MAX_DISCS)
     own = new_owner(grid) if clustered else np.empty(0, dtype=np.int32)
-    nbc = ncx * ncy
-    for s in range(n_steps):
-        if reorder_every > 0 and n >= REORDER_MIN and (step0 + s) % reorder_every == 0:
-            _reorder(n, pos, vel, species, internal_energy, ids, rgrid, work)
+    for s in range(call.n_steps):
+        if reorder_every > 0 and n >= REORDER_MIN and (call.step0 + s) % reorder_every == 0:
+            _reorder(n, d.pos, d.vel, d.species, d.internal_energy, d.ids, rgrid, work)
             if lists is not None:
                 if listed:  # (perm and free scratch: see _reorder)
                     pl_permute(n, work[1][n:2 * n], pl, work[1][0:n], work[0])
         # first-order reactions run only if some disc has a first-order channel: a scene
         # whose first-order species are absent pays this lookup, not a pass per substep
-        uni_live = False
-        if has_uni:
-            uni_live = _any_first_order(species, n, tables.uni_start)
-            reactive0 = icnt[IC_REACTIVE]
+        uni_live = has_uni and _any_first_order(d.species, n, tables.uni_start)
+        reactive0 = icnt[IC_REACTIVE]
         # substeps so that no disc moves more than maxdisp
-        k, capped, vfast = _first_split(vel, n, dt, maxdisp, icnt)
+        k, capped, vfast = _first_split(d.vel, n, dt, maxdisp, icnt)
         h = dt / k
         taken = 0  # substeps of this step so far
         sub = 0
         while sub < k:
             icnt[IC_SUBSTEPS] += 1
-            ph = Phase(Discs(pos, vel, species, internal_energy, ids, idctr), tables, bounds, grid,
-                       sc, rc)
+            ph = Phase(d, tables, bounds, grid, sc, rc)
             if clusters is None:  # (a single-threaded caller: no parallel code compiled)
                 pl = drift_and_bin(None, n, h, ph, pl, listed, full, big)
             else:
@@ -528,32 +510,21 @@ def advance(discs, n, n_steps, dt, bounds, tables, params, flags, rng, cnt, thre
                 H, n_dead, delta, dropped, vfast, vrel, t_cut = _event_phase(
                     n, ph, cnt, sub_c, vfast, rng, H, pl, listed, None)
             else:  # (by clusters where the scene allows and there are no big discs now)
-                go = clustered and sc.cell_start[nbc + 1] == sc.cell_start[nbc]
+                go = clustered and sc.cell_start[ncx * ncy + 1] == sc.cell_start[ncx * ncy]
                 H, n_dead, delta, dropped, vfast, vrel, t_cut = _event_phase(
                     n, ph, cnt, sub_c, vfast, rng, H, pl, listed, (own, threads, go))
-            hu = h  # the length of this substep
-            if t_cut < 0.0:
-                icnt[IC_CUTS] += 1
-                delta = rewind(n, t_cut, ph.discs, sc, collide)
-                hu = h + t_cut
-            left = icnt[IC_LEFT_OVERLAPPING] != left0
-            if dropped or left:
-                _repair(dropped, n, ph, cnt)
-                delta = 0.0  # resolve() leaves the grid built at the final positions
+            hu, delta = _settle(n, h, t_cut, delta, dropped, left0, ph, cnt)
             # (a reactive collision may have made a species with first-order channels)
             if has_uni and (uni_live or icnt[IC_REACTIVE] != reactive0):
                 uni_live = True
                 n_before = n
-                grown, n, vfrag = _first_order(n, hu, ph, fission_possible, delta, rng, cnt)
-                pos, vel = grown.pos, grown.vel
-                species, internal_energy = grown.species, grown.internal_energy
-                ids = grown.ids
+                d, n, vfrag = _first_order(n, hu, ph, flags[F_FISSION] != 0, delta, rng, cnt)
                 # fragments are binned where they end the next substep: the reach of its
                 # room checks must cover their speed
                 vfast = max(vfast, vfrag)
                 vrel = max(vrel, vfrag)
-                if ws < pos.shape[0]:  # the state grew: scratch for the next substep and for
-                    ws = pos.shape[0]  # the next step's reordering
+                if ws < d.pos.shape[0]:  # the state grew: scratch for the next substep and
+                    ws = d.pos.shape[0]  # for the next step's reordering
                     work = _fit_work(work, ws, nstart)
                     sc = _carve(work, ws, nstart)
                     if lists is not None:
@@ -565,19 +536,49 @@ def advance(discs, n, n_steps, dt, bounds, tables, params, flags, rng, cnt, thre
             if n_dead:
                 if lists is not None:
                     if listed:
-                        pl_compact(n, species, pl, pl.todo)
-                n = compact(n, pos, vel, species, internal_energy, ids)
+                        pl_compact(n, d.species, pl, pl.todo)
+                n = compact(n, d.pos, d.vel, d.species, d.internal_energy, d.ids)
             sub += 1
-            # Energy released in this substep may have made a disc faster than the remaining
-            # substeps allow (they were sized by the speeds at the start of the step): the
-            # rest of the step is split anew for the speeds now. Only reactions and releases
-            # of internal energy are checked (vrel, from their products alone), so a substep
-            # without them costs one comparison.
+            # Energy released in this substep (vrel: the speeds of its products alone) may
+            # have made a disc faster than the substeps sized at the step's start allow: the
+            # rest of the step is split anew (a substep without releases: one comparison)
             if t_cut < 0.0 or vrel * h > maxdisp:
-                k, h, vfast, capped, sub = _resplit(n, vel, species, (k - sub) * h + (h - hu),
+                k, h, vfast, capped, sub = _resplit(n, d.vel, d.species, (k - sub) * h + (h - hu),
                                                     t_cut < 0.0, dt, maxdisp,
                                                     (k, h, vfast, capped, sub), icnt)
-    return Discs(pos, vel, species, internal_energy, ids, idctr), n, work
+    return d, n, work
+
+
+@kernel
+def _run_setup(species, n, bounds, physics):
+    """What a call reads from its scene once: the :class:`~.structs.RunConsts`, the grid of
+    the contacts (cells sized by the small discs; the few much larger ones in the big cell,
+    see celllist) and the grid of the memory reordering (independent of n)."""
+    params, flags, sp_radius = physics.params, physics.flags, physics.tables.sp_radius
+    rcell = cell_radius(species, n, sp_radius)
+    rc = RunConsts(params[P_RESTITUTION], params[P_RELAX], params[P_MAXDISP] * params[P_RMIN],
+                   rcell, flags[F_COLLISIONS] != 0, flags[F_BI] != 0, flags[F_THERMAL] != 0,
+                   flags[F_OUTLETS] != 0)
+    grid = make_grid(bounds.kind, bounds.params, rcell, max(n, 1))
+    rgrid = make_grid(bounds.kind, bounds.params, sp_radius.max(), np.int64(REORDER_CELLS))
+    return rc, grid, rgrid
+
+
+@kernel
+def _settle(n, h, t_cut, delta, dropped, left0, ph, cnt):
+    """After a substep's events: a substep cut at ``t_cut`` < 0 rewound to its end, and the
+    repair of a substep that ran out of events (``dropped``) or left a pair overlapping
+    (its count past ``left0``). Returns the substep's length and the drift of the grid's
+    positions (0 after a repair, which leaves the grid built at the final positions)."""
+    hu = h
+    if t_cut < 0.0:
+        cnt.icnt[IC_CUTS] += 1
+        delta = rewind(n, t_cut, ph.discs, ph.sc, ph.rc.collide)
+        hu = h + t_cut
+    if dropped or cnt.icnt[IC_LEFT_OVERLAPPING] != left0:
+        _repair(dropped, n, ph, cnt)
+        delta = 0.0
+    return hu, delta
 
 
 @kernel

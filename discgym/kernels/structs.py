@@ -188,6 +188,25 @@ class PairList(NamedTuple):
     count: np.ndarray  #: (2,) int64 listed pairs, overlapping pairs
 
 
+class Physics(NamedTuple):
+    """What a reactor's physics reads of its compiled scene
+    (:class:`~discgym.compiled.CompiledScene`)."""
+
+    tables: Tables  #: the scene's tables (a reactor's kinetics: rows of Episodes)
+    params: np.ndarray  #: FLOAT the scene's parameters (P_*)
+    flags: np.ndarray  #: INDEX the scene's effects (F_*)
+
+
+class Call(NamedTuple):
+    """One call of the time-stepped integrator (``step.advance``): what it is asked to do."""
+
+    n_steps: int  #: steps to take
+    dt: float  #: the length of a step
+    threads: int  #: work chunks for numba's threads (0 or 1: all on the calling thread)
+    step0: int  #: the global index of the call's first step (for the memory reordering)
+    reorder_every: int  #: steps between memory reorderings (0: none)
+
+
 class RunConsts(NamedTuple):
     """What a stepped run reads from its scene and flags, once per call."""
 
@@ -236,25 +255,21 @@ class Search(NamedTuple):
     collide: bool  #: False: the discs do not collide, only the bounds are checked
 
 
-class Reactors(NamedTuple):
-    """The state of R reactors of one scene, as padded rows (reactor r is row r of each
-    field; discs [0, n[r]) are live, species -1 past them)."""
+# (the disc fields written once: a reactor's row of them is a Discs)
+Reactors = NamedTuple("Reactors", [(f, np.ndarray) for f in Discs._fields + (
+    "n", "ksteps", "bounds_kind", "bounds_params", "icnt", "fsum", "ch_count", "outflow",
+    "bounds_walls")])
+Reactors.__doc__ = """The state of R reactors of one scene, as padded rows: reactor r is row
+r of each field (discs [0, n[r]) are live, species -1 past them).
 
-    pos: np.ndarray  #: (R, C, 2) FLOAT positions
-    vel: np.ndarray  #: (R, C, 2) FLOAT velocities
-    species: np.ndarray  #: (R, C) INDEX species index, -1 for no disc
-    internal_energy: np.ndarray  #: (R, C) FLOAT
-    ids: np.ndarray  #: (R, C) COUNT disc identities
-    next_id: np.ndarray  #: (R, 1) COUNT the identity the next new disc takes
-    n: np.ndarray  #: (R,) int64 live discs
-    ksteps: np.ndarray  #: (R,) int64 kernel steps taken (times the memory reordering)
-    bounds_kind: np.ndarray  #: (R,) int64 BOX or CIRCLE (see discgym.compiled)
-    bounds_params: np.ndarray  #: (R, 4) FLOAT bounds parameters (see discgym.compiled)
-    icnt: np.ndarray  #: (R, N_ICOUNTERS) COUNT integer counters (IC_* of kernels.step)
-    fsum: np.ndarray  #: (R, N_FSUMS) FLOAT float sums (FS_* of kernels.step)
-    ch_count: np.ndarray  #: (R, K) COUNT reactions fired per channel
-    outflow: np.ndarray  #: (R, S) COUNT discs that left through an outlet, per species
-    bounds_walls: np.ndarray  #: (R, N_SIDES) FLOAT wall temperatures (see Bounds.walls)
+The fields of :class:`Discs`, each with a leading axis of R (``pos`` (R, C, 2), ...,
+``next_id`` (R, 1)), then: ``n`` (R,) int64 live discs; ``ksteps`` (R,) int64 kernel steps
+taken (times the memory reordering); ``bounds_kind`` (R,) int64 BOX or CIRCLE and
+``bounds_params`` (R, 4) FLOAT its parameters (see discgym.compiled); ``icnt``
+(R, N_ICOUNTERS) COUNT integer counters (IC_*); ``fsum`` (R, N_FSUMS) FLOAT float sums
+(FS_*); ``ch_count`` (R, K) COUNT reactions fired per channel; ``outflow`` (R, S) COUNT
+discs that left through an outlet, per species; ``bounds_walls`` (R, N_SIDES) FLOAT wall
+temperatures (see Bounds.walls)."""
 
 
 class Episodes(NamedTuple):
