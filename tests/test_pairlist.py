@@ -83,7 +83,7 @@ def _gas(rng, n, side, radii=(1.0,), weights=None):
                                            ((1.0, 0.5, 4.0), (0.6, 0.38, 0.02))])
 def test_the_list_finds_exactly_the_overlapping_pairs_as_discs_move(radii, weights):
     """Random moves, from far below skin / 2 to several skins (so some discs are refreshed
-    and some not, every round), the big discs left to _queue_initial."""
+    and some not, every round), the big discs left to events.queue_initial."""
     rng = np.random.default_rng(1)
     g = _gas(rng, 400, 40.0, radii, weights)
     pl = PL.new_pairlist(g.n, PL.PAIR_CAP * g.n)

@@ -1,13 +1,14 @@
-"""The event phase of a substep by clusters of events (``kernels.step``, phase 2).
+"""The event phase of a substep by clusters of events (phase 3 of :mod:`.step`).
 
-The serial event phase (``step._events``) pops one heap of the whole reactor in time order.
-Most of its events have nothing to do with each other: a collision at one end of the box
-cannot change what happens at the other end within a substep unless a chain of contacts
-links them. Here the substep's initial events (its wall contacts and overlapping pairs) are
-grouped by the cells they claim, each disc's cell and the cells within ``CLAIM`` cells of
-it (in blocks of 2 x 2 cells), merged by union-find; each group (a *cluster*) is processed
-alone, in its own time order, from its own small heap, clusters in memory order, and on
-several threads the clusters of one chunk on one thread (:func:`events`).
+The serial event phase (:func:`.events.run_events` on the whole reactor) pops one heap of the
+whole reactor in time order. Most of its events have nothing to do with each other: a
+collision at one end of the box cannot change what happens at the other end within a substep
+unless a chain of contacts links them. Here the substep's initial events (its wall contacts
+and overlapping pairs) are grouped by the cells they claim, each disc's cell and the cells
+within ``CLAIM`` cells of it (in blocks of 2 x 2 cells), merged by union-find; each group (a
+*cluster*) is processed alone, in its own time order, from its own small heap, clusters in
+memory order, and on several threads the clusters of one chunk on one thread
+(:func:`events`).
 
 Why the result is the serial phase's, bit for bit: a cluster reads the discs of the cells
 it searches and changes only discs it found there, so when no two clusters search the same

@@ -61,7 +61,7 @@ def pl_stale(n, pos, species, sp_radius, rcell, half, big, pl):
     every listed disc farther than ``half`` (skin / 2) from its reference position, every
     small disc not listed. If ``big`` (the scene has discs larger than rcell), a listed disc
     that has become big (a reaction) is marked, to drop its pairs, and unlisted: big discs
-    are queued by :func:`_queue_initial`. Returns how many discs are in ``pl.todo``."""
+    are queued by :func:`.events.queue_initial`. Returns how many discs are in ``pl.todo``."""
     ref, listed, mark, todo = pl.ref, pl.listed, pl.mark, pl.todo
     h2 = half * half
     m = 0

@@ -18,7 +18,7 @@ A step is split into k equal substeps when its fastest disc would move more than
 released inside the step (a fission, a reactive collision, internal energy released at a
 collision) can make discs faster than that split allows: the rest of the step is then split
 anew, and a reactive collision whose products would outrun the contact checks of their
-substep ends that substep at the collision (:func:`_events`, :func:`_resplit`).
+substep ends that substep at the collision (:func:`~.events.collide_pair`, :func:`_resplit`).
 
 Which effects run is decided once per call from ``flags``; an absent effect is a skipped
 branch per substep, not a per-disc cost (``benchmarks/bench_core.py`` measures it; the
@@ -275,8 +275,8 @@ def _reorder(n, pos, vel, species, internal_energy, ids, grid, work):
 @kernel
 def _resplit(n, vel, species, rem, cut, dt, maxdisp, split, icnt):
     """Split the time ``rem`` left in a step anew after energy was released in its last
-    substep (of length ``h``; ``cut``: ended early, see :func:`_events`), into substeps of
-    at most ``maxdisp`` for the fastest disc now. As for the first split of a step, the
+    substep (of length ``h``; ``cut``: ended early, see :func:`~.events.collide_pair`), into
+    substeps of at most ``maxdisp`` for the fastest disc now. As for the first split of a step, the
     substeps are no shorter than the capped ones (the remainder's share of MAX_SUBSTEPS);
     a step that needed shorter ones counts once in IC_SUBSTEPS_CAPPED. Nothing changes when
     the fastest disc is within the current substeps after all (and the substep was not cut).
@@ -500,7 +500,7 @@ def advance(discs, n, call, bounds, physics, rng, cnt, work, clusters=None, list
                 pl = drift_and_bin(threads, n, h, ph, pl, listed, full, big)
             full = False
             left0 = icnt[IC_LEFT_OVERLAPPING]
-            # a substep is cut short (at a reaction, see _events) only while the step has
+            # a substep is cut short (at a reaction: events.collide_pair) only while the step has
             # taken fewer than MAX_SUBSTEPS substeps and not shorter than the capped substep
             # dt / MAX_SUBSTEPS: a step of a finite number of substeps, each of them useful
             cut_after = dt / MAX_SUBSTEPS if taken < MAX_SUBSTEPS else math.inf
