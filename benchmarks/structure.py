@@ -1,9 +1,9 @@
 #!/usr/bin/env python
-"""The code-structure targets of issues 47 (``discgym/kernels/``) and 48 (``discgym/``): each
-metric measured from the source, its target, PASS or FAIL.
+"""The code-structure targets of the kernel layer (``discgym/kernels/``) and of the package
+(``discgym/``): each metric measured from the source, its target, PASS or FAIL.
 
     python benchmarks/structure.py                   # both scopes
-    python benchmarks/structure.py --scope kernels   # issue 47 only (--scope package: 48)
+    python benchmarks/structure.py --scope kernels   # the kernels (or: --scope package)
     python benchmarks/structure.py --check all       # exit 1 if a target fails, naming it
     python benchmarks/structure.py --json out/structure.json --root OTHER_CHECKOUT
 
@@ -45,7 +45,7 @@ DUPLICATE_LINES = 6
 MAX_DUPLICATES = {"kernels": 0, "package": 2}
 #: A kernel is a function decorated with one of these (bare, called, or as ``numba.njit``).
 KERNEL_DECORATORS = {"kernel", "njit", "register_jitable"}
-#: The one module that may use numba's private names (issue 47), and numba's packages.
+#: The one module that may use numba's private names, and numba's packages.
 NUMBA_GATE, GATED_PACKAGES = "kernels/jit.py", ("numba", "llvmlite")
 #: Each event rule, written once and called by both integrators: rule -> function name.
 #: (The names of the refactor under way in kernels/rules.py: edit them when they change.)
@@ -433,8 +433,8 @@ def package_scope(mods: list[Module], known: set[str]) -> list[Metric]:
             function_import_cycles(mods, known), duplicate_blocks(mods, MAX_DUPLICATES["package"])]
 
 
-SCOPES = {"kernels": ("discgym/kernels/, issue 47", kernels_scope),
-          "package": ("discgym/, issue 48", package_scope)}
+SCOPES = {"kernels": ("discgym/kernels/", kernels_scope),
+          "package": ("discgym/", package_scope)}
 
 
 def show(scope: str, metrics: list[Metric], most: int) -> str:
@@ -455,7 +455,8 @@ class Parser(argparse.ArgumentParser):
 
 
 def main(argv=None) -> int:
-    p = Parser(description="Print the code-structure targets of issues 47 and 48.")
+    p = Parser(description="Print the code-structure targets of the kernel layer and the "
+                            "package.")
     p.add_argument("--scope", choices=sorted(SCOPES), help="one scope (default: both)")
     p.add_argument("--check", choices=[*sorted(SCOPES), "all"],
                    help="exit 1 if a target of this scope fails (prints that scope)")

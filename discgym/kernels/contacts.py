@@ -36,21 +36,23 @@ def add_event(H, size, sift, t, i, j, si, sj):
 
 
 @njit(cache=True, inline="always")
-def try_pair(i, j, discs, sp_radius, sc, H, size, icnt, sift=True):
-    """Queue the contact of i and j (of ``discs``; ``sc``: the
-    :class:`~.structs.Scratch`) if they overlap and touched in this step (room for one
+def try_pair(i, j, discs, sp_radius, tlast, stamp, H, size, icnt, sift=True):
+    """Queue the contact of i and j (of ``discs``; ``tlast``, ``stamp``: the
+    :class:`~.structs.Scratch` arrays) if they overlap and touched in this step (room for one
     event must be reserved; ``sift`` False: appended, see ``events.queue_initial``); returns
     the new size. A pair left overlapping while separating (``pair_time`` +inf) is counted
     in ``icnt[IC_LEFT_OVERLAPPING]``."""
     # (the indices, size and sift cast here, at each call site: one compiled _try_pair
     # whatever the callers' integer types, and none for literal arguments)
-    return _try_pair(np.int64(i), np.int64(j), discs.pos, discs.vel, discs.species, sp_radius,
-                     sc, H, np.int64(size), icnt, np.bool_(sift))
+    # (discs whole: a field read here, in the caller's loop, would count a reference; the
+    # two arrays of the Scratch, not the Scratch: a call passes every array of its structs)
+    return _try_pair(np.int64(i), np.int64(j), discs, sp_radius, tlast, stamp, H,
+                     np.int64(size), icnt, np.bool_(sift))
 
 
 @kernel(_nrt=False)  # (no reference counts of the structs' arrays: it allocates nothing)
-def _try_pair(i, j, pos, vel, species, sp_radius, sc, H, size, icnt, sift):
-    tlast, stamp = sc.tlast, sc.stamp
+def _try_pair(i, j, discs, sp_radius, tlast, stamp, H, size, icnt, sift):
+    pos, vel, species = discs.pos, discs.vel, discs.species
     t = pair_time(pos[i, 0], pos[i, 1], vel[i, 0], vel[i, 1], sp_radius[species[i]], tlast[i],
                   pos[j, 0], pos[j, 1], vel[j, 0], vel[j, 1], sp_radius[species[j]], tlast[j])
     if math.isnan(t):
@@ -104,6 +106,7 @@ def queue_scan(a0, a1, discs, sp_radius, sc, grid, H, size, icnt, sift):
     ncy = int(grid[5])
     cell_start, cell_items, cell_of = sc.cell_start, sc.cell_items, sc.cell_of
     ov_n, ov_b, ol = sc.ov_n, sc.ov_b, sc.ol
+    tlast, stamp = sc.tlast, sc.stamp
     m = sc.nlist[1]
     for p in range(np.searchsorted(ol[:m], a0), m):
         a = ol[p]
@@ -113,12 +116,12 @@ def queue_scan(a0, a1, discs, sp_radius, sc, grid, H, size, icnt, sift):
         k = ov_n[a]
         if k <= OV_SLOTS:
             for q in range(k):
-                size = try_pair(i, cell_items[ov_b[a, q]], discs, sp_radius, sc, H, size, icnt,
-                                sift)
+                size = try_pair(i, cell_items[ov_b[a, q]], discs, sp_radius, tlast, stamp, H, size,
+                                icnt, sift)
             continue
         e1, lo2, hi2 = half_stencil(cell_of[i], ncx, ncy, cell_start)
         for b in range(a + 1, e1):
-            size = try_pair(i, cell_items[b], discs, sp_radius, sc, H, size, icnt, sift)
+            size = try_pair(i, cell_items[b], discs, sp_radius, tlast, stamp, H, size, icnt, sift)
         for b in range(lo2, hi2):
-            size = try_pair(i, cell_items[b], discs, sp_radius, sc, H, size, icnt, sift)
+            size = try_pair(i, cell_items[b], discs, sp_radius, tlast, stamp, H, size, icnt, sift)
     return size

@@ -70,6 +70,7 @@ from .structs import (
     IC_PUSHED_INSIDE,
     IC_REACTIVE,
     IC_WALL_HITS,
+    Marks,
     Search,
 )
 from .walls import (
@@ -102,7 +103,7 @@ def queue_initial(n, ph, H, icnt, pl, listed):
     the big discs after it). Returns ``(H, size)``."""
     discs, sp_radius, sc, grid = ph.discs, ph.tables.sp_radius, ph.sc, ph.grid
     collide = ph.rc.collide
-    wall_t, wflag, stamp = sc.wall_t, sc.wflag, sc.stamp
+    wall_t, wflag, stamp, tlast = sc.wall_t, sc.wflag, sc.stamp, sc.tlast
     cell_start, cell_items = sc.cell_start, sc.cell_items
     sx, sy, sr, ov_n, wl, ol = sc.sx, sc.sy, sc.sr, sc.ov_n, sc.wl, sc.ol
     ncx = int(grid[4])
@@ -141,7 +142,7 @@ def queue_initial(n, ph, H, icnt, pl, listed):
         if listed:
             ovi, ovj = pl.ovi, pl.ovj
             for q in range(pl.count[1]):
-                size = try_pair(ovi[q], ovj[q], discs, sp_radius, sc, H, size, icnt)
+                size = try_pair(ovi[q], ovj[q], discs, sp_radius, tlast, stamp, H, size, icnt)
             scanned = False
     if scanned:
         # (an int32 and a bool, not literals: the types of kernels.clusters' call, so that
@@ -153,9 +154,9 @@ def queue_initial(n, ph, H, icnt, pl, listed):
         cx0, cx1, cy0, cy1 = cell_range(sx[a], sy[a], sr[a] + rcell, grid)
         for cy in range(cy0, cy1 + 1):
             for b in range(cell_start[cx0 + ncx * cy], cell_start[cx1 + 1 + ncx * cy]):
-                size = try_pair(i, cell_items[b], discs, sp_radius, sc, H, size, icnt)
+                size = try_pair(i, cell_items[b], discs, sp_radius, tlast, stamp, H, size, icnt)
         for b in range(a + 1, cell_start[nbc + 1]):
-            size = try_pair(i, cell_items[b], discs, sp_radius, sc, H, size, icnt)
+            size = try_pair(i, cell_items[b], discs, sp_radius, tlast, stamp, H, size, icnt)
     return H, size
 
 
@@ -172,51 +173,73 @@ def _big_candidates(a, sx, sy, sr, grid, cell_start):
 
 
 # ------------------------------------------------------------------------ a disc's contacts
-@kernel
-def schedule(d, ph, n, reach, H, size, icnt, cl):
-    """Queue the next contacts of disc d: a wall, and every disc in the cells within
-    ``reach`` + its radius (``ph``: the :class:`~.structs.Phase`; discs [0, nbin) binned,
-    [nbin, n) made since and tried one by one, as are the big discs). A disc overlapping a
-    wall while moving inward is moved inside first. Room is reserved first (one wall event
-    plus every disc searched), so the loops never reallocate the heap.
+@njit(cache=True, inline="always")
+def schedule(d, discs, sp_radius, bounds, tlast, stamp, search, H, size, icnt, cl):
+    """Queue the next contacts of disc d (of ``discs``): a wall, and every disc in the cells
+    within ``search.reach`` + its radius (discs [0, nbin) binned, [nbin, n) made since and
+    tried one by one, as are the big discs). A disc overlapping a wall while moving inward is
+    moved inside first. Room is reserved first (one wall event plus every disc searched), so
+    the loops never reallocate the heap.
 
     For a cluster (``cl``) the cells searched must be the cluster's (or claimed for it):
     returns ``(code, other, H, size)``, code R_ESCAPE or R_CONFLICT (``other``: the cluster
-    reached) before anything is queued, else R_OK."""
-    pos, vel, species = ph.discs.pos, ph.discs.vel, ph.discs.species
-    sp_radius, grid = ph.tables.sp_radius, ph.grid
-    tlast, stamp = ph.sc.tlast, ph.sc.stamp
-    cell_start, cell_items = ph.sc.cell_start, ph.sc.cell_items
-    bounds_kind, bounds_params = ph.bounds.kind, ph.bounds.params
-    collide = ph.rc.collide
-    nbin = n if collide else 0
+    reached) before anything is queued, else R_OK. (Two kernels that allocate nothing, so
+    count no references, around the one step that may, the heap's growth; they take the
+    arrays they read, not the Phase: a call passes every array of its structs.)"""
+    code, other, need, t = _search_room(d, discs, sp_radius, bounds, search, icnt, cl)
+    if code != R_OK:
+        return code, other, H, size
+    H = reserve(H, size, need)
+    return R_OK, -1, H, _queue_next(d, t, discs, sp_radius, tlast, stamp, search, H, size, icnt)
+
+
+@kernel(_nrt=False)
+def _search_room(d, discs, sp_radius, bounds, search, icnt, cl):
+    """:func:`schedule`'s first half: disc d's wall contact time t (d moved inside first if
+    it overlaps a wall moving inward), the cluster's check of the cells searched, and the
+    room its contacts need. Returns ``(code, other, need, t)``."""
+    pos, vel, species = discs.pos, discs.vel, discs.species
+    grid, cell_start = search.grid, search.cell_start
+    r = sp_radius[species[d]]
+    t, axis, inward = contact(pos[d, 0], pos[d, 1], vel[d, 0], vel[d, 1], r, bounds.kind,
+                              bounds.params)
+    if inward and t == math.inf:
+        push_inside(d, pos, r, bounds.kind, bounds.params)
+        icnt[IC_PUSHED_INSIDE] += 1
+    ncx = int(grid[4])
+    nbc = ncx * int(grid[5])
+    cx0, cx1, cy0, cy1 = cell_range(pos[d, 0], pos[d, 1], r + search.reach, grid)
+    if cl is not None:
+        code, other = check_cells(cx0, cx1, cy0, cy1, grid, cl)
+        if code != R_OK:
+            return code, other, np.int64(0), t
+    need = 1 + search.n - search.nbin
+    if search.collide:
+        need += cell_start[nbc + 1] - cell_start[nbc]
+        for cy in range(cy0, cy1 + 1):
+            need += cell_start[cx1 + 1 + ncx * cy] - cell_start[cx0 + ncx * cy]
+    return R_OK, -1, np.int64(need), t
+
+
+@kernel(_nrt=False)
+def _queue_next(d, t, discs, sp_radius, tlast, stamp, search, H, size, icnt):
+    """:func:`schedule`'s second half, the room reserved: queue disc d's wall contact (at
+    ``t``) and its contacts with the discs searched. Returns the heap's new size."""
+    pos, vel, species = discs.pos, discs.vel, discs.species
+    grid, cell_start, cell_items = search.grid, search.cell_start, search.cell_items
     r = sp_radius[species[d]]
     vx = vel[d, 0]
     vy = vel[d, 1]
-    t, axis, inward = contact(pos[d, 0], pos[d, 1], vx, vy, r, bounds_kind, bounds_params)
-    if inward and t == math.inf:
-        push_inside(d, pos, r, bounds_kind, bounds_params)
-        icnt[IC_PUSHED_INSIDE] += 1
     x = pos[d, 0]
     y = pos[d, 1]
     td = tlast[d]
     ncx = int(grid[4])
     nbc = ncx * int(grid[5])
-    cx0, cx1, cy0, cy1 = cell_range(x, y, r + reach, grid)
-    if cl is not None:
-        code, other = check_cells(cx0, cx1, cy0, cy1, grid, cl)
-        if code != R_OK:
-            return code, other, H, size
-    need = 1 + n - nbin
-    if collide:
-        need += cell_start[nbc + 1] - cell_start[nbc]
-        for cy in range(cy0, cy1 + 1):
-            need += cell_start[cx1 + 1 + ncx * cy] - cell_start[cx0 + ncx * cy]
-    H = reserve(H, size, need)
+    cx0, cx1, cy0, cy1 = cell_range(x, y, r + search.reach, grid)
     if t < math.inf:
         size = push(H, size, max(t, td), d, -1, stamp[d], 0)
-    if not collide:
-        return R_OK, -1, H, size
+    if not search.collide:
+        return size
     sd = stamp[d]
     left = 0
     for cy in range(cy0, cy1 + 1):
@@ -237,11 +260,11 @@ def schedule(d, ph, n, reach, H, size, icnt, cl):
     for a in range(cell_start[nbc], cell_start[nbc + 1]):  # the big discs (celllist)
         k = cell_items[a]
         if k != d and species[k] >= 0:
-            size = try_pair(d, k, ph.discs, sp_radius, ph.sc, H, size, icnt)
-    for k in range(nbin, n):
+            size = try_pair(d, k, discs, sp_radius, tlast, stamp, H, size, icnt)
+    for k in range(search.nbin, search.n):
         if k != d and species[k] >= 0:
-            size = try_pair(d, k, ph.discs, sp_radius, ph.sc, H, size, icnt)
-    return R_OK, -1, H, size
+            size = try_pair(d, k, discs, sp_radius, tlast, stamp, H, size, icnt)
+    return size
 
 
 # --------------------------------------------------------------------------- the event loop
@@ -289,9 +312,15 @@ def run_events_py(H, size, n, ph, cnt, sub, vfast, rng, cl):
     H, events, n_dead, delta, dropped, vfast, vrel, t_cut)``: ``dropped`` if events were left
     unprocessed because a disc or the substep ran out of events (the caller repairs);
     ``code`` R_OK, or why a cluster's run stopped (``other``: the cluster it reached)."""
-    vel, species = ph.discs.vel, ph.discs.species
-    sc, rc = ph.sc, ph.rc
-    stamp, nev = sc.stamp, sc.nev
+    # (the arrays read once: a struct's field read in the loop would count references)
+    discs, tables, bounds, grid = ph.discs, ph.tables, ph.bounds, ph.grid
+    sp_radius = tables.sp_radius
+    pos, vel, species = discs.pos, discs.vel, discs.species
+    sc, rc, icnt = ph.sc, ph.rc, cnt.icnt
+    stamp, nev, tlast, binx, biny = sc.stamp, sc.nev, sc.tlast, sc.binx, sc.biny
+    cell_start, cell_items = sc.cell_start, sc.cell_items
+    marks = Marks(tlast, stamp, sc.partner, sc.lastcol)
+    nbin = n if rc.collide else 0
     h, maxdisp = sub.h, rc.maxdisp
     delta = 0.0  # largest distance of a disc from where it was binned
     n_dead = 0
@@ -330,27 +359,29 @@ def run_events_py(H, size, n, ph, cnt, sub, vfast, rng, cl):
                 n_dead += 1
                 continue
             if rc.collide:
-                delta = max(delta, _moved(i, ph))
+                delta = max(delta, _moved(i, pos, binx, biny))
             if what == W_THERMAL:  # a drawn speed: checked as a release of energy is
                 vi = math.hypot(vel[i, 0], vel[i, 1])
                 vfast = max(vfast, vi)
                 vrel = max(vrel, vi)
                 if vi * -t > maxdisp and -t > sub.cut_after and t >= t_glide:
-                    t_cut = max(t, sc.tlast[i])
+                    t_cut = max(t, tlast[i])
                     break
         else:
-            what, dead = collide_pair(i, j, t, n, ph, cnt, sub, rc.rcell + delta + h * vfast,
-                                      cl)
+            search = Search(grid, cell_start, cell_items, nbin, n, rc.rcell + delta + h * vfast,
+                            True)
+            what, dead = collide_pair(i, j, t, discs, tables, bounds, marks, rc, cnt, sub,
+                                      search, cl)
             if what == P_SKIPPED:
                 continue
             if what == P_SERIAL:
                 return R_SERIAL, -1, H, events, n_dead, delta, dropped, vfast, vrel, t_cut
             n_dead += dead
-            delta = max(delta, _moved(i, ph))
+            delta = max(delta, _moved(i, pos, binx, biny))
             vi = math.hypot(vel[i, 0], vel[i, 1])
             vfast = max(vfast, vi)
             if species[j] >= 0:
-                delta = max(delta, _moved(j, ph))
+                delta = max(delta, _moved(j, pos, binx, biny))
                 vj = math.hypot(vel[j, 0], vel[j, 1])
                 vfast = max(vfast, vj)
                 vi = max(vi, vj)
@@ -363,8 +394,10 @@ def run_events_py(H, size, n, ph, cnt, sub, vfast, rng, cl):
         for w in range(1 if j < 0 else 2):  # the new contacts of i (and j)
             d = i if w == 0 else j
             if species[d] >= 0:
-                code, other, H, size = schedule(d, ph, n, rc.rcell + delta, H, size, cnt.icnt,
-                                                cl)
+                search = Search(grid, cell_start, cell_items, nbin, n, rc.rcell + delta,
+                                rc.collide)
+                code, other, H, size = schedule(d, discs, sp_radius, bounds, tlast, stamp,
+                                                search, H, size, icnt, cl)
                 if code != R_OK:
                     return code, other, H, events, n_dead, delta, dropped, vfast, vrel, t_cut
     return R_OK, -1, H, events, n_dead, delta, dropped, vfast, vrel, t_cut
@@ -377,22 +410,22 @@ run_events_inline = njit(cache=True, inline="always")(run_events_py)
 
 
 @njit(cache=True, inline="always")
-def _moved(i, ph):
+def _moved(i, pos, binx, biny):
     """How far disc i is from where it was binned."""
-    return math.hypot(ph.discs.pos[i, 0] - ph.sc.binx[i], ph.discs.pos[i, 1] - ph.sc.biny[i])
+    return math.hypot(pos[i, 0] - binx[i], pos[i, 1] - biny[i])
 
 
-@njit(cache=True, inline="always")
-def collide_pair(i, j, t, n, ph, cnt, sub, reach, cl):
+@kernel(_nrt=False)  # (allocates nothing: no reference counts of the phase's arrays)
+def collide_pair(i, j, t, discs, tables, bounds, marks, rc, cnt, sub, search, cl):
     """Discs i and j meet at t: a reactive collision if the scene has their channel, the
     energy along the line of centres pays for it and the products fit (``reach``: of the
     room checks), else a bounce (restitution, the TC model, a share of the pair's internal
     energy released). Returns ``(what, dead)``: P_SKIPPED (not approaching to round-off, or
     the pair's last events were with each other: :mod:`.rules`), P_SERIAL (a cluster met a
     release of internal energy: nothing done), P_BOUNCED or P_RELEASED (energy went into
-    motion: a reaction or a release); ``dead`` 1 if j was combined away."""
-    pos, vel, species, u = ph.discs.pos, ph.discs.vel, ph.discs.species, ph.discs.internal_energy
-    tables, sc, rc = ph.tables, ph.sc, ph.rc
+    motion: a reaction or a release); ``dead`` 1 if j was combined away. (It takes the
+    arrays it reads, not the Phase: a call passes every array of its structs.)"""
+    pos, vel, species, u = discs.pos, discs.vel, discs.species, discs.internal_energy
     icnt = cnt.icnt
     vxi = vel[i, 0]
     vyi = vel[i, 1]
@@ -401,7 +434,7 @@ def collide_pair(i, j, t, n, ph, cnt, sub, reach, cl):
     xi, yi, xj, yj, nx, ny = normal_at(pos[i, 0], pos[i, 1], vxi, vyi, pos[j, 0], pos[j, 1],
                                        vxj, vyj, t)
     vr = (vxi - vxj) * nx + (vyi - vyj) * ny
-    if grazing(vr, vxi, vyi, vxj, vyj) or rebound(sc.partner, i, j):
+    if grazing(vr, vxi, vyi, vxj, vyj) or rebound(marks.partner, i, j):
         return P_SKIPPED, 0
     kappa = rc.relax
     if cl is not None:  # (the serial phase handles a release: it may cut the substep)
@@ -417,12 +450,10 @@ def collide_pair(i, j, t, n, ph, cnt, sub, reach, cl):
             mj = tables.sp_mass[species[j]]
             if 0.5 * mi * mj / (mi + mj) * vr * vr >= tables.ch_energy[c]:
                 k = Contact(xi, yi, xj, yj, nx, ny, vxi, vyi, vxj, vyj)
-                search = Search(ph.grid, sc.cell_start, sc.cell_items, n if rc.collide else 0,
-                                n, reach, True)
                 if tables.ch_kind[c] == COMBINATION:
-                    outcome = combine(i, j, c, t, k, tables, ph.discs, ph.bounds, search)
+                    outcome = combine(i, j, c, t, k, tables, discs, bounds, search)
                 else:
-                    outcome = exchange(i, j, c, t, k, tables, ph.discs, ph.bounds, search)
+                    outcome = exchange(i, j, c, t, k, tables, discs, bounds, search)
                 fired = outcome == FIRED
                 if fired:
                     what = P_RELEASED
@@ -434,7 +465,7 @@ def collide_pair(i, j, t, n, ph, cnt, sub, reach, cl):
                     icnt[IC_NO_ROOM] += 1
     if not fired:
         e = rc.restitution
-        lastcol, sub_id = sc.lastcol, sub.sub_id
+        lastcol, sub_id = marks.lastcol, sub.sub_id
         e_eff = tc_restitution(e, lastcol[i] == sub_id or lastcol[j] == sub_id, icnt)
         if e < 1.0:
             lastcol[i] = sub_id
@@ -457,16 +488,16 @@ def collide_pair(i, j, t, n, ph, cnt, sub, reach, cl):
         pos[j, 0] = xj - t * vxj
         pos[j, 1] = yj - t * vyj
         icnt[IC_COLLISIONS] += 1
-    sc.tlast[i] = t
-    sc.tlast[j] = t
-    sc.stamp[i] += 1
-    sc.stamp[j] += 1
-    sc.partner[i] = j
-    sc.partner[j] = i
+    marks.tlast[i] = t
+    marks.tlast[j] = t
+    marks.stamp[i] += 1
+    marks.stamp[j] += 1
+    marks.partner[i] = j
+    marks.partner[j] = i
     return what, dead
 
 
-@njit(cache=True, inline="always")
+@kernel(_nrt=False)  # (allocates nothing: no reference counts of the phase's arrays)
 def wall_event(i, t, ph, cnt, n, reach, H, size, vfast, rng, cl):
     """Disc i meets the wall (if it still does at its queued time t): reflect it, settle it
     inside, and on a circle let a grazing disc glide through its chords in closed form
@@ -565,7 +596,7 @@ def _wall_exchange(i, tw, axis, ph, cnt, rng):
     return W_REFLECTED
 
 
-@kernel
+@kernel(_nrt=False)  # (allocates nothing)
 def glide(i, tw, T, chord, ph, search, cnt):
     """Disc i, just reflected at (xc, yc) at time tw, grazes the circle wall so closely that
     more than GLIDE_CHORDS chords ``(tau, psi, vn)`` fit in the time T it glides (``chord``:

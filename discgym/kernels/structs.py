@@ -241,6 +241,16 @@ class Substep(NamedTuple):
     budget: int  #: the events it may take (EVENTS_PER_DISC * n + 1024)
 
 
+class Marks(NamedTuple):
+    """What a stepped substep's events mark on each disc (arrays of its
+    :class:`Scratch`): what a collision reads and writes besides the discs."""
+
+    tlast: np.ndarray  #: (ws,) FLOAT the time of the disc's last event in the substep
+    stamp: np.ndarray  #: (ws,) COUNT its events so far (a queued event names them)
+    partner: np.ndarray  #: (ws,) INDEX the disc its last event was with (-1: a wall)
+    lastcol: np.ndarray  #: (ws,) COUNT the substep of its last inelastic collision
+
+
 class Search(NamedTuple):
     """Where a check for room looks: the grid of the substep, the discs binned in it (by
     cell, [0, nbin)), the discs made since ([nbin, n)), and how far a binned disc may be from
