@@ -40,6 +40,17 @@ def test_plans_are_kernels_of_this_numba_in_compile_order():
     assert plans["env-step"][-1][0] == "discgym.kernels.batch._book"
 
 
+def test_a_kernel_made_under_another_name_is_found_by_its_functions_name():
+    """numba's compile events, so the plans, name a kernel's function: ``run_events =
+    kernel(run_events_py)`` is found as ``events.run_events_py``; a plain function is not."""
+    from discgym.kernels import events
+
+    assert helper._dispatcher("discgym.kernels.events.run_events_py") is events.run_events
+    assert helper._dispatcher("discgym.kernels.events.run_events") is events.run_events
+    with pytest.raises(LookupError, match="not a kernel"):
+        helper._dispatcher("discgym.kernels.events.run_events_inline")
+
+
 def test_argument_types_read_back_from_their_json():
     from numba import typed, typeof, types
 

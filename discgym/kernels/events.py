@@ -403,7 +403,7 @@ def run_events_py(H, size, n, ph, cnt, sub, vfast, rng, cl):
     return R_OK, -1, H, events, n_dead, delta, dropped, vfast, vrel, t_cut
 
 
-#: The event loop as a function (the serial phase, a cluster's repair) and inlined (into the
+#: The event loop as a kernel (the serial phase, a cluster's repair) and inlined (into the
 #: loop over a chunk's clusters, where a call per cluster would reference-count its arrays)
 run_events = kernel(run_events_py)
 run_events_inline = njit(cache=True, inline="always")(run_events_py)

@@ -311,9 +311,16 @@ def _kernels_attr(qualname: str, kind):
 
 
 def _dispatcher(qualname: str):
+    """The kernel compiled from the function ``qualname`` names: that name's own kernel, or
+    one its module made from the function under another name (``run_events =
+    kernel(run_events_py)``; numba's compile events name the function)."""
     disp = _kernels_attr(qualname, object)
     if not jit.is_kernel(disp):
-        raise LookupError(f"{qualname}: not a kernel")
+        module = sys.modules[qualname.rpartition(".")[0]]
+        disp = next((k for k in vars(module).values()
+                     if jit.is_kernel(k) and k.py_func is disp), None)
+        if disp is None:
+            raise LookupError(f"{qualname}: not a kernel")
     return disp
 
 
