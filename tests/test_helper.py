@@ -5,6 +5,7 @@ that make two processes share a compile. (That a helper shortens a first compile
 the step the same, and that the plans match what the envs compile:
 tests/test_compile_scope.py.)"""
 
+import contextlib
 import json
 import os
 import pickle
@@ -175,42 +176,45 @@ os.close(fd)
 needs_fcntl = pytest.mark.skipif(locks.fcntl is None, reason="no fcntl locks here")
 
 
-@needs_fcntl
-def test_a_process_waits_for_the_lock_another_holds_and_removes_it(tmp_path):
+@contextlib.contextmanager
+def _holder(tmp_path, seconds: str, kill: bool = False):
+    """Another process holding the lock ``k.nbi.0123.lock`` for ``seconds``, then writing
+    the file ``released``: yields ``(path, released, process)`` once it holds the lock;
+    waited for (killed first if ``kill``) on the way out."""
     path = tmp_path / "k.nbi.0123.lock"
     released = tmp_path / "released"
-    p = subprocess.Popen([sys.executable, "-c", HOLDER, str(path), str(released), "1.0"],
+    p = subprocess.Popen([sys.executable, "-c", HOLDER, str(path), str(released), seconds],
                          stdout=subprocess.PIPE, text=True)
     try:
         assert p.stdout.readline().strip() == "locked"
+        yield path, released, p
+    finally:
+        if kill:
+            p.kill()
+        p.wait(timeout=60)
+
+
+@needs_fcntl
+def test_a_process_waits_for_the_lock_another_holds_and_removes_it(tmp_path):
+    with _holder(tmp_path, "1.0") as (path, released, p):
         with locks.hold(path, "k"):
             assert released.exists()  # (entered only once the other process let go)
             assert path.exists()
             with locks.hold(path, "k"):  # (its own lock again: no wait on itself)
                 pass
         assert not path.exists()  # (removed by its holder)
-    finally:
-        p.wait(timeout=60)
     assert p.returncode == 0
 
 
 @needs_fcntl
 def test_a_lock_wait_that_times_out_warns_naming_the_kernel(tmp_path, monkeypatch):
-    path = tmp_path / "k.nbi.0123.lock"
-    released = tmp_path / "released"
-    p = subprocess.Popen([sys.executable, "-c", HOLDER, str(path), str(released), "30"],
-                         stdout=subprocess.PIPE, text=True)
-    try:
-        assert p.stdout.readline().strip() == "locked"
+    with _holder(tmp_path, "30", kill=True) as (path, released, _p):
         monkeypatch.setattr(locks, "TIMEOUT", 0.3)
         entered = False
-        with pytest.warns(locks.LockTimeoutWarning, match=r"discgym\.kernels\.step\._events"):
-            with locks.hold(path, "compiling discgym.kernels.step._events(int64,)"):
+        with pytest.warns(locks.LockTimeoutWarning, match=r"discgym\.kernels\.events\.run_events"):
+            with locks.hold(path, "compiling discgym.kernels.events.run_events(int64,)"):
                 entered = True
         assert entered and not released.exists()  # (went on without the lock)
-    finally:
-        p.kill()
-        p.wait(timeout=60)
 
 
 @linked_only
