@@ -49,7 +49,7 @@ def test_a_kernel_made_under_another_name_is_found_by_its_functions_name():
     assert helper._dispatcher("discgym.kernels.events.run_events_py") is events.run_events
     assert helper._dispatcher("discgym.kernels.events.run_events") is events.run_events
     with pytest.raises(LookupError, match="not a kernel"):
-        helper._dispatcher("discgym.kernels.events.run_events_inline")
+        helper._dispatcher("discgym.kernels.events._run_inline")
 
 
 def test_argument_types_read_back_from_their_json():

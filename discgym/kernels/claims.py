@@ -18,8 +18,9 @@ CLAIM = 2  # cells a cluster claims around each disc of its initial events (each
 OWN_SHIFT = 1
 OWN_LIMIT = 2**31 - 1  # (owner entries are int32)
 
-# How a run of the event loop ended: R_OK; for a cluster, why it stopped (kernels.events)
-R_OK, R_ESCAPE, R_CONFLICT, R_FULL, R_SERIAL = range(5)
+# How a run of the event loop ended: R_OK; for a cluster, why it stopped (kernels.events;
+# R_FULL: no room left in its log or records, R_HEAP: in its heap)
+R_OK, R_ESCAPE, R_CONFLICT, R_FULL, R_SERIAL, R_HEAP = range(6)
 
 
 @njit(cache=True, inline="always")

@@ -48,6 +48,7 @@ from .claims import (
     OWN_LIMIT,
     OWN_SHIFT,
     R_FULL,
+    R_HEAP,
     R_OK,
     R_SERIAL,
     blocks,
@@ -56,7 +57,7 @@ from .claims import (
     new_owner,
 )
 from .contacts import add_event, queue_scan
-from .events import run_events, run_events_inline
+from .events import run_cluster
 from .heap import new_heap, push, reserve
 from .jit import kernel
 from .structs import FLOAT, IC_PUSHED_INSIDE, N_ICOUNTERS, Counters, Phase
@@ -373,36 +374,42 @@ def _done(g, c, events, dropped, delta, vfast, fill0, fill, repaired):
 
 @kernel
 def _chunk(c0, c1, n, ph, cnt, sub, g, rec, lg, row0):
-    """Clusters [c0, c1) in turn, on one thread, by the event loop inlined
-    (``events.run_events``); their records in ``rec`` and their logs in ``lg`` (this chunk's
-    rows, the first of which are rows ``row0`` = (log, records) of all the chunks'). A
-    cluster that escapes its cells, or finds no room for its records or its log, is undone
-    (C_ESCAPED); one past the budget or at a release of internal energy is undone and stops
-    the chunk (``res[c, X_EVENTS]`` = -1)."""
+    """Clusters [c0, c1) in turn, on one thread (``events.run_cluster``); their records in
+    ``rec`` and their logs in ``lg`` (this chunk's rows, the first of which are rows ``row0``
+    = (log, records) of all the chunks'). A cluster that escapes its cells, or finds no
+    room for its records or its log, is undone (C_ESCAPED); one past the budget or at a
+    release of internal energy is undone and stops the chunk (``res[c, X_EVENTS]`` = -1);
+    one that fills the chunk's heap is undone and run again on a heap twice as large."""
     H = new_heap(256)
     cparent = np.empty(0, dtype=np.int64)
     fill = np.zeros(2, dtype=np.int64)
     for c in range(c0, c1):
-        H, size = _load(H, g.E, g.evs, g.ev_start[c], g.ev_start[c + 1])
         l0 = fill[0]
         r0 = fill[1]
-        cl = ClusterRun(c, False, g.own, g.base, g.ecl, g.evs[g.ev_start[c]], cparent, lg, rec,
-                        fill)
-        code, other, H, events, n_dead, delta, dropped, vfast, vrel, t_cut = run_events_inline(
-            H, size, n, ph, Counters(g.cicnt[c], cnt.fsum, cnt.ch_count, cnt.outflow), sub,
-            0.0, None, cl)
-        if code != R_OK:
+        while True:
+            H, size = _load(H, g.E, g.evs, g.ev_start[c], g.ev_start[c + 1])
+            cl = ClusterRun(c, False, g.own, g.base, g.ecl, g.evs[g.ev_start[c]], cparent, lg,
+                            rec, fill)
+            code, other, events, delta, dropped, vfast = run_cluster(
+                H, size, n, ph, Counters(g.cicnt[c], cnt.fsum, cnt.ch_count, cnt.outflow), sub,
+                cl)
+            if code == R_OK:
+                break
             _undo(lg, l0, fill[0], sub.h, ph.discs.pos, ph.discs.vel, ph.sc)
             fill[0] = l0
             fill[1] = r0
             g.cicnt[c, :] = 0
-            if code == R_SERIAL:
-                g.res[c, X_EVENTS] = -1
-                return
+            if code != R_HEAP:
+                break
+            H = reserve(H, 0, 2 * H.shape[0])
+        if code == R_OK:
+            _done(g, c, events, dropped, delta, vfast, (l0 + row0[0], r0 + row0[1]),
+                  (fill[0] + row0[0], fill[1] + row0[1]), 0)
+        elif code == R_SERIAL:
+            g.res[c, X_EVENTS] = -1
+            return
+        else:
             g.status[c] = C_ESCAPED
-            continue
-        _done(g, c, events, dropped, delta, vfast, (l0 + row0[0], r0 + row0[1]),
-              (fill[0] + row0[0], fill[1] + row0[1]), 0)
 
 
 @kernel(parallel=True)
@@ -490,9 +497,9 @@ def _repair(ncl, n, ph, cnt, sub, g, lg):
             r0 = fill[1]
             cl = ClusterRun(gid, True, g.own, g.base, g.ecl, g.evs[g.ev_start[gid]], cparent,
                             lg2, rec2, fill)
-            code, other, H, events, n_dead, delta, dropped, vfast, vrel, t_cut = run_events(
+            code, other, events, delta, dropped, vfast = run_cluster(
                 H, size, n, ph, Counters(g.cicnt[gid], cnt.fsum, cnt.ch_count, cnt.outflow),
-                sub, 0.0, None, cl)
+                sub, cl)
             if code == R_OK:
                 _done(g, gid, events, dropped, delta, vfast, (l0, r0), (fill[0], fill[1]), 1)
                 break
@@ -504,6 +511,9 @@ def _repair(ncl, n, ph, cnt, sub, g, lg):
             g.cicnt[gid, :] = 0
             if code == R_SERIAL:
                 return False, rec2, lg2
+            if code == R_HEAP:  # a larger heap, and again
+                H = reserve(H, 0, 2 * H.shape[0])
+                continue
             if code == R_FULL:  # room for more records and log, and again
                 if r1 + 64 >= rec2.shape[0]:
                     rec2 = _grown(rec2, r0)

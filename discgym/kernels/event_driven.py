@@ -316,9 +316,10 @@ def _first_predictions(n, fl, cells, queue, run, tables, rng, stats):
 @kernel(_nrt=False)
 def _predict_all(n, fl, cells, queue, run):
     """Every disc's first event (without reference counting: see :func:`_event_loop`)."""
+    full = np.int64(0)  # (not the literal 0: numba would compile predict for it too)
     for d in range(n):
         if fl.species[d] >= 0:
-            predict(d, 0.0, fl, cells, queue, run, 0)
+            predict(d, 0.0, fl, cells, queue, run, full)
 
 
 @kernel(_nrt=False)

@@ -179,7 +179,7 @@ def _bounce(i, j, t, k, fl, run, tables, rng, counters):
             next_reaction(j, t, fl, tables, rng, False, 0.0)
 
 
-@njit(cache=True, inline="always")
+@kernel(_nrt=False, inline_code=True)  # (see _event_loop)
 def collision(i, j, t, fl, cells, queue, run, tables, rng, counters):
     """Disc i (at t) meets disc j: a reaction or a bounce, unless round-off made the contact
     tangential. Returns the partner to predict afresh (-1: it combined away)."""
@@ -296,7 +296,7 @@ def _specular_hit(d, axis, fl, run, fsum):
     fsum[FS_WALL_MOMENTUM] += 2.0 * W[d, PM] * vn
 
 
-@njit(cache=True, inline="always")
+@kernel(_nrt=False, inline_code=True)  # (see _event_loop)
 def wall_event(d, fl, cells, queue, run, tables, counters, rng):
     """Disc d at the wall contact of its event: out through an outlet (``run.outlets``,
     ``tables.outlets``) or reflected, off a thermal side (``run.thermal``, ``run.walls``: kT

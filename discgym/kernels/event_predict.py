@@ -243,7 +243,7 @@ def _earliest_contact(d, T, W, cells, span, best, code, aux):
     return best, code, aux
 
 
-@njit(cache=True, inline="always")
+@kernel(_nrt=False, inline_code=True)  # (see _event_loop)
 def predict(d, T, fl, cells, queue, run, entered):
     """Find disc d's earliest event after T (d must be at time T: ``path[d, PT] == T``),
     store it in ``event[d, NEXT_*]`` and in the heap.

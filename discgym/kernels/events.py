@@ -41,10 +41,11 @@ and the run stops (``code``) where the cluster must be undone or left to the ser
 import math
 
 import numpy as np
-from numba import njit
+from numba import njit, types
+from numba.extending import overload
 
 from .celllist import cell_range, overlaps_any
-from .claims import R_FULL, R_OK, R_SERIAL, check_cells
+from .claims import R_FULL, R_HEAP, R_OK, R_SERIAL, check_cells
 from .collisions import bounce, normal_at, pair_time
 from .contacts import queue_scan, try_pair
 from .heap import pop, push, reserve
@@ -181,19 +182,40 @@ def schedule(d, discs, sp_radius, bounds, tlast, stamp, search, H, size, icnt, c
     moved inside first. Room is reserved first (one wall event plus every disc searched), so
     the loops never reallocate the heap.
 
-    For a cluster (``cl``) the cells searched must be the cluster's (or claimed for it):
-    returns ``(code, other, H, size)``, code R_ESCAPE or R_CONFLICT (``other``: the cluster
-    reached) before anything is queued, else R_OK. (Two kernels that allocate nothing, so
-    count no references, around the one step that may, the heap's growth; they take the
-    arrays they read, not the Phase: a call passes every array of its structs.)"""
+    For a cluster (``cl``) the cells searched must be the cluster's (or claimed for it), and
+    its heap is never grown (:func:`run_cluster` allocates nothing): returns ``(code, other,
+    H, size)``, code R_ESCAPE or R_CONFLICT (``other``: the cluster reached) or R_HEAP (no
+    room in the heap) before anything is queued, else R_OK. (Two kernels that allocate
+    nothing, so count no references, around the one step that may, the heap's growth; they
+    take the arrays they read, not the Phase: a call passes every array of its structs.)"""
     code, other, need, t = _search_room(d, discs, sp_radius, bounds, search, icnt, cl)
     if code != R_OK:
         return code, other, H, size
-    H = reserve(H, size, need)
+    room, H = room_for(H, size, need, cl)
+    if not room:
+        return R_HEAP, -1, H, size
     return R_OK, -1, H, _queue_next(d, t, discs, sp_radius, tlast, stamp, search, H, size, icnt)
 
 
-@kernel(_nrt=False)
+def room_for(H, size, need, cl):
+    """``(room, H)``: whether the heap ``H[0:size]`` has room for ``need`` more events, and
+    the heap. The serial phase's (``cl`` None) grows it; a cluster's is never grown (its
+    run allocates nothing), so the branch is chosen by type, where numba compiles it."""
+    if cl is None:
+        return True, reserve(H, size, need)
+    return size + need <= H.shape[0], H
+
+
+@overload(room_for, inline="always")
+def _room_for_typed(H, size, need, cl):
+    # (numba does not prune an inlined function's `cl is None` by the type of cl: a cluster's
+    # run would still type reserve's allocation, which a kernel without NRT cannot)
+    if isinstance(cl, types.NoneType):
+        return lambda H, size, need, cl: (True, reserve(H, size, need))
+    return lambda H, size, need, cl: (size + need <= H.shape[0], H)
+
+
+@kernel(_nrt=False, inline_code=True)
 def _search_room(d, discs, sp_radius, bounds, search, icnt, cl):
     """:func:`schedule`'s first half: disc d's wall contact time t (d moved inside first if
     it overlaps a wall moving inward), the cluster's check of the cells searched, and the
@@ -221,7 +243,7 @@ def _search_room(d, discs, sp_radius, bounds, search, icnt, cl):
     return R_OK, -1, np.int64(need), t
 
 
-@kernel(_nrt=False)
+@kernel(_nrt=False, inline_code=True)
 def _queue_next(d, t, discs, sp_radius, tlast, stamp, search, H, size, icnt):
     """:func:`schedule`'s second half, the room reserved: queue disc d's wall contact (at
     ``t``) and its contacts with the discs searched. Returns the heap's new size."""
@@ -403,10 +425,22 @@ def run_events_py(H, size, n, ph, cnt, sub, vfast, rng, cl):
     return R_OK, -1, H, events, n_dead, delta, dropped, vfast, vrel, t_cut
 
 
-#: The event loop as a kernel (the serial phase, a cluster's repair) and inlined (into the
-#: loop over a chunk's clusters, where a call per cluster would reference-count its arrays)
+#: The event loop of the serial phase (``cl`` None), as a kernel
 run_events = kernel(run_events_py)
-run_events_inline = njit(cache=True, inline="always")(run_events_py)
+
+
+@kernel(_nrt=False)  # (allocates nothing: no reference counts, per cluster, of its arrays)
+def run_cluster(H, size, n, ph, cnt, sub, cl):
+    """A cluster's run of the event loop (:func:`run_events_py` inlined, for ``cl``, on the
+    heap ``H[0:size]``, which it never grows: R_HEAP when it has no room left; the caller
+    undoes the run, grows the heap and runs the cluster again). Returns ``(code, other,
+    events, delta, dropped, vfast)``."""
+    code, other, _H, events, _n_dead, delta, dropped, vfast, _vrel, _t_cut = _run_inline(
+        H, size, n, ph, cnt, sub, 0.0, None, cl)
+    return code, other, events, delta, dropped, vfast
+
+
+_run_inline = njit(cache=True, inline="always")(run_events_py)
 
 
 @njit(cache=True, inline="always")
@@ -415,7 +449,7 @@ def _moved(i, pos, binx, biny):
     return math.hypot(pos[i, 0] - binx[i], pos[i, 1] - biny[i])
 
 
-@kernel(_nrt=False)  # (allocates nothing: no reference counts of the phase's arrays)
+@kernel(_nrt=False, inline_code=True)  # (allocates nothing: no reference counts)
 def collide_pair(i, j, t, discs, tables, bounds, marks, rc, cnt, sub, search, cl):
     """Discs i and j meet at t: a reactive collision if the scene has their channel, the
     energy along the line of centres pays for it and the products fit (``reach``: of the
@@ -497,7 +531,7 @@ def collide_pair(i, j, t, discs, tables, bounds, marks, rc, cnt, sub, search, cl
     return what, dead
 
 
-@kernel(_nrt=False)  # (allocates nothing: no reference counts of the phase's arrays)
+@kernel(_nrt=False, inline_code=True)  # (allocates nothing: no reference counts)
 def wall_event(i, t, ph, cnt, n, reach, H, size, vfast, rng, cl):
     """Disc i meets the wall (if it still does at its queued time t): reflect it, settle it
     inside, and on a circle let a grazing disc glide through its chords in closed form
@@ -558,7 +592,7 @@ def wall_event(i, t, ph, cnt, n, reach, H, size, vfast, rng, cl):
     return what, t_end
 
 
-@kernel(_nrt=False)  # (allocates nothing: no reference counts of the phase's arrays)
+@kernel(_nrt=False, inline_code=True)  # (allocates nothing: no reference counts)
 def _wall_exchange(i, tw, axis, ph, cnt, rng):
     """Disc i at the wall at tw, where the scene has outlets or thermal sides: through an
     outlet it leaves (species -1, placed where it left; removed at the end of the substep;
@@ -596,7 +630,7 @@ def _wall_exchange(i, tw, axis, ph, cnt, rng):
     return W_REFLECTED
 
 
-@kernel(_nrt=False)  # (allocates nothing)
+@kernel(_nrt=False, inline_code=True)  # (allocates nothing)
 def glide(i, tw, T, chord, ph, search, cnt):
     """Disc i, just reflected at (xc, yc) at time tw, grazes the circle wall so closely that
     more than GLIDE_CHORDS chords ``(tau, psi, vn)`` fit in the time T it glides (``chord``:

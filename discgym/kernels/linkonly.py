@@ -146,6 +146,8 @@ class LinkOnlyLibrary(JITCodeLibrary):
     link_only = False
     #: Whether it is optimised (-O3) before it is linked (``kernel(optimise=True)``).
     optimise = False
+    #: Whether its functions are inlined into their callers (``kernel(inline_code=True)``).
+    inline_code = False
 
     def finalize(self):
         require_global_compiler_lock()
@@ -165,6 +167,13 @@ class LinkOnlyLibrary(JITCodeLibrary):
         self._finalize_dynamic_globals()
         self._define_environments()
         self._finalized = True
+
+    def add_ir_module(self, ir_module):
+        if self.inline_code:  # (LLVM's inliner, run by the entry points, then inlines them)
+            for fn in ir_module.functions:
+                if not fn.is_declaration and not fn.name.startswith(_PYTHON_ENTRY):
+                    fn.attributes.add("alwaysinline")
+        return super().add_ir_module(ir_module)
 
     def _define_environments(self):
         """Define in the engine the environment globals this module uses that it does not
@@ -232,8 +241,9 @@ class _KernelCompiler(Compiler):
             if self.state.library is None:  # (the kernel's own library: numba's, made here)
                 self.state.library = codegen.create_library(self.state.func_id.func_qualname)
                 self.state.library.enable_object_caching()
-                self.state.library.optimise = getattr(self.state.func_id.func,
-                                                      "_discgym_optimise", False)
+                func = self.state.func_id.func
+                self.state.library.optimise = getattr(func, "_discgym_optimise", False)
+                self.state.library.inline_code = getattr(func, "_discgym_inline_code", False)
             return super()._compile_core()
 
 
@@ -300,9 +310,12 @@ class KernelDispatcher(CPUDispatcher):
         self._cache = _KernelCache(self.py_func)
 
 
-def make_kernel(f, options: dict, optimise: bool) -> KernelDispatcher:
-    """The kernel of ``f`` (``options``: numba's jit options, without wrappers)."""
+def make_kernel(f, options: dict, optimise: bool, inline_code: bool = False
+                ) -> KernelDispatcher:
+    """The kernel of ``f`` (``options``: numba's jit options, without wrappers; ``optimise``,
+    ``inline_code``: :func:`.jit.kernel`'s)."""
     f._discgym_optimise = bool(optimise)
+    f._discgym_inline_code = bool(inline_code)
     disp = KernelDispatcher(py_func=f, locals=options.pop("locals", {}), targetoptions=options,
                             pipeline_class=_KernelCompiler)
     disp.enable_caching()
