@@ -60,7 +60,7 @@ from .contacts import add_event, queue_scan
 from .events import run_cluster
 from .heap import new_heap, push, reserve
 from .jit import kernel
-from .structs import FLOAT, IC_PUSHED_INSIDE, N_ICOUNTERS, Counters, Phase
+from .structs import FLOAT, IC_PUSHED_INSIDE, N_ICOUNTERS, ClusterRun, Phase
 
 __all__ = ["ClusterRun", "eligible", "events", "new_owner"]
 
@@ -84,21 +84,6 @@ class Groups(NamedTuple):
     res: np.ndarray  #: (ncl, 7) int64 what a cluster's run did (X_* columns)
     resf: np.ndarray  #: (ncl, 2) FLOAT its largest displacement and speed
     cicnt: np.ndarray  #: (ncl, N_ICOUNTERS) its integer counts
-
-
-class ClusterRun(NamedTuple):
-    """One cluster's run of the event loop (``events.run_events``'s ``cl``)."""
-
-    cid: int  #: the cluster
-    dynamic: bool  #: claims free cells as it goes (the repair), else confined to its own
-    own: np.ndarray  #: the owner blocks
-    base: int
-    ecl: np.ndarray  #: event q's cluster
-    rep: int  #: the event free blocks are claimed for
-    cparent: np.ndarray  #: the merged clusters (union-find; the repair's)
-    lg: np.ndarray  #: (rows, 5) FLOAT the log: disc, velocity, stamp, lastcol
-    rec: np.ndarray  #: (rows, 5) FLOAT the float terms: t, i, j, which sum, value
-    fill: np.ndarray  #: (2,) int64 rows of ``lg`` and ``rec`` used
 
 
 @kernel
@@ -356,20 +341,20 @@ X_EVENTS, X_DROPPED, X_REC_LO, X_REC_HI, X_LOG_LO, X_LOG_HI, X_REPAIRED = range(
 
 
 @njit(cache=True, inline="always")
-def _done(g, c, events, dropped, delta, vfast, fill0, fill, repaired):
-    """Note what cluster c's run did (``fill0``, ``fill``: its first and its end rows of
-    the log and of the records, ``(log, records)``; ``repaired``: in the repair's
-    buffers)."""
-    g.status[c] = C_DONE
-    g.res[c, X_EVENTS] = events
-    g.res[c, X_DROPPED] = 1 if dropped else 0
-    g.res[c, X_REC_LO] = fill0[1]
-    g.res[c, X_REC_HI] = fill[1]
-    g.res[c, X_LOG_LO] = fill0[0]
-    g.res[c, X_LOG_HI] = fill[0]
-    g.res[c, X_REPAIRED] = repaired
-    g.resf[c, 0] = delta
-    g.resf[c, 1] = vfast
+def _done(status, res, resf, c, events, dropped, delta, vfast, fill0, fill, repaired):
+    """Note what cluster c's run did (``status``, ``res``, ``resf``: the
+    :class:`Clusters`'; ``fill0``, ``fill``: its first and its end rows of the log and of
+    the records, ``(log, records)``; ``repaired``: in the repair's buffers)."""
+    status[c] = C_DONE
+    res[c, X_EVENTS] = events
+    res[c, X_DROPPED] = 1 if dropped else 0
+    res[c, X_REC_LO] = fill0[1]
+    res[c, X_REC_HI] = fill[1]
+    res[c, X_LOG_LO] = fill0[0]
+    res[c, X_LOG_HI] = fill[0]
+    res[c, X_REPAIRED] = repaired
+    resf[c, 0] = delta
+    resf[c, 1] = vfast
 
 
 @kernel
@@ -381,35 +366,37 @@ def _chunk(c0, c1, n, ph, cnt, sub, g, rec, lg, row0):
     release of internal energy is undone and stops the chunk (``res[c, X_EVENTS]`` = -1);
     one that fills the chunk's heap is undone and run again on a heap twice as large."""
     H = new_heap(256)
-    cparent = np.empty(0, dtype=np.int64)
     fill = np.zeros(2, dtype=np.int64)
+    # (the arrays read out of the structs once: a read per cluster would count references)
+    E, evs, ev_start, cicnt = g.E, g.evs, g.ev_start, g.cicnt
+    status, res, resf = g.status, g.res, g.resf
+    pos, vel, sc = ph.discs.pos, ph.discs.vel, ph.sc
+    cl = ClusterRun(-1, False, g.own, g.base, g.ecl, -1, np.empty(0, dtype=np.int64), lg, rec,
+                    fill)
     for c in range(c0, c1):
         l0 = fill[0]
         r0 = fill[1]
         while True:
-            H, size = _load(H, g.E, g.evs, g.ev_start[c], g.ev_start[c + 1])
-            cl = ClusterRun(c, False, g.own, g.base, g.ecl, g.evs[g.ev_start[c]], cparent, lg,
-                            rec, fill)
+            H, size = _load(H, E, evs, ev_start[c], ev_start[c + 1])
             code, other, events, delta, dropped, vfast = run_cluster(
-                H, size, n, ph, Counters(g.cicnt[c], cnt.fsum, cnt.ch_count, cnt.outflow), sub,
-                cl)
+                H, size, n, ph, cnt, sub, cl, c, evs[ev_start[c]], cicnt)
             if code == R_OK:
                 break
-            _undo(lg, l0, fill[0], sub.h, ph.discs.pos, ph.discs.vel, ph.sc)
+            _undo(lg, l0, fill[0], sub.h, pos, vel, sc)
             fill[0] = l0
             fill[1] = r0
-            g.cicnt[c, :] = 0
+            cicnt[c, :] = 0
             if code != R_HEAP:
                 break
             H = reserve(H, 0, 2 * H.shape[0])
         if code == R_OK:
-            _done(g, c, events, dropped, delta, vfast, (l0 + row0[0], r0 + row0[1]),
-                  (fill[0] + row0[0], fill[1] + row0[1]), 0)
+            _done(status, res, resf, c, events, dropped, delta, vfast,
+                  (l0 + row0[0], r0 + row0[1]), (fill[0] + row0[0], fill[1] + row0[1]), 0)
         elif code == R_SERIAL:
-            g.res[c, X_EVENTS] = -1
+            res[c, X_EVENTS] = -1
             return
         else:
-            g.status[c] = C_ESCAPED
+            status[c] = C_ESCAPED
 
 
 @kernel(parallel=True)
@@ -495,13 +482,12 @@ def _repair(ncl, n, ph, cnt, sub, g, lg):
             g.cicnt[gid, :] = 0
             l0 = fill[0]
             r0 = fill[1]
-            cl = ClusterRun(gid, True, g.own, g.base, g.ecl, g.evs[g.ev_start[gid]], cparent,
-                            lg2, rec2, fill)
+            cl = ClusterRun(gid, True, g.own, g.base, g.ecl, -1, cparent, lg2, rec2, fill)
             code, other, events, delta, dropped, vfast = run_cluster(
-                H, size, n, ph, Counters(g.cicnt[gid], cnt.fsum, cnt.ch_count, cnt.outflow),
-                sub, cl)
+                H, size, n, ph, cnt, sub, cl, gid, g.evs[g.ev_start[gid]], g.cicnt)
             if code == R_OK:
-                _done(g, gid, events, dropped, delta, vfast, (l0, r0), (fill[0], fill[1]), 1)
+                _done(g.status, g.res, g.resf, gid, events, dropped, delta, vfast, (l0, r0),
+                      (fill[0], fill[1]), 1)
                 break
             l1 = fill[0]
             r1 = fill[1]

@@ -71,6 +71,8 @@ from .structs import (
     IC_PUSHED_INSIDE,
     IC_REACTIVE,
     IC_WALL_HITS,
+    ClusterRun,
+    Counters,
     Marks,
     Search,
 )
@@ -430,13 +432,19 @@ run_events = kernel(run_events_py)
 
 
 @kernel(_nrt=False)  # (allocates nothing: no reference counts, per cluster, of its arrays)
-def run_cluster(H, size, n, ph, cnt, sub, cl):
-    """A cluster's run of the event loop (:func:`run_events_py` inlined, for ``cl``, on the
-    heap ``H[0:size]``, which it never grows: R_HEAP when it has no room left; the caller
-    undoes the run, grows the heap and runs the cluster again). Returns ``(code, other,
-    events, delta, dropped, vfast)``."""
+def run_cluster(H, size, n, ph, cnt, sub, cl, cid, rep, cicnt):
+    """Cluster ``cid``'s run of the event loop (:func:`run_events_py` inlined, on the heap
+    ``H[0:size]``, which it never grows: R_HEAP when it has no room left; the caller undoes
+    the run, grows the heap and runs the cluster again). ``cl``: the chunk's
+    :class:`~.structs.ClusterRun`, whose ``cid`` and ``rep`` (the event free blocks are
+    claimed for) are this cluster's here; its counts go to ``cicnt[cid]``, ``cnt``'s
+    others. Returns ``(code, other, events, delta, dropped, vfast)``."""
+    # (the cluster's structs made here, where counting no references makes them free)
+    mine = ClusterRun(cid, cl.dynamic, cl.own, cl.base, cl.ecl, rep, cl.cparent, cl.lg,
+                      cl.rec, cl.fill)
     code, other, _H, events, _n_dead, delta, dropped, vfast, _vrel, _t_cut = _run_inline(
-        H, size, n, ph, cnt, sub, 0.0, None, cl)
+        H, size, n, ph, Counters(cicnt[cid], cnt.fsum, cnt.ch_count, cnt.outflow), sub, 0.0,
+        None, mine)
     return code, other, events, delta, dropped, vfast
 
 

@@ -232,6 +232,22 @@ class Phase(NamedTuple):
     rc: RunConsts
 
 
+class ClusterRun(NamedTuple):
+    """One cluster's run of the event loop (``events.run_cluster``, ``cl``; the
+    clusters of ``kernels.clusters``)."""
+
+    cid: int  #: the cluster
+    dynamic: bool  #: claims free cells as it goes (the repair), else confined to its own
+    own: np.ndarray  #: the owner blocks
+    base: int
+    ecl: np.ndarray  #: event q's cluster
+    rep: int  #: the event free blocks are claimed for
+    cparent: np.ndarray  #: the merged clusters (union-find; the repair's)
+    lg: np.ndarray  #: (rows, 5) FLOAT the log: disc, velocity, stamp, lastcol
+    rec: np.ndarray  #: (rows, 5) FLOAT the float terms: t, i, j, which sum, value
+    fill: np.ndarray  #: (2,) int64 rows of ``lg`` and ``rec`` used
+
+
 class Substep(NamedTuple):
     """One substep's constants, as its event phase reads them."""
 
