@@ -403,3 +403,18 @@ def test_ladder_table_summarises_the_ladders_of_the_docs(tmp_path, capsys):
     with pytest.raises(SystemExit) as e:
         ladder.main(["--table", str(bad)])
     assert e.value.code == 2 and "not a ladder's JSON" in capsys.readouterr().err
+
+
+def test_ab_step_times_two_checkouts_and_refuses_bad_arguments(capsys):
+    import ab_step
+
+    assert ab_step.main([str(ROOT), str(ROOT), "--cases", "serial", "--rounds", "1",
+                         "--reps", "1"]) == 0
+    out = capsys.readouterr().out
+    assert "round 1: serial " in out and "| serial |" in out and "new / old median" in out
+    with pytest.raises(SystemExit):
+        ab_step.main([str(ROOT), str(ROOT), "--cases", "serial,nope"])
+    assert "unknown ['nope']" in capsys.readouterr().err
+    with pytest.raises(SystemExit):
+        ab_step.main([str(BENCHMARKS), str(ROOT)])
+    assert "not a discgym checkout" in capsys.readouterr().err
