@@ -16,7 +16,6 @@ from collections.abc import Callable, Mapping
 
 import numba
 import numpy as np
-from numba import typed
 
 from .compiled import CIRCLE, compile_scene, kernel_bounds, kernel_walls
 from .kernels import controls as _controls
@@ -33,6 +32,7 @@ from .kernels.structs import (
     Bounds,
     Discs,
     Injection,
+    generator_list,
     speed_limit,
 )
 from .scene import (
@@ -286,7 +286,7 @@ class Simulation:
         ``numba.typed.List`` (same object, same state): far cheaper to pass than the
         generator itself (see ``kernels.step.advance_rngs``)."""
         self._rng = generator
-        self._rngs = typed.List([generator])
+        self._rngs = generator_list([generator])
 
     def _reserve(self, extra: int) -> None:
         need = self._n + extra
@@ -806,8 +806,9 @@ class Simulation:
         if not math.isfinite(factor) or factor < 0:
             raise ValueError(f"scale_temperature(factor): need a finite factor >= 0, got "
                              f"{factor}")
-        f, energy, fastest = _controls.heat(self._vel, self._species, self._cs.sp_mass,
-                                            self._n, factor, self.speed_limit, False)
+        f, energy, fastest = _controls.heat_entry(self._vel, self._species,
+                                                  self._cs.sp_mass, self._n, factor,
+                                                  self.speed_limit, False)
         if math.isnan(f):
             raise ValueError(self._too_fast(fastest, f"scale_temperature({factor})"))
         self._energy_input += energy
@@ -855,7 +856,7 @@ class Simulation:
             targets[:] = xy
         self._reserve(n)
         rng_state = self._rng.bit_generator.state
-        placed, energy, fastest = _controls.inject(
+        placed, energy, fastest = _controls.inject_entry(
             self._discs(), self._n, Injection(s, targets, temperature if given else math.nan),
             self.scene.temperature, self.speed_limit, self._cs.tables,
             Bounds(self._bounds_kind, self._bounds_params, self._walls), self._rngs, 0,
@@ -881,10 +882,10 @@ class Simulation:
         _event_fit(self._integrator, self.scene, bounds)
         kind, params = kernel_bounds(bounds)
         rng_state = self._rng.bit_generator.state
-        done, failed = _controls.resize(self._discs(), self._n, self._cs.sp_radius,
-                                        Bounds(kind, params, self._walls), bounds.max_radius(),
-                                        bounds.area, HEX_PACKING, self._rngs, 0,
-                                        PLACEMENT_ATTEMPTS)
+        done, failed = _controls.resize_entry(self._discs(), self._n, self._cs.sp_radius,
+                                              Bounds(kind, params, self._walls),
+                                              bounds.max_radius(), bounds.area, HEX_PACKING,
+                                              self._rngs, 0, PLACEMENT_ATTEMPTS)
         if done == _controls.RESIZED:
             self._bounds, self._bounds_kind, self._bounds_params = bounds, kind, params
             self._bounds_serial += 1

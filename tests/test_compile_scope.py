@@ -63,23 +63,25 @@ for info in pkgutil.iter_modules(kernels.__path__):
             for cres in fn.overloads.values():
                 (linked if is_linked_only(cres) else machine).append(
                     (f"{info.name}.{name}", is_kernel(fn)))
+everything = sorted({getattr(ev.data['dispatcher'], 'py_func', ev.data['dispatcher']).__qualname__
+                     for _, ev in rec.buffer if ev.is_start})
 print(json.dumps({"compiled": compiled, "linked": linked, "machine": machine,
-                  "signatures": signatures, "obs": obs}))
+                  "signatures": signatures, "obs": obs, "everything": everything}))
 """
 
 
-def _children(*integrators, helper=()):
-    """Run CHILD for each integrator, each in a fresh cache, without a compile helper (for
-    those in ``helper``, under ``<integrator>+helper``: a second child with one)."""
+def _children(tmp_path, *integrators, helper=(), cache=None):
+    """Run CHILD for each integrator, each in a fresh cache under ``tmp_path`` (or in
+    ``cache``), without a compile helper (for those in ``helper``, under
+    ``<integrator>+helper``: a second child with one)."""
     procs = {}
     for integrator, with_helper in [(i, False) for i in integrators] + [(i, True)
                                                                          for i in helper]:
-        import tempfile
-
-        cache = tempfile.mkdtemp(prefix="discgym-cache-")
-        env = dict(os.environ, NUMBA_CACHE_DIR=cache, DISCGYM_COMPILE_NOTICE="0",
+        name = integrator + "+helper" * with_helper
+        folder = cache or tmp_path / f"cache-{name}"
+        env = dict(os.environ, NUMBA_CACHE_DIR=str(folder), DISCGYM_COMPILE_NOTICE="0",
                    DISCGYM_COMPILE_HELPER="1" if with_helper else "0")
-        procs[integrator + "+helper" * with_helper] = subprocess.Popen(
+        procs[name] = subprocess.Popen(
             [sys.executable, "-c", CHILD, integrator], env=env, stdout=subprocess.PIPE,
             stderr=subprocess.PIPE, text=True)
     out = {}
@@ -91,8 +93,8 @@ def _children(*integrators, helper=()):
 
 
 @pytest.mark.slow
-def test_each_env_compiles_its_own_integrator_and_links_its_kernels():
-    got = _children("step", "event", "simulation", helper=["step"])
+def test_each_env_compiles_its_own_integrator_and_links_its_kernels(tmp_path):
+    got = _children(tmp_path, "step", "event", "simulation", helper=["step"])
     stepped, exact, simulation = got["step"], got["event"], got["simulation"]
     # the stepped env: nothing of the exact integrator
     assert not [f for f in stepped["compiled"] if f.startswith("discgym.kernels.event_driven")]
@@ -129,6 +131,10 @@ def test_each_env_compiles_its_own_integrator_and_links_its_kernels():
     # by the helper
     helped = got["step+helper"]
     assert helped["obs"] == stepped["obs"]
+    # a process whose cache holds the kernels compiles nothing, not even numba's typed list
+    # of the generators (kernels.structs.generator_list), and steps the same
+    warm = _children(tmp_path, "step", cache=tmp_path / "cache-step")["step"]
+    assert warm["everything"] == [] and warm["obs"] == stepped["obs"]
     if plans and helper.enabled():
         first = max(plans["env-step"], key=lambda k: k[2])[0]
         assert first in stepped["compiled"] and first not in helped["compiled"]

@@ -253,22 +253,27 @@ def test_lean_meminfos_finds_what_numba_finds_from_less_ir(monkeypatch):
 
 
 @linked_only
-def test_lean_meminfos_stand_in_only_while_a_discgym_function_compiles():
-    """numba's own method is in place outside discgym's compiles: a function of another
-    package is compiled as numba compiles it."""
+def test_lean_meminfos_and_lock_callbacks_only_while_a_discgym_function_compiles():
+    """numba's own method and llvmlite's lock callbacks (numba's ``numba:llvm_lock``
+    events) are in place outside discgym's compiles: a function of another package is
+    compiled as numba compiles it, and both are back after a discgym compile, failed or
+    not."""
+    from llvmlite.binding import ffi
     from numba import njit
     from numba.core import event
     from numba.core.runtime.context import NRTContext
 
     from discgym.kernels import linkonly
 
-    if not linkonly.LEAN_MEMINFOS:
-        pytest.skip(f"numba {numba.__version__}'s get_meminfos is its own here")
-    seen = {}
+    assert linkonly._LLVM_LOCK is not None, "llvmlite's lock is not the one linkonly knows"
+    callbacks = list(ffi.lib._lock._cblist)
+    assert callbacks  # (numba registers its llvm_lock events)
+    seen, lock_events = {}, []
 
     class Spy(event.Listener):  # (registered after linkonly's: sees what it put in place)
         def on_start(self, ev):
-            seen[ev.data["dispatcher"].py_func.__module__] = NRTContext.get_meminfos
+            seen[ev.data["dispatcher"].py_func.__module__] = (NRTContext.get_meminfos,
+                                                             list(ffi.lib._lock._cblist))
 
         def on_end(self, ev):
             pass
@@ -276,10 +281,21 @@ def test_lean_meminfos_stand_in_only_while_a_discgym_function_compiles():
     def probe(x):
         return x + 1
 
-    with event.install_listener("numba:compile", Spy()):
+    def bad(x):
+        return undefined_name + x  # noqa: F821
+
+    with event.install_listener("numba:compile", Spy()), \
+            event.install_recorder("numba:llvm_lock") as rec:
         for module in ("some_other_package", "discgym.kernels.probe"):
             probe.__module__ = module
             assert njit(probe)(1) == 2
-    assert seen == {"some_other_package": linkonly.numba_get_meminfos,
-                    "discgym.kernels.probe": linkonly._lean_meminfos}
+            lock_events.append(len(rec.buffer))
+        bad.__module__ = "discgym.kernels.probe"
+        with pytest.raises(numba.core.errors.TypingError):
+            njit(bad)(1)
+    lean = linkonly._lean_meminfos if linkonly.LEAN_MEMINFOS else linkonly.numba_get_meminfos
+    assert seen == {"some_other_package": (linkonly.numba_get_meminfos, callbacks),
+                    "discgym.kernels.probe": (lean, [])}
+    assert lock_events[0] > 0 and lock_events[1] == lock_events[0]  # (none from discgym's)
     assert NRTContext.get_meminfos is linkonly.numba_get_meminfos
+    assert ffi.lib._lock._cblist == callbacks

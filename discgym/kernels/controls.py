@@ -69,7 +69,7 @@ def scale(vel, n, s):
         vel[i, 1] *= s
 
 
-@njit(cache=True)
+@kernel
 def heat(vel, species, sp_mass, n, factor, speed_limit, clip):
     """Multiply the kinetic energy of discs [0, n) by ``factor`` >= 0 (their velocities by
     its square root).
@@ -97,7 +97,7 @@ def heat(vel, species, sp_mass, n, factor, speed_limit, clip):
     return factor, ke1 - ke0, fastest
 
 
-@njit(cache=True)
+@kernel
 def resize(discs, n, sp_radius, bounds, fit_radius, area, packing, rngs, r, attempts):
     """Put discs [0, n) of ``discs`` (a :class:`~discgym.kernels.structs.Discs`) into new
     ``bounds`` (a :class:`~discgym.kernels.structs.Bounds`) whose largest disc radius is
@@ -132,7 +132,7 @@ def resize(discs, n, sp_radius, bounds, fit_radius, area, packing, rngs, r, atte
     return (NO_ROOM, failed) if failed else (RESIZED, 0)
 
 
-@njit(cache=True)
+@kernel
 def inject(discs, n, what, temperature_if_empty, speed_limit, tables, bounds, rngs, r,
            attempts):
     """Add up to ``len(what.targets)`` discs of species ``what.species`` (an
@@ -186,6 +186,29 @@ def inject(discs, n, what, temperature_if_empty, speed_limit, tables, bounds, rn
     discs.next_id[0] = k0 + placed
     ke, ui, fo = energies(vel, species, internal_energy, sp_mass, sp_form, n + placed)
     return placed, ke + ui + fo - e0, fastest
+
+
+# -- the entry points Simulation's controls call from Python (an env's step links the kernels
+#    above into its own, so its first compile emits no machine code of theirs)
+
+@njit(cache=True)
+def heat_entry(vel, species, sp_mass, n, factor, speed_limit, clip):
+    """:func:`heat`, called from Python."""
+    return heat(vel, species, sp_mass, n, factor, speed_limit, clip)
+
+
+@njit(cache=True)
+def resize_entry(discs, n, sp_radius, bounds, fit_radius, area, packing, rngs, r, attempts):
+    """:func:`resize`, called from Python."""
+    return resize(discs, n, sp_radius, bounds, fit_radius, area, packing, rngs, r, attempts)
+
+
+@njit(cache=True)
+def inject_entry(discs, n, what, temperature_if_empty, speed_limit, tables, bounds, rngs, r,
+                 attempts):
+    """:func:`inject`, called from Python."""
+    return inject(discs, n, what, temperature_if_empty, speed_limit, tables, bounds, rngs, r,
+                  attempts)
 
 
 @njit(cache=True)

@@ -49,6 +49,7 @@ from pathlib import Path
 
 import llvmlite.binding as ll
 import llvmlite.ir as llvmir
+from llvmlite.binding import ffi
 from numba.core import cgutils, event, sigutils
 from numba.core.caching import CompileResultCacheImpl, FunctionCache
 from numba.core.codegen import JITCodeLibrary
@@ -106,19 +107,29 @@ LEAN_MEMINFOS = _source_hash(numba_get_meminfos) == _NUMBA_GET_MEMINFOS
 
 
 class _LeanWhileCompiling(event.Listener):
-    """Puts :func:`_lean_meminfos` in place from the start of the compile of a discgym
-    function to its end (everything numba compiles on the way included), numba's method
+    """From the start of the compile of a discgym function to its end (everything numba
+    compiles on the way included): :func:`_lean_meminfos` in place of numba's method, and
+    llvmlite's lock callbacks set aside (numba's, which broadcast a ``numba:llvm_lock``
+    event to every compile's timer at each of the some 100,000 calls into LLVM of a first
+    compile: about 2 % of its time, for a lock-time figure nothing reads). Both are put
     back afterwards."""
 
     def __init__(self):
         self.depth = 0
+        self.callbacks = []
 
     def on_start(self, ev):
         if self.depth == 0:
             f = getattr(ev.data.get("dispatcher"), "py_func", None)
             if not getattr(f, "__module__", "").startswith("discgym"):
                 return
-            NRTContext.get_meminfos = _lean_meminfos
+            if LEAN_MEMINFOS:
+                NRTContext.get_meminfos = _lean_meminfos
+            if _LLVM_LOCK is not None:
+                with _LLVM_LOCK._lock:  # (no call into LLVM between its callbacks meanwhile)
+                    self.callbacks = list(_LLVM_LOCK._cblist)
+                    for acquire, release in self.callbacks:
+                        ffi.unregister_lock_callback(acquire, release)
         self.depth += 1
 
     def on_end(self, ev):
@@ -126,11 +137,23 @@ class _LeanWhileCompiling(event.Listener):
             return
         self.depth -= 1
         if self.depth == 0:
-            NRTContext.get_meminfos = numba_get_meminfos
+            if LEAN_MEMINFOS:
+                NRTContext.get_meminfos = numba_get_meminfos
+            if _LLVM_LOCK is not None:
+                with _LLVM_LOCK._lock:
+                    for acquire, release in self.callbacks:
+                        ffi.register_lock_callback(acquire, release)
+                self.callbacks = []
 
 
-if LEAN_MEMINFOS:
-    event.register("numba:compile", _LeanWhileCompiling())
+#: llvmlite's lock around its calls into LLVM, whose callbacks :class:`_LeanWhileCompiling`
+#: sets aside (None if it is not the object this module knows: the callbacks then stay).
+_LLVM_LOCK = getattr(ffi.lib, "_lock", None)
+if not (isinstance(getattr(_LLVM_LOCK, "_cblist", None), list)
+        and hasattr(getattr(_LLVM_LOCK, "_lock", None), "acquire")):
+    _LLVM_LOCK = None
+
+event.register("numba:compile", _LeanWhileCompiling())
 
 
 # -- linked-only code libraries -----------------------------------------------------------

@@ -22,6 +22,7 @@ batch, C disc capacity per reactor, F feed species, D observation slots.
 from typing import NamedTuple
 
 import numpy as np
+from numba import njit, typed
 from numba.extending import register_jitable
 
 FLOAT = np.float64  #: positions, velocities, energies, times
@@ -379,3 +380,32 @@ def fields(discs):
 def capacity_for_discs(n: int) -> int:
     """The capacity that holds ``n`` discs and one fission of each (2 n, plus a margin)."""
     return 2 * n + 16
+
+
+# -- the random generators ----------------------------------------------------------------
+
+@njit(cache=True)
+def _list_of(generator):
+    out = typed.List()
+    out.append(generator)
+    return out
+
+
+@njit(cache=True)
+def _append(out, generator):
+    out.append(generator)
+
+
+def generator_list(generators) -> typed.List:
+    """The ``numpy.random.Generator`` s as the kernels take them: a ``numba.typed.List`` of
+    them (the same objects: a kernel's draws advance their state), one type whatever their
+    number. Built by two cached compiled functions: ``typed.List(generators)`` compiles
+    numba's list constructor and append again in every process (about 1 s, most of a
+    warm env's first step)."""
+    generators = list(generators)
+    if not generators:
+        raise ValueError("generator_list: no generators")
+    out = _list_of(generators[0])
+    for g in generators[1:]:
+        _append(out, g)
+    return out
