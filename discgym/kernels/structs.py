@@ -400,8 +400,8 @@ def generator_list(generators) -> typed.List:
     """The ``numpy.random.Generator`` s as the kernels take them: a ``numba.typed.List`` of
     them (the same objects: a kernel's draws advance their state), one type whatever their
     number. Built by two cached compiled functions: ``typed.List(generators)`` compiles
-    numba's list constructor and append again in every process (about 1 s, most of a
-    warm env's first step)."""
+    numba's list constructor and append again in every process (about 0.3 s, half of
+    a warm env's first step)."""
     generators = list(generators)
     if not generators:
         raise ValueError("generator_list: no generators")
