@@ -525,6 +525,39 @@ class ReactorConfig:
         """The normaliser of the reward: the initial count of the limiting feed species."""
         return float(max(min(int(counts[f]) for f in self.feed), 1))
 
+    def reset_row(self, ep: Episodes, r: int, sim: Simulation,
+                  np_random: np.random.Generator) -> None:
+        """The episode state of reactor ``r`` (row ``r`` of ``ep``) at the start of an
+        episode, ``sim`` the reactor :meth:`new_simulation` just drew from ``np_random``:
+        the one reset of the single and the vector env. Draws the inlet temperatures from
+        ``np_random`` (:meth:`draw_feed`); the observation and the product count come from
+        the observation that follows (:func:`observe`)."""
+        ep.steps[r] = 0
+        ep.size[r] = self.size_of(sim.bounds)
+        ep.feed_left[r] = self.feed_budget
+        ep.sp_form[r], ep.ch_rate[r], ep.ch_energy[r] = self.kinetics(sim.scene)
+        ep.ch_last[r] = 0
+        ep.out_last[r] = 0
+        ep.feed_kT[r], ep.feed_kT_next[r], ep.feed_switch[r] = self.draw_feed(np_random)
+        ep.n_init[r] = len(sim)
+        ep.n_ref[r] = self.n_ref(np.bincount(sim.species, minlength=self.n_species))
+
+    # ---------------------------------------------------------------- reward
+    def reward_terms(self, product, product_before, outflow, heat, injected, n_ref) -> tuple:
+        """``(gain, cost_heat, cost_feed, reward)`` of a step: the one reward of the single
+        env (floats) and the vector env (arrays (R,), the same expressions element-wise, so
+        the same bits). ``product`` and ``product_before`` the product count after and
+        before the step, ``outflow`` the product discs that left through the outlets
+        during it, ``heat`` the heat put in, ``injected`` the discs injected (all feed
+        species), ``n_ref`` :meth:`n_ref`."""
+        if self.reward == "outflow":
+            gain = outflow / n_ref
+        else:
+            gain = (product - product_before) / n_ref
+        cost_heat = self.heat_cost * abs(heat) / n_ref
+        cost_feed = self.feed_cost * injected / n_ref
+        return gain, cost_heat, cost_feed, gain - cost_heat - cost_feed
+
     # ---------------------------------------------------------------- info
     @cached_property
     def info_types(self) -> dict:
@@ -1289,18 +1322,9 @@ class DiscReactorEnv(gym.Env):
         super().reset(seed=seed)
         cfg = self.config
         self.simulation = sim = cfg.new_simulation(self.np_random)
-        self._steps[0] = 0
-        self._size[0] = cfg.size_of(sim.bounds)
-        self._feed_left[0] = cfg.feed_budget
-        self._sp_form[0], self._ch_rate[0], self._ch_energy[0] = cfg.kinetics(sim.scene)
-        self._ch_last[0] = 0
-        self._out_last[0] = 0
-        self._feed_kT[0], self._feed_kT_next[0], self._feed_switch[0] = \
-            cfg.draw_feed(self.np_random)
+        cfg.reset_row(self._ep, 0, sim, self.np_random)
         self._bind(sim)
-        self._n_init[0] = len(sim)
         counts = np.bincount(sim.species, minlength=cfg.n_species)
-        self._n_ref[0] = cfg.n_ref(counts)
         self._n_ref_now = float(self._n_ref[0])
         self._size_now = float(self._size[0])
         obs = self._observe()
@@ -1358,20 +1382,15 @@ class DiscReactorEnv(gym.Env):
         sim.book_env_step(n, self._ksteps.item(), self._step_k, self._step_dt,
                           fo[O_ENERGY_HEAT:], moved)
         self._temperature = temperature = self._temp.item()
-        # rewards: the same arithmetic, in the same order, as the vector env's
         F = self._n_feed
         injected = io[3:3 + F]
         heat = fo[O_HEAT]
         n_ref = self._n_ref_now
         counts = self._stats[0, :self._n_species].tolist()
         product = counts[cfg.product]
-        if cfg.reward == "outflow":
-            gain = float(self._out_last[0, cfg.product]) / n_ref
-        else:
-            gain = (product - self._product) / n_ref
-        cost_heat = cfg.heat_cost * abs(heat) / n_ref
-        cost_feed = cfg.feed_cost * float(sum(injected)) / n_ref
-        reward = gain - cost_heat - cost_feed
+        gain, cost_heat, cost_feed, reward = cfg.reward_terms(
+            product, self._product, float(self._out_last[0, cfg.product]), heat,
+            float(sum(injected)), n_ref)
         self._product = product
         truncated = self._steps.item() >= cfg.episode_steps
         info = cfg.info_values([int(c) for c in counts], int(product), product / n_ref, gain,

@@ -46,7 +46,6 @@ from gymnasium import error, logger
 from gymnasium.utils import seeding
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
-from numba import typed
 
 from .env import (
     DEFAULTS,
@@ -75,7 +74,7 @@ from .kernels.batch import (
     env_step,
     env_step_parallel,
 )
-from .kernels.structs import COUNT, FLOAT, INDEX, Episodes, Reactors
+from .kernels.structs import COUNT, FLOAT, INDEX, Episodes, Reactors, generator_list
 from .threads import ThreadChooser, numba_threads
 
 __all__ = ["DiscReactorVectorEnv"]
@@ -227,7 +226,7 @@ class DiscReactorVectorEnv(VectorEnv):
         kernels' structs and the typed list of generators (a numba object that does not
         pickle); rebuilt after unpickling."""
         R = self.num_envs
-        self._rngs = typed.List(self._gens)
+        self._rngs = generator_list(self._gens)
         self._views = [(self._pos[r], self._vel[r], self._species[r], self._internal_energy[r],
                         self._ids[r], self._idctr[r]) for r in range(R)]
         self._rx = Reactors(self._pos, self._vel, self._species, self._internal_energy,
@@ -302,6 +301,7 @@ class DiscReactorVectorEnv(VectorEnv):
         self._started = True
         self._autoreset[idx] = False
         self._observe_all()
+        self._product[idx] = self._stats[idx, self.config.product]
         return self._obs.copy(), self._reset_infos(mask)
 
     def _reset_infos(self, mask: np.ndarray) -> dict:
@@ -324,17 +324,7 @@ class DiscReactorVectorEnv(VectorEnv):
         self._bounds_seen[r] = sim.export_scalars(self._rx, r)
         self._cost[r] = n * cfg.steps_per_action  # (no history yet: one substep a step)
         self.simulations[r] = sim
-        self._steps[r] = 0
-        self._size[r] = cfg.size_of(sim.bounds)
-        self._feed_left[r] = cfg.feed_budget
-        self._sp_form[r], self._ch_rate[r], self._ch_energy[r] = cfg.kinetics(sim.scene)
-        self._ch_last[r] = 0
-        self._out_last[r] = 0
-        self._feed_kT[r], self._feed_kT_next[r], self._feed_switch[r] = \
-            cfg.draw_feed(self._np_randoms[r])
-        self._n_init[r] = n
-        self._n_ref[r] = cfg.n_ref(np.bincount(sim.species, minlength=cfg.n_species))
-        self._product[r] = np.count_nonzero(sim.species == cfg.product)
+        cfg.reset_row(self._ep, r, sim, self._np_randoms[r])
 
     def _observe_all(self) -> None:
         observe(self.config, self._rx, self._ep)
@@ -375,14 +365,9 @@ class DiscReactorVectorEnv(VectorEnv):
                 self._reset_one(r)
             self._observe_all()
         product = self._stats[:, cfg.product].copy()
-        # rewards: the same arithmetic, in the same order, as DiscReactorEnv.step
-        if cfg.reward == "outflow":
-            gain = self._out_last[:, cfg.product].astype(FLOAT) / self._n_ref
-        else:
-            gain = (product - self._product) / self._n_ref
-        cost_heat = cfg.heat_cost * np.abs(heat) / self._n_ref
-        cost_feed = cfg.feed_cost * injected.sum(axis=1).astype(FLOAT) / self._n_ref
-        rew = gain - cost_heat - cost_feed
+        gain, cost_heat, cost_feed, rew = cfg.reward_terms(
+            product, self._product, self._out_last[:, cfg.product].astype(FLOAT), heat,
+            injected.sum(axis=1).astype(FLOAT), self._n_ref)
         if any_reset:
             rew[resetting] = 0.0
             gain[resetting] = 0.0
