@@ -34,7 +34,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .env import DEFAULTS, ReactorConfig
+from .config import DEFAULTS, ReactorConfig
 from .kernels.structs import FLOAT
 from .vector import DiscReactorVectorEnv
 

@@ -23,7 +23,7 @@ import math
 
 import numpy as np
 
-from .env import ENV_ID, FLOAT_NORMAL_MIN
+from .config import ENV_ID, FLOAT_NORMAL_MIN
 from .tasks import TASKS, task_id
 
 __all__ = ["Thermostat", "AdaptiveThermostat", "BandThermostat",

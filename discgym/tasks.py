@@ -20,7 +20,8 @@ from __future__ import annotations
 
 import gymnasium as gym
 
-from .env import DEFAULTS, ENV_ID, DiscReactorEnv
+from .config import DEFAULTS, ENV_ID
+from .env import DiscReactorEnv
 from .vector import DiscReactorVectorEnv
 
 __all__ = [

@@ -47,21 +47,9 @@ from gymnasium.utils import seeding
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
-from .env import (
-    DEFAULTS,
-    MAX_RENDER_SIZE,
-    SLOT_BYTES_BATCH,
-    ReactorConfig,
-    _check_memory,
-    _whole,
-    as_actions,
-    check_keywords,
-    check_render_mode,
-    check_status,
-    integrator_changed,
-    observe,
-    with_config,
-)
+from .arguments import check_keywords, check_memory, check_render_mode, whole, with_config
+from .config import DEFAULTS, MAX_RENDER_SIZE, SLOT_BYTES_BATCH, ReactorConfig
+from .core import as_actions, check_status, integrator_changed, observe
 from .kernels import helper as compile_helper
 from .kernels import step as _step
 from .kernels.batch import (
@@ -133,13 +121,13 @@ class DiscReactorVectorEnv(VectorEnv):
                  autoreset_mode=AutoresetMode.NEXT_STEP, threads: int | None = None,
                  render_mode: str | None = None, render_size: int = 200, **kwargs):
         check_keywords(f"{type(self).__name__}.__init__", kwargs, self.defaults)
-        R = _whole(num_envs, "num_envs", 1)
+        R = whole(num_envs, "num_envs", 1)
         if max_episode_steps is not None:
-            max_episode_steps = _whole(max_episode_steps, "max_episode_steps", 1)
+            max_episode_steps = whole(max_episode_steps, "max_episode_steps", 1)
         self.autoreset_mode = _autoreset_mode(autoreset_mode)
         check_render_mode(render_mode, self.metadata["render_modes"])
-        self.render_size = _whole(render_size, "render_size", 1, MAX_RENDER_SIZE)
-        self.threads = None if threads is None else _whole(threads, "threads", 1)
+        self.render_size = whole(render_size, "render_size", 1, MAX_RENDER_SIZE)
+        self.threads = None if threads is None else whole(threads, "threads", 1)
         if max_episode_steps is not None and "episode_steps" not in kwargs:
             kwargs["episode_steps"] = max_episode_steps
             try:
@@ -152,7 +140,7 @@ class DiscReactorVectorEnv(VectorEnv):
         else:
             self.config = cfg = ReactorConfig.from_kwargs(self.defaults, **kwargs)
         compile_helper.expect(f"env-{cfg.integrator}")
-        _check_memory(R * (cfg.capacity * SLOT_BYTES_BATCH + 4096), "num_envs",
+        check_memory(R * (cfg.capacity * SLOT_BYTES_BATCH + 4096), "num_envs",
                       f"{R} reactors of capacity {cfg.capacity} discs")
         self.limit = cfg.episode_steps if max_episode_steps is None else \
             min(max_episode_steps, cfg.episode_steps)

@@ -25,7 +25,9 @@ import numpy as np
 import pytest
 
 import discgym  # noqa: F401  (registers the tasks)
+from discgym.arguments import env_scene as _scene
 from discgym.baselines import HeuristicPolicy, reactor_heuristic, reactor_oracle_candidates
+from discgym.config import FLOAT_NORMAL_MIN, HEAT_RATE_MAX
 from discgym.controllers import (
     AdaptiveThermostat,
     BandThermostat,
@@ -34,7 +36,7 @@ from discgym.controllers import (
     Thermostat,
     flow_thermostat,
 )
-from discgym.env import FLOAT_NORMAL_MIN, HEAT_RATE_MAX, DiscReactorEnv, _scene
+from discgym.env import DiscReactorEnv
 from discgym.oracle import RolloutOracle
 
 TINY = FLOAT_NORMAL_MIN  # 2.2250738585072014e-308

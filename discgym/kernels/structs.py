@@ -327,7 +327,7 @@ class Episodes(NamedTuple):
 
 
 class ReactorConsts(NamedTuple):
-    """The constants of a reactor environment (:attr:`discgym.env.ReactorConfig.consts`)."""
+    """The constants of a reactor environment (:attr:`discgym.config.ReactorConfig.consts`)."""
 
     heat_rate: float  #: kinetic energy x heat_rate ** a at heat action a
     t_min: float  #: kT the heat control keeps within [t_min, t_max]
