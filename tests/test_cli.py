@@ -80,7 +80,7 @@ def test_compile_refuses_unknown_env_ids_before_compiling(capsys, monkeypatch):
     def boom(*a):
         raise AssertionError("compiled before refusing")
 
-    monkeypatch.setattr(cli, "_warm", boom)
+    monkeypatch.setattr(cli.compile, "_warm", boom)
     assert cli.main(["compile", "--env", "DiscReactor-v0", "--env", "NoSuch-v9"]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "unknown env id 'NoSuch-v9'" in err
@@ -267,7 +267,7 @@ def test_resume_refuses_conflicting_options_and_bad_files(tmp_path, capsys):
     assert "--resume" in capsys.readouterr().err
     real = tmp_path / "real.pkl"
     real.write_bytes(pickle.dumps(dg.Simulation(MINI, seed=0)))
-    if cli._integrator_supported():
+    if cli.integrator_supported():
         assert cli.main(["run", "--resume", str(real), "--time", "1", "--integrator",
                          "event"]) == 2
         assert "runs the 'step' integrator" in capsys.readouterr().err
@@ -381,7 +381,7 @@ def test_integrator_switch(tmp_path, capsys):
     capsys.readouterr()
     code = cli.main(argv + ["--integrator", "event"])
     err = capsys.readouterr().err
-    if cli._integrator_supported():
+    if cli.integrator_supported():
         assert code == 0, err
         _, cols = read_csv(path)
         assert cols["time"][-1] == pytest.approx(0.2)
