@@ -241,34 +241,8 @@ class ReactorConfig:
         o.update(kw)
         scene = env_scene(o["scene"])
         names = scene.species_names
-        S = len(names)
-
         product, feed = _product_and_feed(scene, o)
-
-        cj = real(o["count_jitter"], "count_jitter", 0.0, 1.0, hi_open=True)
-        tj = real(o["temperature_jitter"], "temperature_jitter", 0.0, 1.0, hi_open=True)
-        template = np.array([scene.counts.get(nm, 0) for nm in names], dtype=np.int64)
-        if template.sum() == 0:
-            raise ValueError("scene: the scene has no initial contents (counts; n_discs "
-                             "only rescales them)")
-        n_discs = o["n_discs"]
-        if n_discs is not None:
-            n_discs = whole(n_discs, "n_discs", 1)
-            # (before the float arithmetic of the rescaling: no more than the densest packing
-            # of the smallest discs present could hold)
-            r_small = min(scene.species[k].radius for k in range(S) if template[k])
-            if n_discs > HEX_PACKING * scene.bounds.area / (math.pi * r_small * r_small):
-                raise ValueError(
-                    f"n_discs: {n_discs} discs cannot fit in the scene's bounds "
-                    f"{scene.bounds} (more than the densest packing of its smallest discs)")
-            template = np.round(template * (n_discs / template.sum())).astype(np.int64)
-            if template.sum() == 0:
-                raise ValueError(f"n_discs: {n_discs} disc(s) spread over the scene's counts "
-                                 f"{dict(scene.counts)} round to none")
-        # the largest contents a reset can draw must fit (the placement of Simulation)
-        most = [int(math.floor(t * (1.0 + cj) + 0.5)) for t in template]
-        check_placeable(scene, most, "n_discs" if n_discs is not None else "count_jitter")
-
+        cj, tj, template, n_discs, most = _contents(scene, o)
         episode_steps = whole(o["episode_steps"], "episode_steps", 1)
         spa = steps_per_action(o["step_time"], scene.dt)
         if spa > INT_MAX // episode_steps:
@@ -280,23 +254,7 @@ class ReactorConfig:
                           why="the factor at action -1, 1 / heat_rate, must be a normal "
                               "float64")
         t_min, t_max = pair(o["temperature_range"], "temperature_range")
-        size_min, size_max = pair(o["size_range"], "size_range")
-        if not size_min <= 1.0 <= size_max:
-            raise ValueError(f"size_range: must contain 1 (the scene's size, at which every "
-                             f"episode starts), got {o['size_range']!r}")
-        if size_max > _FLOAT32_MAX:
-            raise ValueError(f"size_range: the high end {size_max} is beyond float32 (the "
-                             "observation's dtype)")
-        for s in (size_min, size_max):
-            try:
-                b = bounds_of(scene, s)
-                # the sizes the compiled wall reaches must be bounds a simulation can hold
-                check_bounds_scale(b, scene.species, "bounds", "species")
-            except SceneError as e:
-                raise ValueError(f"size_range: the reactor at size {s} is not valid bounds: "
-                                 f"{e}") from None
-            if not math.isfinite(b.area):
-                raise ValueError(f"size_range: the reactor at size {s} has an infinite area")
+        size_min, size_max = _size_range(scene, o)
         wall_speed = real(o["wall_speed"], "wall_speed", 0.0)
         inject_max = whole(o["inject_max"], "inject_max", 0, FLOAT_EXACT,
                             "2**53: round(a * inject_max) is computed in float64")
@@ -331,26 +289,7 @@ class ReactorConfig:
         rj = real(o["reverse_jitter"], "reverse_jitter", 0.0, 3.0,
                    why="a factor of 10 ** 3 either way")
         fj = real(o["formation_jitter"], "formation_jitter", 0.0, 1e3)
-        heating = choice(o["heating"], "heating", HEATINGS)
-        if heating == "jacket":
-            if not scene.thermal_walls:
-                raise ValueError("heating: 'jacket' sets the temperature of the scene's thermal "
-                                 "walls, and the scene has none (Scene(thermal_walls=...))")
-            if t_max > scene.max_wall_temperature():
-                raise ValueError(
-                    f"temperature_range: with heating='jacket' the high end {t_max} is a wall "
-                    f"temperature, above the hottest a thermal wall of this scene may be "
-                    f"({scene.max_wall_temperature():.4g})")
-            if not math.isfinite(t_max / t_min):
-                raise ValueError(
-                    f"temperature_range: with heating='jacket' the jacket is set to low x "
-                    f"(high / low) ** ((a + 1) / 2), and high / low = {t_max} / {t_min} "
-                    f"overflows float64 (need high / low <= {sys.float_info.max!r})")
-            if t_max > _FLOAT32_MAX:
-                raise ValueError(
-                    f"temperature_range: with heating='jacket' the high end {t_max} is the "
-                    f"bound of the jacket_kT observation, beyond float32 (the observation's "
-                    f"dtype)")
+        heating = _heating(scene, o, t_min, t_max)
         reward = choice(o["reward"], "reward", REWARDS)
         if reward == "outflow" and not scene.outlets:
             raise ValueError("reward: 'outflow' rewards the product leaving through the scene's "
@@ -604,6 +543,87 @@ class ReactorConfig:
             f"env's wall sets the {length} of the scene's {ref} to size x the scene's, the "
             f"size within size_range ({self.size_min:g}, {self.size_max:g}), and cannot take "
             "these bounds over; resize to such bounds, set a state with them, or reset")
+
+
+def _contents(scene: Scene, o: dict) -> tuple:
+    """``(count_jitter, temperature_jitter, template, n_discs, most)``: the initial contents
+    (the scene's counts, rescaled to ``n_discs``) and the largest a reset can draw, checked
+    to be placeable."""
+    names = scene.species_names
+    S = len(names)
+    cj = real(o["count_jitter"], "count_jitter", 0.0, 1.0, hi_open=True)
+    tj = real(o["temperature_jitter"], "temperature_jitter", 0.0, 1.0, hi_open=True)
+    template = np.array([scene.counts.get(nm, 0) for nm in names], dtype=np.int64)
+    if template.sum() == 0:
+        raise ValueError("scene: the scene has no initial contents (counts; n_discs "
+                         "only rescales them)")
+    n_discs = o["n_discs"]
+    if n_discs is not None:
+        n_discs = whole(n_discs, "n_discs", 1)
+        # (before the float arithmetic of the rescaling: no more than the densest packing
+        # of the smallest discs present could hold)
+        r_small = min(scene.species[k].radius for k in range(S) if template[k])
+        if n_discs > HEX_PACKING * scene.bounds.area / (math.pi * r_small * r_small):
+            raise ValueError(
+                f"n_discs: {n_discs} discs cannot fit in the scene's bounds "
+                f"{scene.bounds} (more than the densest packing of its smallest discs)")
+        template = np.round(template * (n_discs / template.sum())).astype(np.int64)
+        if template.sum() == 0:
+            raise ValueError(f"n_discs: {n_discs} disc(s) spread over the scene's counts "
+                             f"{dict(scene.counts)} round to none")
+    # the largest contents a reset can draw must fit (the placement of Simulation)
+    most = [int(math.floor(t * (1.0 + cj) + 0.5)) for t in template]
+    check_placeable(scene, most, "n_discs" if n_discs is not None else "count_jitter")
+
+    return cj, tj, template, n_discs, most
+
+
+def _size_range(scene: Scene, o: dict) -> tuple[float, float]:
+    """``size_range``, checked: it contains 1, and the reactor at each end is valid bounds."""
+    size_min, size_max = pair(o["size_range"], "size_range")
+    if not size_min <= 1.0 <= size_max:
+        raise ValueError(f"size_range: must contain 1 (the scene's size, at which every "
+                         f"episode starts), got {o['size_range']!r}")
+    if size_max > _FLOAT32_MAX:
+        raise ValueError(f"size_range: the high end {size_max} is beyond float32 (the "
+                         "observation's dtype)")
+    for s in (size_min, size_max):
+        try:
+            b = bounds_of(scene, s)
+            # the sizes the compiled wall reaches must be bounds a simulation can hold
+            check_bounds_scale(b, scene.species, "bounds", "species")
+        except SceneError as e:
+            raise ValueError(f"size_range: the reactor at size {s} is not valid bounds: "
+                             f"{e}") from None
+        if not math.isfinite(b.area):
+            raise ValueError(f"size_range: the reactor at size {s} has an infinite area")
+    return size_min, size_max
+
+
+def _heating(scene: Scene, o: dict, t_min: float, t_max: float) -> str:
+    """``heating``, checked against the scene (a jacket needs thermal walls) and
+    ``temperature_range`` (a jacket's range must be wall temperatures it can map)."""
+    heating = choice(o["heating"], "heating", HEATINGS)
+    if heating == "jacket":
+        if not scene.thermal_walls:
+            raise ValueError("heating: 'jacket' sets the temperature of the scene's thermal "
+                             "walls, and the scene has none (Scene(thermal_walls=...))")
+        if t_max > scene.max_wall_temperature():
+            raise ValueError(
+                f"temperature_range: with heating='jacket' the high end {t_max} is a wall "
+                f"temperature, above the hottest a thermal wall of this scene may be "
+                f"({scene.max_wall_temperature():.4g})")
+        if not math.isfinite(t_max / t_min):
+            raise ValueError(
+                f"temperature_range: with heating='jacket' the jacket is set to low x "
+                f"(high / low) ** ((a + 1) / 2), and high / low = {t_max} / {t_min} "
+                f"overflows float64 (need high / low <= {sys.float_info.max!r})")
+        if t_max > _FLOAT32_MAX:
+            raise ValueError(
+                f"temperature_range: with heating='jacket' the high end {t_max} is the "
+                f"bound of the jacket_kT observation, beyond float32 (the observation's "
+                f"dtype)")
+    return heating
 
 
 def _product_and_feed(scene: Scene, o: dict) -> tuple[int, tuple]:
