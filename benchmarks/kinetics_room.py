@@ -42,7 +42,7 @@ import numpy as np
 
 import discgym  # noqa: F401  (registers the tasks)
 from discgym.baselines import paired_difference
-from discgym.controllers import AdaptiveThermostat, Thermostat, _Slots
+from discgym.controllers import AdaptiveThermostat, Slots, Thermostat
 
 ENV_ID = "DiscKinetics-v0"
 #: The first version's hand-picked AdaptiveThermostat settings (its defaults until 2026-12-02).
@@ -63,7 +63,7 @@ def episode(seed: int, make_policy, episode_steps=None):
     kw = {} if episode_steps is None else {"episode_steps": episode_steps}
     env = gym.make(ENV_ID, **kw)
     obs, _ = env.reset(seed=seed)
-    s, slots = activation_factor(env), _Slots(env)
+    s, slots = activation_factor(env), Slots(env)
     policy = make_policy(env, s)
     total, temps = 0.0, []
     done = False

@@ -18,7 +18,7 @@ from .scene import (
     Circle,
     Scene,
 )
-from .simulation import _as_scene, _event_fit, _inside
+from .simulation import as_scene, discs_inside, event_fit
 
 #: The kernels count steps (and discs) in int64.
 INT_MAX = 2**63 - 1
@@ -159,7 +159,7 @@ def env_scene(scene) -> Scene:
         raise TypeError(f"scene: expected a Scene, a built-in scene name or a TOML path, got "
                         f"{scene!r}")
     try:
-        return _as_scene(scene)
+        return as_scene(scene)
     except OSError as e:
         raise type(e)(f"scene: cannot read {scene!r}: {e.strerror or e}") from None
 
@@ -192,11 +192,11 @@ def check_event_fit(scene: Scene, size_min: float) -> None:
     the scene's bounds and the reactor at ``size_range``'s low end are the ones to check: no
     wall move can then reach bounds the integrator refuses."""
     try:
-        _event_fit("event", scene, scene.bounds)
+        event_fit("event", scene, scene.bounds)
     except ValueError as e:
         raise ValueError(f"integrator: 'event' cannot run the scene's bounds: {e}") from None
     try:
-        _event_fit("event", scene, bounds_of(scene, size_min))
+        event_fit("event", scene, bounds_of(scene, size_min))
     except ValueError as e:
         raise ValueError(f"size_range: with integrator='event' the reactor at size {size_min} "
                          f"(the low end, the narrowest the wall can make it) is refused: "
@@ -227,7 +227,7 @@ def lattice_sites(bounds, radius: float) -> int:
     sites[:, :, 1] = ys[:, None]
     sites = sites.reshape(-1, 2)
     bounds_kind, bounds_params = kernel_bounds(bounds)
-    return int(_inside(sites, np.full(len(sites), r), bounds_kind, bounds_params).sum())
+    return int(discs_inside(sites, np.full(len(sites), r), bounds_kind, bounds_params).sum())
 
 
 def check_placeable(scene: Scene, most: list, name: str) -> None:

@@ -53,7 +53,7 @@ def check_observation(obs, names, batch: bool = False) -> np.ndarray:
     return o
 
 
-class _Slots:
+class Slots:
     """Observation slots by name, and the env's heating law.
 
     The heat action that multiplies kT by a factor f is ``log(f) / log(heat_rate)``; at
@@ -116,7 +116,7 @@ class Thermostat:
 
     def __init__(self, env, *, t_hot=1.8, t_cold=1.6, switch_yield=0.2, wall=-1.0,
                  inject=1.0):
-        self.s = _Slots(env)
+        self.s = Slots(env)
         self.t_hot, self.t_cold, self.switch_yield = t_hot, t_cold, switch_yield
         self.wall, self.inject = wall, inject
         self.reset()
@@ -195,7 +195,7 @@ class AdaptiveThermostat:
     def __init__(self, env, *, main="A + B -> C", loss="C + A -> W + B", product="C",
                  reactant="B", t_start=1.2, t_low=0.8, t_high=4.0, step=1.03, memory=0.8,
                  x_target=0.08, band=1.1, min_rate=0.005, wall=-1.0, inject=1.0):
-        self.s = _Slots(env)
+        self.s = Slots(env)
         self.i_main = self.s.index(f"reactions[{main}]", "main")
         self.i_loss = self.s.index(f"reactions[{loss}]", "loss")
         self.i_c = self.s.index(f"fraction_{product}", "product")
@@ -246,7 +246,7 @@ class BandThermostat:
 
     def __init__(self, env, *, t_low=1.0, t_high=2.0, margin=0.0, wall=-1.0, inject=1.0,
                  feed_until=0.6):
-        self.s = _Slots(env)
+        self.s = Slots(env)
         self.t_low, self.t_high, self.margin = t_low, t_high, margin
         self.wall, self.inject, self.feed_until = wall, inject, feed_until
 
@@ -288,7 +288,7 @@ class JacketThermostat:
 
     def __init__(self, env, *, t_hot=1.6, t_cold=1.4, switch_yield=0.2, gain=4.0,
                  damping=0.0, wall=-1.0, inject=1.0):
-        self.s = _Slots(env)
+        self.s = Slots(env)
         u = getattr(env, "unwrapped", env)
         self.t_min, self.t_max = u.config.t_min, u.config.t_max
         self.t_hot, self.t_cold, self.switch_yield = t_hot, t_cold, switch_yield
@@ -427,7 +427,7 @@ class SetpointActions:
         if isinstance(span, bool) or not isinstance(span, (int, float)) \
                 or not 1.0 < float(span) < math.inf:
             raise ValueError(f"span: expected a factor > 1, got {span!r}")
-        self.s = _Slots(env)
+        self.s = Slots(env)
         self.hold = int(hold)
         self.kT_low, self.kT_high = float(kT_low), float(kT_high)
         self.average = None if average is None else float(average)

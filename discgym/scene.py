@@ -93,7 +93,7 @@ def plain(value):
     return value
 
 
-def _finite(name: str, value, *, positive=False, nonneg=False, lo=None, hi=None,
+def finite_value(name: str, value, *, positive=False, nonneg=False, lo=None, hi=None,
             scale=False, energy=False) -> float:
     """``value`` as a float, checked: a real number (not a bool), finite, and the given
     bounds; ``scale`` and ``energy``: see :func:`check_magnitude`."""
@@ -138,7 +138,7 @@ def _point(name: str, value) -> tuple[float, float]:
         x, y = value
     except (TypeError, ValueError):
         raise SceneError(name, f"expected a pair of numbers, got {value!r}") from None
-    return (_finite(f"{name}[0]", x), _finite(f"{name}[1]", y))
+    return (finite_value(f"{name}[0]", x), finite_value(f"{name}[1]", y))
 
 
 def _name(name: str, value) -> str:
@@ -169,9 +169,9 @@ class Species:
         _set(
             self,
             name=_name("name", self.name),
-            radius=_finite("radius", self.radius, positive=True),
-            mass=_finite("mass", self.mass, positive=True),
-            formation_energy=_finite("formation_energy", self.formation_energy),
+            radius=finite_value("radius", self.radius, positive=True),
+            mass=finite_value("mass", self.mass, positive=True),
+            formation_energy=finite_value("formation_energy", self.formation_energy),
         )
 
 
@@ -188,8 +188,8 @@ class Box:
     def __post_init__(self):
         _set(
             self,
-            width=_finite("width", self.width, positive=True),
-            height=_finite("height", self.height, positive=True),
+            width=finite_value("width", self.width, positive=True),
+            height=finite_value("height", self.height, positive=True),
             origin=_point("origin", self.origin),
         )
         size = max(self.width, self.height)
@@ -230,7 +230,7 @@ class Circle:
     def __post_init__(self):
         _set(
             self,
-            radius=_finite("radius", self.radius, positive=True),
+            radius=finite_value("radius", self.radius, positive=True),
             center=_point("center", self.center),
         )
         if max(abs(self.center[0]), abs(self.center[1])) > MAX_OFFSET_RATIO * 2 * self.radius:
@@ -279,7 +279,7 @@ class Transformation:
     kind = "transformation"
 
     def __post_init__(self):
-        _set(self, probability=_finite("probability", self.probability, lo=0.0, hi=1.0))
+        _set(self, probability=finite_value("probability", self.probability, lo=0.0, hi=1.0))
 
     @property
     def reactants(self) -> tuple[str, ...]:
@@ -310,7 +310,7 @@ class Decomposition:
     kind = "decomposition"
 
     def __post_init__(self):
-        _set(self, probability=_finite("probability", self.probability, lo=0.0, hi=1.0))
+        _set(self, probability=finite_value("probability", self.probability, lo=0.0, hi=1.0))
 
     @property
     def reactants(self) -> tuple[str, ...]:
@@ -346,8 +346,10 @@ class Combination:
     def __post_init__(self):
         _set(
             self,
-            activation_energy=_finite("activation_energy", self.activation_energy, nonneg=True),
-            reverse_probability=_finite(
+            activation_energy=finite_value(
+                "activation_energy", self.activation_energy, nonneg=True
+            ),
+            reverse_probability=finite_value(
                 "reverse_probability", self.reverse_probability, lo=0.0, hi=1.0
             ),
         )
@@ -383,7 +385,9 @@ class Exchange:
     def __post_init__(self):
         _set(
             self,
-            activation_energy=_finite("activation_energy", self.activation_energy, nonneg=True),
+            activation_energy=finite_value(
+                "activation_energy", self.activation_energy, nonneg=True
+            ),
         )
 
     @property
@@ -441,7 +445,7 @@ class ThermalWall:
 
     def __post_init__(self):
         _set(self, side=_side("side", self.side),
-             temperature=_finite("temperature", self.temperature, positive=True, energy=True))
+             temperature=finite_value("temperature", self.temperature, positive=True, energy=True))
 
 
 @dataclass(frozen=True)
@@ -457,8 +461,8 @@ class Outlet:
 
     def __post_init__(self):
         _set(self, side=_side("side", self.side),
-             start=_finite("start", self.start, lo=0.0, hi=1.0),
-             end=_finite("end", self.end, lo=0.0, hi=1.0))
+             start=finite_value("start", self.start, lo=0.0, hi=1.0),
+             end=finite_value("end", self.end, lo=0.0, hi=1.0))
         if not self.start < self.end:
             raise SceneError("end", f"must exceed start ({self.start}), got {self.end}")
 
@@ -577,13 +581,13 @@ class Scene:
             species=species,
             reactions=reactions,
             counts=counts,
-            restitution=_finite("restitution", self.restitution, lo=0.0, hi=1.0),
-            dt=_finite("dt", self.dt, positive=True, scale=True),
-            internal_relaxation=_finite(
+            restitution=finite_value("restitution", self.restitution, lo=0.0, hi=1.0),
+            dt=finite_value("dt", self.dt, positive=True, scale=True),
+            internal_relaxation=finite_value(
                 "internal_relaxation", self.internal_relaxation, lo=0.0, hi=1.0
             ),
-            max_displacement=_finite("max_displacement", self.max_displacement, positive=True),
-            temperature=_finite("temperature", self.temperature, nonneg=True, energy=True),
+            max_displacement=finite_value("max_displacement", self.max_displacement, positive=True),
+            temperature=finite_value("temperature", self.temperature, nonneg=True, energy=True),
         )
         if self.max_displacement > 1.0:
             raise SceneError(
@@ -612,7 +616,7 @@ class Scene:
             where = f"thermal_walls[{k}]"
             if not isinstance(w, ThermalWall):
                 raise SceneError(where, f"expected ThermalWall, got {w!r}")
-            _check_side(where, w.side, sides, self.bounds.kind)
+            check_side(where, w.side, sides, self.bounds.kind)
             if w.side in seen:
                 raise SceneError(f"{where}.side", f"{w.side!r} is already thermal_walls"
                                  f"[{seen[w.side]}]")
@@ -624,7 +628,7 @@ class Scene:
             where = f"outlets[{k}]"
             if not isinstance(o, Outlet):
                 raise SceneError(where, f"expected Outlet, got {o!r}")
-            _check_side(where, o.side, sides, self.bounds.kind)
+            check_side(where, o.side, sides, self.bounds.kind)
             for q, (a, b) in spans.get(o.side, {}).items():
                 if o.start < b and a < o.end:
                     raise SceneError(f"{where}.start", f"[{o.start}, {o.end}] overlaps outlets"
@@ -778,7 +782,7 @@ def too_hot_for_walls(kT: float, t_max: float) -> str:
             "must stay within it); lower the temperature or dt")
 
 
-def _check_side(where: str, side: str, sides, kind: str) -> None:
+def check_side(where: str, side: str, sides, kind: str) -> None:
     """A thermal wall's or outlet's side must be one the bounds have."""
     if side not in sides:
         raise SceneError(f"{where}.side", f"{side!r} is not a side of a {kind} (its sides: "

@@ -44,7 +44,7 @@ from collections.abc import Mapping, Sequence
 
 import numpy as np
 
-from .controllers import _Slots
+from .controllers import Slots
 from .tasks import task_id
 
 __all__ = ["ScheduleController", "SETPOINT_KNOTS", "WALL_KNOTS", "SEARCHED", "searched",
@@ -91,7 +91,7 @@ class ScheduleController:
     setpoint_scale = 1.0
 
     def __init__(self, env, **params):
-        self.s = _Slots(env)
+        self.s = Slots(env)
         u = getattr(env, "unwrapped", env)
         cfg = u.config
         names = self.names(env)
@@ -118,7 +118,7 @@ class ScheduleController:
     @staticmethod
     def names(env) -> list[str]:
         """The names of the env's parameter vector, in order."""
-        s = _Slots(env)
+        s = Slots(env)
         u = getattr(env, "unwrapped", env)
         names = [f"setpoint_{k}" for k in range(len(SETPOINT_KNOTS))]
         names += [f"wall_{k}" for k in range(len(WALL_KNOTS))]

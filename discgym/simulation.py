@@ -42,9 +42,9 @@ from .scene import (
     Circle,
     Scene,
     SceneError,
-    _check_side,
-    _finite,
     check_bounds_scale,
+    check_side,
+    finite_value,
     plain,
     sides_of,
     too_hot_for_walls,
@@ -110,14 +110,14 @@ class Simulation:
     def __init__(self, scene: Scene | str, counts: Mapping[str, int] | None = None,
                  temperature: float | None = None, seed=None, integrator: str = "step"):
         integrator = _integrator_name(integrator)
-        scene = _as_scene(scene)
+        scene = as_scene(scene)
         # validated by the scene model's own rules (errors name the offending field)
         counts = validated_counts(scene.bounds, {s.name: s for s in scene.species},
                                   scene.counts if counts is None else counts)
-        temperature = _finite("temperature", scene.temperature if temperature is None
+        temperature = finite_value("temperature", scene.temperature if temperature is None
                               else temperature, nonneg=True, energy=True)
         self._setup(scene, seed)
-        self._integrator = _event_fit(integrator, scene, scene.bounds)
+        self._integrator = event_fit(integrator, scene, scene.bounds)
         todo = np.concatenate([np.full(c, scene.species_index(nm), dtype=INDEX)
                                for nm, c in counts.items()] + [np.zeros(0, INDEX)])
         # random order, then largest discs first (random sequential addition packs far
@@ -193,10 +193,10 @@ class Simulation:
         :class:`Simulation`.
         """
         integrator = _integrator_name(integrator)
-        scene = _as_scene(scene)
+        scene = as_scene(scene)
         self = cls.__new__(cls)
         self._setup(scene, seed)
-        self._integrator = _event_fit(integrator, scene, scene.bounds)
+        self._integrator = event_fit(integrator, scene, scene.bounds)
         pos = np.asarray(positions, dtype=FLOAT)
         vel = np.asarray(velocities, dtype=FLOAT)
         n = len(pos)
@@ -334,7 +334,7 @@ class Simulation:
         ys = np.arange(y0 + rmax, y1 - rmax + 1e-12, a * math.sqrt(3) / 2)
         sites = np.array([(x + (0.5 * a if k % 2 else 0.0), y) for k, y in enumerate(ys)
                           for x in xs]).reshape(-1, 2)
-        sites = sites[_inside(sites, np.full(len(sites), rmax), self._bounds_kind,
+        sites = sites[discs_inside(sites, np.full(len(sites), rmax), self._bounds_kind,
                               self._bounds_params)]
         if len(sites) < len(todo):
             raise PlacementError(
@@ -792,7 +792,7 @@ class Simulation:
         if not math.isfinite(tol):
             raise ValueError(f"outside(tol): need a finite tolerance, got {tol}")
         r = self.radii * (1.0 - tol)
-        inside = _inside(self._pos[: self._n], r, self._bounds_kind, self._bounds_params)
+        inside = discs_inside(self._pos[: self._n], r, self._bounds_kind, self._bounds_params)
         return int((~inside).sum())
 
     # ------------------------------------------------------------------ controls
@@ -879,7 +879,7 @@ class Simulation:
             check_sides(self.scene, bounds)
         except SceneError as exc:
             raise ValueError(f"resize(bounds): {exc}") from None
-        _event_fit(self._integrator, self.scene, bounds)
+        event_fit(self._integrator, self.scene, bounds)
         kind, params = kernel_bounds(bounds)
         rng_state = self._rng.bit_generator.state
         done, failed = _controls.resize_entry(self._discs(), self._n, self._cs.sp_radius,
@@ -1084,13 +1084,13 @@ class Simulation:
         # relations between keys
         pos, vel = s["positions"], s["velocities"]
         r = cs.sp_radius[s["species"]]
-        out = np.flatnonzero(~_inside(pos, r, s["bounds_kind"], s["bounds_params"]))
+        out = np.flatnonzero(~discs_inside(pos, r, s["bounds_kind"], s["bounds_params"]))
         if len(out):
             k = out[0]
             raise _state_error("positions", f"has disc {k} (radius {r[k]}) at {pos[k]}, not "
                                f"inside state['bounds'] = {bounds}")
         try:
-            _event_fit(integrator, self.scene, bounds)
+            event_fit(integrator, self.scene, bounds)
         except ValueError as exc:
             raise _state_error("bounds", f"with state['integrator'] = {integrator!r}: "
                                f"{exc}") from None
@@ -1375,7 +1375,7 @@ def _real(what: str, value) -> float:
         return math.inf if value > 0 else -math.inf
 
 
-def _inside(pos: np.ndarray, r: np.ndarray, kind: int, params: np.ndarray) -> np.ndarray:
+def discs_inside(pos: np.ndarray, r: np.ndarray, kind: int, params: np.ndarray) -> np.ndarray:
     if kind == CIRCLE:
         d2 = (pos[:, 0] - params[0]) ** 2 + (pos[:, 1] - params[1]) ** 2
         L = params[2] - r
@@ -1399,7 +1399,7 @@ def _check_discs(pos, vel, species, u, sp_radius, bounds_kind, bounds_params, bo
         raise ValueError(f"{what}internal_energy of disc {np.flatnonzero(u < 0)[0]} is "
                          "negative")
     r = sp_radius[species]
-    outside = np.flatnonzero(~_inside(pos, r, bounds_kind, bounds_params))
+    outside = np.flatnonzero(~discs_inside(pos, r, bounds_kind, bounds_params))
     if len(outside):
         k = outside[0]
         raise ValueError(f"{what}positions: disc {k} (radius {r[k]}) at {pos[k]} is not "
@@ -1422,7 +1422,7 @@ def check_sides(scene: Scene, bounds) -> None:
             if not hasattr(x, "side"):
                 continue
             try:
-                _check_side(f"{f.name}[{k}]", x.side, sides, bounds.kind)
+                check_side(f"{f.name}[{k}]", x.side, sides, bounds.kind)
             except SceneError as e:
                 why = str(e).removeprefix(f"{e.field}: ")
                 raise SceneError(e.field, f"the scene's {x!r} cannot move to {bounds}: {why}; "
@@ -1430,7 +1430,7 @@ def check_sides(scene: Scene, bounds) -> None:
                                  f"keep their kind ({scene.bounds.kind})") from None
 
 
-def _event_fit(integrator: str, scene: Scene, bounds) -> str:
+def event_fit(integrator: str, scene: Scene, bounds) -> str:
     """The event-driven integrator refuses bounds that leave a species less room than
     ``event_driven.FIT_MARGIN`` (1e-3) of its radius along an axis (box: width or height
     minus the diameter; circle: radius minus the disc's). A disc that fits exactly would meet
@@ -1462,7 +1462,7 @@ def _integrator_name(name) -> str:
     return name
 
 
-def _as_scene(scene) -> Scene:
+def as_scene(scene) -> Scene:
     if isinstance(scene, Scene):
         return scene
     if isinstance(scene, str):

@@ -14,7 +14,7 @@ pytest.importorskip("stable_baselines3")
 yaml = pytest.importorskip("yaml")  # (the agents extra)
 
 from discgym.baselines import run_episodes  # noqa: E402
-from discgym.controllers import SetpointActions, _Slots  # noqa: E402
+from discgym.controllers import SetpointActions, Slots  # noqa: E402
 from discgym.sb3 import DiscReactorSB3VecEnv, SetpointHold  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -46,7 +46,7 @@ def test_heat_is_the_controllers_law_and_the_rest_passes_through(env):
     a = np.array([0.0, 0.3, -0.5, 1.0], dtype=np.float32)
     out = sa.env_actions(a, obs)
     assert out.shape == (4,) and out.dtype == np.float32
-    assert out[0] == np.float32(_Slots(env).heat_toward(obs, 1.6))  # kT 0.36-0.84 -> heat
+    assert out[0] == np.float32(Slots(env).heat_toward(obs, 1.6))  # kT 0.36-0.84 -> heat
     assert 0 < out[0] <= 1
     np.testing.assert_array_equal(out[1:], a[1:])
     batch = sa.env_actions(np.stack([a, a]), np.stack([obs, obs]))
@@ -350,10 +350,10 @@ def test_residual_zero_is_the_controller_bit_for_bit():
     ref, bases = AdaptiveThermostat(env), law.new_bases(1)
     a = law.env_actions(np.array([0.5, 0.4, -0.5, 0.2], np.float32), obs, bases)
     b = ref(obs)
-    T = _Slots(env).temperature(obs)
+    T = Slots(env).temperature(obs)
     sp = bases[0].setpoint * 1.5 ** 0.5
     assert bases[0].setpoint == ref.setpoint
-    assert a[0] == pytest.approx(np.clip(np.log(sp / T) / _Slots(env).log_rate, -1, 1),
+    assert a[0] == pytest.approx(np.clip(np.log(sp / T) / Slots(env).log_rate, -1, 1),
                                  abs=1e-6)
     np.testing.assert_allclose(a[1:], np.clip(b[1:] + [0.4, -0.5, 0.2], -1, 1), atol=1e-7)
     env.close()
@@ -422,8 +422,8 @@ def test_setpoint_only_correction_keeps_the_controllers_wall_and_feeds():
     a = law.env_actions(np.array([1.0], np.float32), obs, law.new_bases(1))
     b = AdaptiveThermostat(env)(obs)
     np.testing.assert_array_equal(a[1:], b[1:])
-    T = _Slots(env).temperature(obs)
-    assert a[0] == pytest.approx(np.clip(np.log(2.0 * 1.2 / T) / _Slots(env).log_rate, -1, 1),
+    T = Slots(env).temperature(obs)
+    assert a[0] == pytest.approx(np.clip(np.log(2.0 * 1.2 / T) / Slots(env).log_rate, -1, 1),
                                  abs=1e-6)
     bases = law.new_bases(1)
     bases[0].setpoint = 2.5
@@ -503,7 +503,7 @@ def test_a_correction_of_some_components_leaves_the_others_to_the_controller(cor
     a = np.full(len(columns), -0.5, np.float32)
     got = law.env_actions(a, obs, law.new_bases(1))
     ref = flow_thermostat(env)(obs)
-    slots = _Slots(env)
+    slots = Slots(env)
     setpoint = 3.8 * (2.0 ** -0.5 if 0 in columns else 1.0)
     heat = np.clip(np.log(setpoint / slots.temperature(obs)) / slots.log_rate, -1, 1)
     assert got[0] == pytest.approx(heat, abs=1e-6)

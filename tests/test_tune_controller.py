@@ -29,11 +29,11 @@ def test_flow_thermostat_setpoint_and_overrides():
 
 
 def _obs_at(env, time_left):
-    from discgym.controllers import _Slots
+    from discgym.controllers import Slots
 
     obs, _ = env.reset(seed=0)
     obs = obs.copy()
-    obs[_Slots(env).i_time] = time_left
+    obs[Slots(env).i_time] = time_left
     return obs
 
 
