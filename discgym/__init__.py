@@ -6,6 +6,7 @@ gymnasium nor any renderer; the environment lives in ``discgym.env``, its batche
 """
 
 from . import (
+    checkpoint,
     scenes,
     tasks,  # noqa: E402  (the task suite: env classes and their registrations)
 )
@@ -73,5 +74,6 @@ __all__ = [
     "Species",
     "ThermalWall",
     "Transformation",
+    "checkpoint",
     "scenes",
 ]

@@ -151,7 +151,7 @@ def full_run(tmp_path_factory):
     d = tmp_path_factory.mktemp("full")
     (d / "mini.toml").write_text(MINI.to_toml())
     res = discgym("run", *FULL, "--plot", "r.png", "--gif", "r.gif", "--frames", "12",
-                  "--size", "160", "--csv", "r.csv", "--save", "r.pkl", cwd=d)
+                  "--size", "160", "--csv", "r.csv", "--save", "r.npz", cwd=d)
     return d, res
 
 
@@ -168,7 +168,7 @@ def test_run_summary_table(full_run):
             rows.setdefault(line.split()[0], line.split()[1:])  # the species table comes first
     assert rows["A"][0] == "60" and rows["B"][0] == "60" and rows["C"][0] == "0"
     assert "events/s" in res.stderr  # the progress bar
-    for name in ("r.csv", "r.png", "r.gif", "r.pkl"):
+    for name in ("r.csv", "r.png", "r.gif", "r.npz"):
         assert any(line.startswith("wrote") and line.endswith(name)
                    for line in out.splitlines()), name
 
@@ -218,8 +218,7 @@ def test_run_plot_and_gif_are_pictures(full_run):
 
 def test_run_checkpoint_is_the_simulation(full_run):
     d, _ = full_run
-    with open(d / "r.pkl", "rb") as f:
-        sim = pickle.load(f)
+    sim = dg.checkpoint.load(d / "r.npz")
     assert isinstance(sim, dg.Simulation)
     assert sim.time == pytest.approx(3.0)
     _, cols = read_csv(d / "r.csv")
@@ -232,15 +231,13 @@ def test_save_then_resume_continues_bit_identically(full_run, tmp_path, capsys):
     of 3 in one go, bit for bit (the sampling interval does not change the trajectory)."""
     d, _ = full_run
     assert cli.main(["run", str(d / FULL[0]), "--time", "1.5", *FULL[3:7], "--save",
-                     str(tmp_path / "half.pkl"), "--quiet"]) == 0
+                     str(tmp_path / "half.npz"), "--quiet"]) == 0
     capsys.readouterr()
-    res = discgym("run", "--resume", "half.pkl", "--time", "1.5", "--save", "end.pkl",
+    res = discgym("run", "--resume", "half.npz", "--time", "1.5", "--save", "end.npz",
                   "--csv", "more.csv", "-q", cwd=tmp_path)
-    assert "resumed from half.pkl" in res.stdout and "t 1.5 -> 3" in res.stdout
-    with open(d / "r.pkl", "rb") as f:
-        full = pickle.load(f)
-    with open(tmp_path / "end.pkl", "rb") as f:
-        resumed = pickle.load(f)
+    assert "resumed from half.npz" in res.stdout and "t 1.5 -> 3" in res.stdout
+    full = dg.checkpoint.load(d / "r.npz")
+    resumed = dg.checkpoint.load(tmp_path / "end.npz")
     assert resumed.time == pytest.approx(full.time, abs=1e-12)  # clocks sum different chunks
     assert np.array_equal(resumed.positions, full.positions)
     assert np.array_equal(resumed.velocities, full.velocities)
@@ -251,22 +248,33 @@ def test_save_then_resume_continues_bit_identically(full_run, tmp_path, capsys):
 
 
 def test_resume_refuses_conflicting_options_and_bad_files(tmp_path, capsys):
-    bogus = tmp_path / "bogus.pkl"
-    bogus.write_bytes(pickle.dumps({"not": "a simulation"}))
+    # a pickle is never loaded (it would run code), whatever it holds
+    pickled = tmp_path / "sim.pkl"
+    pickled.write_bytes(pickle.dumps(dg.Simulation(MINI, seed=0)))
+    assert cli.main(["run", "--resume", str(pickled), "--time", "1"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "a pickled Simulation" in err
+    assert "discgym.checkpoint.save" in err
+    bogus = tmp_path / "bogus.npz"
+    np.savez(bogus, x=np.zeros(3))
     assert cli.main(["run", "--resume", str(bogus), "--time", "1"]) == 2
     assert "not a discgym checkpoint" in capsys.readouterr().err
-    garbage = tmp_path / "garbage.pkl"
-    garbage.write_bytes(b"\x00\x01 not a pickle")
+    garbage = tmp_path / "garbage.npz"
+    garbage.write_bytes(b"\x00\x01 not an archive")
     assert cli.main(["run", "--resume", str(garbage), "--time", "1"]) == 2
     assert "not a discgym checkpoint" in capsys.readouterr().err
+    batch = tmp_path / "batch.npz"
+    dg.checkpoint.save(batch, [dg.Simulation(MINI, seed=0), dg.Simulation(MINI, seed=1)])
+    assert cli.main(["run", "--resume", str(batch), "--time", "1"]) == 2
+    assert "a checkpoint of 2 reactors" in capsys.readouterr().err
     assert cli.main(["run", "--resume", str(tmp_path / "missing.pkl"), "--time", "1"]) == 2
     assert "no such file" in capsys.readouterr().err
     assert cli.main(["run", "--resume", str(bogus), "--time", "1", "--seed", "3"]) == 2
     assert "--seed cannot be used with --resume" in capsys.readouterr().err
     assert cli.main(["run", "--time", "1"]) == 2
     assert "--resume" in capsys.readouterr().err
-    real = tmp_path / "real.pkl"
-    real.write_bytes(pickle.dumps(dg.Simulation(MINI, seed=0)))
+    real = tmp_path / "real.npz"
+    dg.checkpoint.save(real, dg.Simulation(MINI, seed=0))
     if cli.integrator_supported():
         assert cli.main(["run", "--resume", str(real), "--time", "1", "--integrator",
                          "event"]) == 2
@@ -423,7 +431,7 @@ def test_ctrl_c_stops_cleanly_and_writes_the_outputs(tmp_path):
     proc = subprocess.Popen(
         RUN + ["run", "ideal_gas", "--n", "A=100", "--time", "1e6", "--seed", "3",
                "--csv", "i.csv", "--plot", "i.png", "--gif", "i.gif", "--size", "100",
-               "--save", "i.pkl"],
+               "--save", "i.npz"],
         cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     try:
         first = proc.stderr.readline()  # printed once the run (and its Ctrl-C handler) starts
@@ -450,8 +458,7 @@ def test_ctrl_c_stops_cleanly_and_writes_the_outputs(tmp_path):
 
     with Image.open(tmp_path / "i.gif") as im:
         assert im.n_frames > 10
-    with open(tmp_path / "i.pkl", "rb") as f:
-        sim = pickle.load(f)
+    sim = dg.checkpoint.load(tmp_path / "i.npz")
     assert sim.time == cols["time"][-1]  # the checkpoint is where the series stops
     assert sim.overlaps() == 0 and len(sim) == 100
 

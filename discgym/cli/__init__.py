@@ -133,10 +133,11 @@ def _add_run(sub) -> None:
                    help="animation frame size in pixels (default 400)")
     p.add_argument("--csv", metavar="FILE", help="write the time series (columns below)")
     p.add_argument("--save", metavar="STATE",
-                   help="write a checkpoint (a pickled Simulation) at the end, or when stopped")
+                   help="write a checkpoint (.npz: arrays and JSON, no code; "
+                        "discgym.checkpoint) at the end, or when stopped")
     p.add_argument("--resume", metavar="STATE",
-                   help="continue a checkpoint written by --save (only load files you trust: "
-                        "it is a pickle)")
+                   help="continue a checkpoint written by --save (checked like "
+                        "Simulation.set_state)")
     p.add_argument("--quiet", "-q", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_run)
 

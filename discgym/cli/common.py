@@ -8,7 +8,6 @@ import importlib
 import math
 import os
 import sys
-import tempfile
 from pathlib import Path
 
 EXIT_OK = 0
@@ -124,22 +123,6 @@ def writable(path: str, option: str) -> Path:
     if p.is_dir():
         raise CLIError(f"{option} {path}: is a directory")
     return p
-
-
-def atomic_write_bytes(path: Path, data: bytes) -> None:
-    """Write via a temporary file in the same directory, then rename: a crash or a second
-    Ctrl-C never leaves a half-written checkpoint over a good one."""
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", dir=path.parent or ".")
-    try:
-        with os.fdopen(fd, "wb") as f:
-            f.write(data)
-        os.replace(tmp, path)
-    except BaseException:
-        try:
-            os.unlink(tmp)
-        except OSError:
-            pass
-        raise
 
 
 def parse_counts(text: str, species_names) -> dict:

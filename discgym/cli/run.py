@@ -6,20 +6,19 @@ from __future__ import annotations
 import csv
 import inspect
 import math
-import pickle
 import signal
 import sys
 import time
 from pathlib import Path
 from typing import NamedTuple
 
+from .. import checkpoint
 from .common import (
     EXIT_FAILED,
     EXIT_INTERRUPTED,
     EXIT_OK,
     RENDER_EXTRA,
     CLIError,
-    atomic_write_bytes,
     err,
     fmt,
     load_scene,
@@ -341,15 +340,19 @@ def _resume(args):
     p = Path(args.resume)
     if not p.is_file():
         raise CLIError(f"--resume {args.resume}: no such file")
+    with open(p, "rb") as f:
+        pickled = f.read(1) == b"\x80"  # (a pickle's first byte, protocol 2 and later)
+    if pickled:  # (never unpickled here: loading a pickle runs code)
+        raise CLIError(f"--resume {args.resume}: a pickled Simulation, which this command does "
+                       "not load (unpickling runs code); if you trust it, pickle.load it in "
+                       "Python and write it with discgym.checkpoint.save")
     try:
-        with open(p, "rb") as f:
-            sim = pickle.load(f)
-    except Exception as exc:  # any unpickling failure is a bad checkpoint
-        raise CLIError(f"--resume {args.resume}: not a discgym checkpoint "
-                       f"({type(exc).__name__}: {exc})") from None
+        sim = dg.checkpoint.load(p)
+    except ValueError as exc:
+        raise CLIError(f"--resume {exc}") from None
     if not isinstance(sim, dg.Simulation):
-        raise CLIError(f"--resume {args.resume}: not a discgym checkpoint (it holds a "
-                       f"{type(sim).__name__})")
+        raise CLIError(f"--resume {args.resume}: a checkpoint of {len(sim)} reactors; "
+                       "discgym run continues one")
     used = getattr(sim, "integrator", "step")
     if args.integrator is not None and args.integrator != used:
         raise CLIError(f"--integrator {args.integrator}: the checkpoint {args.resume} runs "
@@ -651,7 +654,7 @@ def _write_outputs(args, outputs: dict, movie_kind: str | None, series: _Series,
                         lambda p: _write_movie(frames, p, args.fps, movie_kind)))
     if "save" in outputs:
         writers.append(("checkpoint", outputs["save"],
-                        lambda p: atomic_write_bytes(p, pickle.dumps(sim, protocol=4))))
+                        lambda p: checkpoint.save(p, sim)))
     failed = False
     for what, path, write in writers:
         try:

@@ -1,0 +1,185 @@
+"""Checkpoints that run no code: one :class:`~discgym.Simulation`, or several (the reactors of
+a batch), saved as a NumPy ``.npz`` archive of plain arrays and one JSON document, and read
+back with ``allow_pickle=False``. Loading executes nothing from the file: the scene is built
+from its plain-dict form (:meth:`Scene.from_dict <discgym.Scene.from_dict>`, checked as a
+TOML scene is) and the state goes through :meth:`Simulation.set_state
+<discgym.Simulation.set_state>`, which checks every key before anything changes, so a
+damaged or hand-edited file raises ``ValueError`` naming what is wrong. A loaded simulation
+continues bit for bit where the saved one would have.
+
+>>> import discgym as dg, tempfile, os
+>>> sim = dg.Simulation("reactor", seed=1); sim.step(5)
+>>> path = os.path.join(tempfile.mkdtemp(), "reactor.npz")
+>>> dg.checkpoint.save(path, sim)
+>>> back = dg.checkpoint.load(path)
+>>> sim.step(5); back.step(5)
+>>> bool((back.positions == sim.positions).all())
+True
+
+``pickle`` still copies a ``Simulation`` (in-process copies, multiprocessing); a pickle file
+runs code when loaded, so only this format is for files that are shared or kept.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import tempfile
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+
+from .scene import Box, Circle, Scene
+from .simulation import Simulation
+
+__all__ = ["save", "load", "FORMAT", "VERSION"]
+
+#: The ``format`` and ``version`` of the JSON document a checkpoint carries.
+FORMAT = "discgym-checkpoint"
+VERSION = 1
+#: The state's keys (:meth:`Simulation.get_state`) kept as arrays of the archive.
+ARRAY_KEYS = ("positions", "velocities", "species", "internal_energy", "ids", "icnt", "fsum",
+              "ch_count", "outflow")
+#: The archive's entry holding the JSON document.
+META = "meta"
+
+
+def save(path: str | os.PathLike, sims: Simulation | Sequence[Simulation]) -> None:
+    """Write ``sims`` (a ``Simulation`` or a non-empty sequence of them) to ``path`` (an
+    ``.npz`` file, replaced whole: a failed write leaves no partial file)."""
+    single = isinstance(sims, Simulation)
+    items = [sims] if single else list(sims)
+    if not items or not all(isinstance(s, Simulation) for s in items):
+        raise TypeError("checkpoint.save(sims): expected a Simulation or a non-empty sequence "
+                        f"of them, got {type(sims).__name__}")
+    arrays, reactors = {}, []
+    for r, sim in enumerate(items):
+        state = sim.get_state()
+        for k in ARRAY_KEYS:
+            arrays[f"{r}/{k}"] = state.pop(k)
+        state["bounds"] = _bounds_to_dict(state["bounds"])
+        state["rng"] = _plain(state["rng"])
+        state["wall_temperature"] = [[side, t] for side, t in
+                                     state["wall_temperature"].items()]
+        reactors.append({"scene": sim.scene.to_dict(), "state": state})
+    doc = {"format": FORMAT, "version": VERSION, "single": single, "reactors": reactors}
+    arrays[META] = np.array(json.dumps(doc, allow_nan=False))
+    path = Path(path)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", dir=path.parent or ".")
+    try:
+        with os.fdopen(fd, "wb") as f:
+            np.savez(f, **arrays)
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+
+
+def load(path: str | os.PathLike) -> Simulation | list[Simulation]:
+    """The simulation(s) :func:`save` wrote to ``path``: one ``Simulation`` if one was
+    saved, else a list. Raises ``ValueError`` naming the file and what is wrong (not a
+    checkpoint, another format version, a missing array, a state ``set_state`` refuses)."""
+    name = os.fspath(path)
+    try:
+        z = np.load(path, allow_pickle=False)
+    except (OSError, ValueError) as exc:
+        raise ValueError(f"{name}: not a discgym checkpoint ({exc})") from None
+    with z:
+        if not isinstance(z, np.lib.npyio.NpzFile) or META not in z.files:
+            raise ValueError(f"{name}: not a discgym checkpoint (no {META!r} entry)")
+        try:
+            doc = json.loads(str(z[META][()]))
+        except (ValueError, TypeError) as exc:
+            raise ValueError(f"{name}: its {META!r} entry is not a JSON document ({exc})") \
+                from None
+        if not isinstance(doc, dict) or doc.get("format") != FORMAT:
+            raise ValueError(f"{name}: not a discgym checkpoint (format {_get(doc, 'format')!r})")
+        if doc.get("version") != VERSION:
+            raise ValueError(f"{name}: a checkpoint of format version "
+                             f"{_get(doc, 'version')!r}; this discgym reads version {VERSION}")
+        reactors = doc.get("reactors")
+        if not isinstance(reactors, list) or not reactors:
+            raise ValueError(f"{name}: 'reactors' must be a non-empty list")
+        sims = [_reactor(name, z, r, entry) for r, entry in enumerate(reactors)]
+    return sims[0] if doc.get("single") is True and len(sims) == 1 else sims
+
+
+def _reactor(name: str, z, r: int, entry) -> Simulation:
+    where = f"{name}: reactor {r}"
+    if not isinstance(entry, dict) or set(entry) != {"scene", "state"} or \
+            not isinstance(entry["state"], dict):
+        raise ValueError(f"{where}: expected {{'scene': ..., 'state': {{...}}}}")
+    try:
+        scene = Scene.from_dict(entry["scene"])
+    except (ValueError, TypeError) as exc:
+        raise ValueError(f"{where}: its scene: {exc}") from None
+    state = dict(entry["state"])
+    for k in ARRAY_KEYS:
+        key = f"{r}/{k}"
+        if key not in z.files:
+            raise ValueError(f"{where}: the array {key!r} is missing")
+        state[k] = z[key]
+    try:
+        state["bounds"] = _bounds_from_dict(state.get("bounds"))
+        walls = state.get("wall_temperature", [])
+        state["wall_temperature"] = {side: t for side, t in walls}
+    except (ValueError, TypeError, KeyError) as exc:
+        raise ValueError(f"{where}: {exc}") from None
+    state["rng"] = _unplain(state.get("rng"))
+    if "scene_fingerprint" in state:  # (JSON has lists where the fingerprint has tuples)
+        state["scene_fingerprint"] = _tuples(state["scene_fingerprint"])
+    if "clock" in state and isinstance(state["clock"], list):
+        state["clock"] = tuple(state["clock"])
+    sim = Simulation(scene, counts={}, seed=0, integrator=state.get("integrator", "step"))
+    try:
+        sim.set_state(state)
+    except ValueError as exc:
+        raise ValueError(f"{where}: {exc}") from None
+    return sim
+
+
+def _bounds_to_dict(b) -> dict:
+    if isinstance(b, Box):
+        return {"shape": "box", "width": b.width, "height": b.height, "origin": list(b.origin)}
+    return {"shape": "circle", "radius": b.radius, "center": list(b.center)}
+
+
+def _bounds_from_dict(d) -> Box | Circle:
+    if not isinstance(d, dict) or d.get("shape") not in ("box", "circle"):
+        raise ValueError(f"state['bounds']: expected a box or a circle, got {d!r}")
+    if d["shape"] == "box":
+        return Box(d["width"], d["height"], tuple(d["origin"]))
+    return Circle(d["radius"], tuple(d["center"]))
+
+
+def _plain(v):
+    """A generator state as JSON values (numpy arrays and integers as lists and ints)."""
+    if isinstance(v, dict):
+        return {k: _plain(x) for k, x in v.items()}
+    if isinstance(v, np.ndarray):
+        return {"array": v.tolist(), "dtype": v.dtype.str}
+    if isinstance(v, np.integer):
+        return int(v)
+    return v
+
+
+def _unplain(v):
+    """:func:`_plain`'s inverse."""
+    if isinstance(v, dict):
+        if set(v) == {"array", "dtype"}:
+            return np.array(v["array"], dtype=np.dtype(v["dtype"]))
+        return {k: _unplain(x) for k, x in v.items()}
+    return v
+
+
+def _tuples(v):
+    if isinstance(v, dict):
+        return {k: _tuples(x) for k, x in v.items()}
+    if isinstance(v, list):
+        return tuple(_tuples(x) for x in v)
+    return v
+
+
+def _get(doc, key):
+    return doc.get(key) if isinstance(doc, dict) else None
