@@ -1042,45 +1042,7 @@ class Simulation:
         s["integrator"] = integrator
         s["bit_generator"] = _checked_rng(state["rng"])
         s["rng"] = state["rng"]
-        icnt = _state_array(state, "icnt", (None,), integer=True)
-        # counters are only ever appended: a state of an older version has a prefix of them
-        if not _OLDEST_ICOUNTERS <= len(icnt) <= len(self._icnt):
-            raise _state_error("icnt", f"has {len(icnt)} counters, this version "
-                               f"{_OLDEST_ICOUNTERS} to {len(self._icnt)}: the state comes "
-                               "from another version of discgym")
-        s["icnt"] = icnt
-        # (a state of a version before the thermal walls and outlets has 2 sums; those two
-        # are >= 0, the wall heat and the outflow energy may have either sign)
-        fsum = _state_array(state, "fsum", (None,))
-        if len(fsum) not in (2, len(self._fsum)):
-            raise _state_error("fsum", f"must have shape ({len(self._fsum)},), got "
-                               f"{fsum.shape}")
-        if fsum[:2].min() < 0:
-            k = int(np.argmin(fsum[:2]))
-            raise _state_error("fsum", f"of entry {k} is negative: {fsum[k]}")
-        s["fsum"] = np.zeros(len(self._fsum), dtype=FLOAT)
-        s["fsum"][:len(fsum)] = fsum
-        walls = state.get("wall_temperature", None)
-        if "wall_temperature" not in state:  # (a state of an earlier version)
-            s["walls"] = kernel_walls(self.scene)
-        elif not isinstance(walls, Mapping):
-            raise _state_error("wall_temperature", f"must be a dict {{side: kT}} of the "
-                               f"scene's thermal walls, got {_short(walls)}")
-        else:
-            try:
-                s["walls"] = self._checked_walls(walls, "wall_temperature", partial=False)
-            except ValueError as exc:
-                raise _state_error("wall_temperature", str(exc).split(": ", 1)[-1]) from None
-        S = len(self.scene.species)
-        if "outflow" in state:
-            s["outflow"] = _state_array(state, "outflow", (S,), integer=True)
-        else:
-            s["outflow"] = np.zeros(S, dtype=COUNT)
-        s["ch_count"] = _state_array(state, "ch_count", (None,), integer=True)
-        if len(s["ch_count"]) != len(cs.labels):
-            raise _state_error("ch_count", f"has {len(s['ch_count'])} reaction channels, this "
-                               f"scene {len(cs.labels)}: the state belongs to a scene with "
-                               "other reactions")
+        _state_counters(self, state, s)
         # relations between keys
         pos, vel = s["positions"], s["velocities"]
         r = cs.sp_radius[s["species"]]
@@ -1232,6 +1194,50 @@ class Simulation:
 _INT64_MAX = int(np.iinfo(np.int64).max)
 # numpy bit generators a state may name (a Generator made from a seed uses PCG64)
 _BIT_GENERATORS = ("PCG64", "PCG64DXSM", "MT19937", "Philox", "SFC64")
+
+
+def _state_counters(sim: Simulation, state, s: dict) -> None:
+    """Check and convert the counters of ``state`` (``icnt``, ``fsum``, ``wall_temperature``,
+    ``outflow``, ``ch_count``) into ``s``, for :meth:`Simulation._checked_state`."""
+    icnt = _state_array(state, "icnt", (None,), integer=True)
+    # counters are only ever appended: a state of an older version has a prefix of them
+    if not _OLDEST_ICOUNTERS <= len(icnt) <= len(sim._icnt):
+        raise _state_error("icnt", f"has {len(icnt)} counters, this version "
+                           f"{_OLDEST_ICOUNTERS} to {len(sim._icnt)}: the state comes "
+                           "from another version of discgym")
+    s["icnt"] = icnt
+    # (a state of a version before the thermal walls and outlets has 2 sums; those two
+    # are >= 0, the wall heat and the outflow energy may have either sign)
+    fsum = _state_array(state, "fsum", (None,))
+    if len(fsum) not in (2, len(sim._fsum)):
+        raise _state_error("fsum", f"must have shape ({len(sim._fsum)},), got "
+                           f"{fsum.shape}")
+    if fsum[:2].min() < 0:
+        k = int(np.argmin(fsum[:2]))
+        raise _state_error("fsum", f"of entry {k} is negative: {fsum[k]}")
+    s["fsum"] = np.zeros(len(sim._fsum), dtype=FLOAT)
+    s["fsum"][:len(fsum)] = fsum
+    walls = state.get("wall_temperature", None)
+    if "wall_temperature" not in state:  # (a state of an earlier version)
+        s["walls"] = kernel_walls(sim.scene)
+    elif not isinstance(walls, Mapping):
+        raise _state_error("wall_temperature", f"must be a dict {{side: kT}} of the "
+                           f"scene's thermal walls, got {_short(walls)}")
+    else:
+        try:
+            s["walls"] = sim._checked_walls(walls, "wall_temperature", partial=False)
+        except ValueError as exc:
+            raise _state_error("wall_temperature", str(exc).split(": ", 1)[-1]) from None
+    S = len(sim.scene.species)
+    if "outflow" in state:
+        s["outflow"] = _state_array(state, "outflow", (S,), integer=True)
+    else:
+        s["outflow"] = np.zeros(S, dtype=COUNT)
+    s["ch_count"] = _state_array(state, "ch_count", (None,), integer=True)
+    if len(s["ch_count"]) != len(sim._cs.labels):
+        raise _state_error("ch_count", f"has {len(s['ch_count'])} reaction channels, this "
+                           f"scene {len(sim._cs.labels)}: the state belongs to a scene with "
+                           "other reactions")
 
 
 def _state_error(key, what: str, within: str | None = None) -> ValueError:
