@@ -26,3 +26,13 @@ def gas_scene():
 def two_disc(scene, p1, p2, v1, v2, s1=0, s2=0, u=None, seed=0):
     return dg.Simulation.from_arrays(scene, np.array([p1, p2], float), np.array([v1, v2], float),
                                      [s1, s2], internal_energy=u, seed=seed)
+
+
+@pytest.fixture(autouse=True, scope="session")
+def sb3_logs_in_pytests_temp(tmp_path_factory):
+    """Stable-Baselines3's ``learn`` makes a log folder even when it logs nothing
+    (``$SB3_LOGDIR``, else a new ``SB3-<date>`` folder in the system's temporary folder,
+    left there): keep those of the test run, its subprocesses' too, in pytest's own."""
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setenv("SB3_LOGDIR", str(tmp_path_factory.mktemp("sb3-logs")))
+        yield
