@@ -68,8 +68,13 @@ def save(path: str | os.PathLike, sims: Simulation | Sequence[Simulation]) -> No
     path = Path(path)
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", dir=path.parent or ".")
     try:
+        umask = os.umask(0)
+        os.umask(umask)
+        os.fchmod(fd, 0o666 & ~umask)  # (mkstemp's 0600 would keep a shared file private)
         with os.fdopen(fd, "wb") as f:
             np.savez(f, **arrays)
+            f.flush()
+            os.fsync(f.fileno())  # (on disk before it replaces a good checkpoint)
         os.replace(tmp, path)
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
@@ -78,21 +83,26 @@ def save(path: str | os.PathLike, sims: Simulation | Sequence[Simulation]) -> No
 
 def load(path: str | os.PathLike) -> Simulation | list[Simulation]:
     """The simulation(s) :func:`save` wrote to ``path``: one ``Simulation`` if one was
-    saved, else a list. Raises ``ValueError`` naming the file and what is wrong (not a
-    checkpoint, another format version, a missing array, a state ``set_state`` refuses)."""
+    saved, else a list. A file that cannot be read raises ``OSError``; anything else that
+    is wrong (not a checkpoint, another format version, a missing or damaged array, a state
+    ``set_state`` refuses) raises ``ValueError`` naming the file and the fault."""
     name = os.fspath(path)
+    with open(path, "rb") as f:  # (OSError: missing, a directory, no permission)
+        f.read(1)
     try:
         z = np.load(path, allow_pickle=False)
-    except (OSError, ValueError) as exc:
-        raise ValueError(f"{name}: not a discgym checkpoint ({exc})") from None
+    except Exception as exc:  # (empty, truncated, not an archive: numpy's and zipfile's own)
+        raise ValueError(f"{name}: not a discgym checkpoint ({_why(exc)})") from None
+    if not isinstance(z, np.lib.npyio.NpzFile):  # (a lone .npy array)
+        raise ValueError(f"{name}: not a discgym checkpoint (one array, not an archive)")
     with z:
-        if not isinstance(z, np.lib.npyio.NpzFile) or META not in z.files:
+        if META not in z.files:
             raise ValueError(f"{name}: not a discgym checkpoint (no {META!r} entry)")
         try:
             doc = json.loads(str(z[META][()]))
-        except (ValueError, TypeError) as exc:
-            raise ValueError(f"{name}: its {META!r} entry is not a JSON document ({exc})") \
-                from None
+        except Exception as exc:  # (an object array, a damaged member, not JSON, too deep)
+            raise ValueError(f"{name}: its {META!r} entry is not a JSON document "
+                             f"({_why(exc)})") from None
         if not isinstance(doc, dict) or doc.get("format") != FORMAT:
             raise ValueError(f"{name}: not a discgym checkpoint (format {_get(doc, 'format')!r})")
         if doc.get("version") != VERSION:
@@ -101,8 +111,12 @@ def load(path: str | os.PathLike) -> Simulation | list[Simulation]:
         reactors = doc.get("reactors")
         if not isinstance(reactors, list) or not reactors:
             raise ValueError(f"{name}: 'reactors' must be a non-empty list")
+        single = doc.get("single")
+        if single not in (True, False) or (single and len(reactors) != 1):
+            raise ValueError(f"{name}: 'single' must be true (one reactor) or false, got "
+                             f"{single!r} with {len(reactors)} reactors")
         sims = [_reactor(name, z, r, entry) for r, entry in enumerate(reactors)]
-    return sims[0] if doc.get("single") is True and len(sims) == 1 else sims
+    return sims[0] if single else sims
 
 
 def _reactor(name: str, z, r: int, entry) -> Simulation:
@@ -119,24 +133,33 @@ def _reactor(name: str, z, r: int, entry) -> Simulation:
         key = f"{r}/{k}"
         if key not in z.files:
             raise ValueError(f"{where}: the array {key!r} is missing")
-        state[k] = z[key]
+        try:
+            state[k] = z[key]
+        except Exception as exc:  # (damaged, an object array, a header beyond memory)
+            raise ValueError(f"{where}: the array {key!r} cannot be read ({_why(exc)})") \
+                from None
     try:
         state["bounds"] = _bounds_from_dict(state.get("bounds"))
         walls = state.get("wall_temperature", [])
         state["wall_temperature"] = {side: t for side, t in walls}
-    except (ValueError, TypeError, KeyError) as exc:
-        raise ValueError(f"{where}: {exc}") from None
-    state["rng"] = _unplain(state.get("rng"))
+        state["rng"] = _unplain(state.get("rng"))
+    except Exception as exc:
+        raise ValueError(f"{where}: {_why(exc)}") from None
     if "scene_fingerprint" in state:  # (JSON has lists where the fingerprint has tuples)
         state["scene_fingerprint"] = _tuples(state["scene_fingerprint"])
     if "clock" in state and isinstance(state["clock"], list):
         state["clock"] = tuple(state["clock"])
-    sim = Simulation(scene, counts={}, seed=0, integrator=state.get("integrator", "step"))
+    # (the state's integrator is set_state's to check, with the state's bounds)
+    sim = Simulation(scene, counts={}, seed=0)
     try:
         sim.set_state(state)
     except ValueError as exc:
         raise ValueError(f"{where}: {exc}") from None
     return sim
+
+
+def _why(exc: BaseException) -> str:
+    return f"{type(exc).__name__}: {exc}"
 
 
 def _bounds_to_dict(b) -> dict:
@@ -165,7 +188,7 @@ def _plain(v):
 
 
 def _unplain(v):
-    """:func:`_plain`'s inverse."""
+    """:func:`_plain`'s inverse (its errors are the caller's to word)."""
     if isinstance(v, dict):
         if set(v) == {"array", "dtype"}:
             return np.array(v["array"], dtype=np.dtype(v["dtype"]))

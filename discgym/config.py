@@ -54,7 +54,7 @@ from .simulation import PLACEMENT_ATTEMPTS, Simulation
 
 ENV_ID = "DiscReactor-v0"
 
-#: Default keyword arguments of :class:`DiscReactorEnv` (and of ``gymnasium.make``).
+#: Default keyword arguments of :class:`~discgym.env.DiscReactorEnv` (and of ``gymnasium.make``).
 DEFAULTS = dict(
     scene="reactor",
     n_discs=None,
@@ -123,7 +123,7 @@ SLOT_BYTES_BATCH = 64
 class ReactorConfig:
     """The validated settings of a reactor environment (see :data:`DEFAULTS`).
 
-    Built by :meth:`from_kwargs`; read by :class:`DiscReactorEnv` and
+    Built by :meth:`from_kwargs`; read by :class:`~discgym.env.DiscReactorEnv` and
     :class:`discgym.vector.DiscReactorVectorEnv`. ``S`` species, ``F`` feed species.
     """
 
@@ -232,7 +232,7 @@ class ReactorConfig:
     @classmethod
     def from_kwargs(cls, defaults: dict | None = None, **kw) -> ReactorConfig:
         """Validate the keyword arguments of :data:`DEFAULTS` (the ranges are in the
-        docstring of :class:`DiscReactorEnv`, section Arguments): a bad one raises
+        docstring of :class:`~discgym.env.DiscReactorEnv`, section Arguments): a bad one raises
         ``TypeError`` (wrong type) or ``ValueError`` (out of range) naming it. ``defaults``:
         a task's defaults (every key of :data:`DEFAULTS`), :data:`DEFAULTS` if None."""
         defaults = DEFAULTS if defaults is None else defaults
@@ -423,7 +423,7 @@ class ReactorConfig:
         episode, ``sim`` the reactor :meth:`new_simulation` just drew from ``np_random``:
         the one reset of the single and the vector env. Draws the inlet temperatures from
         ``np_random`` (:meth:`draw_feed`); the observation and the product count come from
-        the observation that follows (:func:`observe`)."""
+        the observation that follows (:func:`~discgym.core.observe`)."""
         ep.steps[r] = 0
         ep.size[r] = self.size_of(sim.bounds)
         ep.feed_left[r] = self.feed_budget
@@ -707,9 +707,10 @@ def _feed_budget(scene: Scene, o: dict, feed: tuple, template: np.ndarray,
 
 
 def _observation_slots(names, feed: tuple, size_min: float, size_max: float) -> tuple:
-    """``(names, low, high)`` of the observation's slots (see :func:`observe`). Every slot's
-    range contains 0: TorchRL fills the final observation of a vector env's reactors that did
-    not finish with zeros and checks them against the space."""
+    """``(names, low, high)`` of the observation's slots (see
+    :func:`~discgym.core.observe`). Every slot's range contains 0: TorchRL fills the final
+    observation of a vector env's reactors that did not finish with zeros and checks them
+    against the space."""
     obs_names, lo, hi = [], [], []
 
     def slot(name, low, high):

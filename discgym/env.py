@@ -22,7 +22,7 @@ are in ``docs/env.md``.
 >>> type(reward).__name__, terminated
 ('float', False)
 
-The per-reactor logic (:class:`ReactorConfig` and the compiled
+The per-reactor logic (:class:`~discgym.config.ReactorConfig` and the compiled
 :func:`~discgym.kernels.batch.reactor_step`) is shared with the batched
 :class:`discgym.vector.DiscReactorVectorEnv`, so that a reactor of the batch follows exactly
 the trajectory of a lone environment with the same seed and actions.
@@ -50,8 +50,20 @@ from .config import (  # noqa: F401  (importable from here too)
     FLOAT_EXACT,
     FLOAT_NORMAL_MIN,
     HEAT_RATE_MAX,
+    HEATINGS,
     INT_MAX,
+    INT_MAX_TEXT,
+    INTEGRATORS,
+    MAX_ENERGY_BINS,
+    MAX_GRID,
     MAX_RENDER_SIZE,
+    OBS_DISCS_MAX,
+    OBS_ENERGY_MAX,
+    OBS_RATE_MAX,
+    OBS_YIELD_MAX,
+    RANDOM_PLACEMENT_SHARE,
+    REWARDS,
+    SLOT_BYTES_BATCH,
     ReactorConfig,
     energy_edges,
 )
@@ -124,7 +136,7 @@ class DiscReactorEnv(gym.Env):
     ``(C_now - C_before) / n_ref - heat_cost |heat energy| / n_ref - feed_cost injected /
     n_ref``, n_ref the initial count of the limiting feed species, so an episode's return is
     the product yield. ``info`` carries the breakdown and the raw counts, flat, with the
-    same keys at reset and at each step (:attr:`ReactorConfig.info_types`).
+    same keys at reset and at each step (:attr:`~discgym.config.ReactorConfig.info_types`).
 
     ## Starting State
     Counts x U[1 - count_jitter, 1 + count_jitter], kT x U[1 - temperature_jitter,
@@ -136,11 +148,11 @@ class DiscReactorEnv(gym.Env):
 
     ## Arguments
     All optional, shown in ``env.spec.kwargs`` when given to ``gymnasium.make`` (defaults:
-    :data:`DEFAULTS`). Each is checked at construction: a wrong type raises ``TypeError``, a
-    value out of its range ``ValueError``, both naming the argument; an unknown keyword
-    raises Python's own ``TypeError: DiscReactorEnv.__init__() got an unexpected keyword
-    argument 'x'``. They may also come as one mapping, the only positional argument
-    (``DiscReactorEnv({"episode_steps": 50})``: RLlib passes its ``EnvContext``), alone or
+    :data:`~discgym.config.DEFAULTS`). Each is checked at construction: a wrong type raises
+    ``TypeError``, a value out of its range ``ValueError``, both naming the argument; an
+    unknown keyword raises Python's own ``TypeError: DiscReactorEnv.__init__() got an
+    unexpected keyword argument 'x'``. They may also come as one mapping, the only positional
+    argument (``DiscReactorEnv({"episode_steps": 50})``: RLlib passes its ``EnvContext``), alone or
     with keywords (a key in both raises ``TypeError``). Numbers may be Python or numpy
     scalars (``np.int64``, ``np.float32``: taken as the numbers they are); bools are refused
     where a number is expected; whole numbers may be given as integral floats (``40.0``);
@@ -188,14 +200,14 @@ class DiscReactorEnv(gym.Env):
       ``observe_reactions``: a bool (the observation blocks of ``docs/tasks.md``).
     - ``activation_jitter``: finite, 0 <= x < 1; ``reverse_jitter``: finite, 0 <= y <= 3;
       ``formation_jitter``: finite, 0 <= z <= 1000 (kinetics drawn per episode, see
-      :meth:`ReactorConfig.draw_kinetics`).
+      :meth:`~discgym.config.ReactorConfig.draw_kinetics`).
     - ``heating``: "scale" (the heat action rescales velocities) or "jacket" (it sets the
       thermal walls' kT; the scene must have some, and ``temperature_range``'s high end must
       not pass ``Scene.max_wall_temperature()``); ``reward``: "product" or "outflow" (the
       product leaving through the scene's outlets, which it must have); ``observe_outflow``:
       a bool; ``feed_temperature``: None or a (low, high) pair, 0 < low <= high <= the
       scene's hottest wall temperature, low a normal float64 (see
-      :meth:`ReactorConfig.draw_feed`).
+      :meth:`~discgym.config.ReactorConfig.draw_feed`).
     - ``integrator``: "step" (the time-stepped integrator, ``step_time / dt`` steps of the
       scene's ``dt``) or "event" (one exact event-driven run of ``step_time``, as
       ``Simulation(..., integrator="event").step(step_time / dt)``; the env's simulation
@@ -211,9 +223,9 @@ class DiscReactorEnv(gym.Env):
     ``env.unwrapped.simulation`` is the underlying :class:`~discgym.Simulation`. Its controls
     and ``set_state`` may be used between steps: bounds that ``resize`` or ``set_state``
     replaced give the wall its size, which the ``size`` observation and the next wall move
-    start from (:meth:`ReactorConfig.read_size`); bounds the wall cannot make (another kind,
-    height, origin or centre, or a size outside ``size_range``) raise ``RuntimeError`` at the
-    next step, before anything is stepped.
+    start from (:meth:`~discgym.config.ReactorConfig.read_size`); bounds the wall cannot make
+    (another kind, height, origin or centre, or a size outside ``size_range``) raise
+    ``RuntimeError`` at the next step, before anything is stepped.
 
     ## Version History
     - v0: first version.
@@ -443,9 +455,10 @@ class DiscReactorEnv(gym.Env):
         """An independent copy that continues bit for bit as this env would under the same
         actions (observations, rewards, infos, the next ``reset()`` without a seed): what
         ``copy.deepcopy(env)`` gives, for planners that copy at every decision (see
-        :class:`discgym.oracle.RolloutOracle`). The frozen :class:`ReactorConfig` is shared
-        and so is the simulation's frozen :class:`~discgym.Scene` (deepcopy copies and compiles
-        them again), everything else is copied: the
+        :class:`discgym.oracle.RolloutOracle`). The frozen
+        :class:`~discgym.config.ReactorConfig` is shared and so is the simulation's frozen
+        :class:`~discgym.Scene` (deepcopy copies and compiles them again), everything else is
+        copied: the
         :class:`~discgym.Simulation` (state, counters, random generator), the env's
         ``np_random``, the episode bookkeeping and the spaces (with their own generators). No
         figure: a clone renders into a new one. It costs about as much as ``deepcopy`` (~0.7 ms

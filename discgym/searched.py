@@ -9,7 +9,7 @@ engineer writes, with every control a function of the episode clock ``u = 1 - ti
   inlet_gain`` where the env observes the inlet temperature (``feed_kT``; ``inlet_ref`` the
   geometric mean of the env's ``feed_temperature`` range): the setpoint may follow the feed's
   temperature, which changes within an episode. It is held by the thermostats' heating law
-  (the env's own law inverted, :meth:`discgym.controllers._Slots.heat_actions`); with
+  (the env's own law inverted, :meth:`discgym.controllers.Slots.heat_actions`); with
   ``heating="jacket"`` by :class:`~discgym.controllers.JacketThermostat`'s proportional law,
   the jacket at ``target + jacket_gain (target - kT)``. Where the reward charges the heat
   moved (``heat_cost`` > 0), a dead band ``band`` >= 1: the law heats or cools toward the

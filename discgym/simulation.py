@@ -1415,7 +1415,7 @@ def _check_discs(pos, vel, species, u, sp_radius, bounds_kind, bounds_params, bo
 def check_sides(scene: Scene, bounds) -> None:
     """Refuse ``bounds`` replacing the scene's (:meth:`Simulation.resize`,
     :meth:`Simulation.set_state`) that lack a side a feature of the scene is on, by the rule
-    ``Scene`` applies to its own bounds (``scene._check_side``): a box's "left" outlet must not
+    ``Scene`` applies to its own bounds (``scene.check_side``): a box's "left" outlet must not
     become an arc of a circle, nor a circle's thermal wall a box's left side (the kernels index
     walls and outlets by side). Every entry with a ``side`` in a field of the scene (thermal
     walls, outlets) is checked; SceneError naming it, e.g. ``outlets[0].side``."""

@@ -397,7 +397,7 @@ class DiscReactorVectorEnv(VectorEnv):
                active) -> dict:
         """The info as arrays (R,) with Gymnasium's ``_key`` masks (``active``: False for the
         reactors reset by this step, or not reset by ``reset``): the keys of the single env's
-        info (:attr:`ReactorConfig.info_types`), each an array of its type."""
+        info (:attr:`~discgym.config.ReactorConfig.info_types`), each an array of its type."""
         cfg = self.config
         counts = self._stats[:, :cfg.n_species].astype(np.int64)
         product = counts[:, cfg.product]

@@ -90,6 +90,14 @@ def test_damaged_and_foreign_files_are_refused_naming_the_fault(tmp_path):
          "state['bounds']"),
         (lambda d, a: d["reactors"][0]["scene"]["species"][0].update(radius=-1.0), "scene"),
         (lambda d, a: d.update(reactors=[]), "non-empty list"),
+        (lambda d, a: d["reactors"].append(d["reactors"][0]), "'single' must be"),
+        (lambda d, a: d["reactors"][0]["state"].update(integrator="bogus"),
+         "state['integrator']"),
+        (lambda d, a: d["reactors"][0]["state"]["rng"].update(state={"array": [1],
+                                                                     "dtype": "garbage"}),
+         "reactor 0"),
+        (lambda d, a: a.update({"0/ids": np.array([{"x": 1}] * len(a["0/ids"]),
+                                                  dtype=object)}), "'0/ids' cannot be read"),
     ]
     for change, words in cases:
         _rewrite(good, bad, change)
@@ -101,8 +109,19 @@ def test_damaged_and_foreign_files_are_refused_naming_the_fault(tmp_path):
     with pytest.raises(ValueError, match="not a JSON document"):
         checkpoint.load(bad)
     (tmp_path / "text.npz").write_text("not a zip")
-    with pytest.raises(ValueError, match="not a discgym checkpoint"):
-        checkpoint.load(tmp_path / "text.npz")
+    (tmp_path / "empty.bin").write_bytes(b"")
+    (tmp_path / "cut.npz").write_bytes(good.read_bytes()[:500])
+    np.save(tmp_path / "one.npy", np.zeros(3))
+    for f in ("text.npz", "empty.bin", "cut.npz", "one.npy"):
+        with pytest.raises(ValueError, match=f"{f}: not a discgym checkpoint"):
+            checkpoint.load(tmp_path / f)
+    data = bytearray(good.read_bytes())  # a flipped byte inside a member: its CRC fails
+    data[len(data) // 3] ^= 0xFF
+    (tmp_path / "flip.npz").write_bytes(bytes(data))
+    with pytest.raises(ValueError, match="flip.npz"):
+        checkpoint.load(tmp_path / "flip.npz")
+    with pytest.raises(FileNotFoundError):  # (cannot be read: not a damaged checkpoint)
+        checkpoint.load(tmp_path / "missing.npz")
     with zipfile.ZipFile(tmp_path / "empty.npz", "w"):
         pass
     with pytest.raises(ValueError, match="not a discgym checkpoint"):
@@ -117,6 +136,16 @@ def test_save_refuses_what_is_not_a_simulation_and_leaves_no_partial_file(tmp_pa
     with pytest.raises(FileNotFoundError):
         checkpoint.save(tmp_path / "no_such_dir" / "x.npz", dg.Simulation("reactor", seed=1))
     assert list(tmp_path.iterdir()) == []
+
+
+def test_a_checkpoint_is_readable_as_any_file_the_user_writes(tmp_path):
+    import os
+
+    path = tmp_path / "s.npz"
+    checkpoint.save(path, dg.Simulation("reactor", seed=1))
+    umask = os.umask(0)
+    os.umask(umask)
+    assert path.stat().st_mode & 0o777 == 0o666 & ~umask
 
 
 def test_the_module_example_runs():

@@ -259,10 +259,16 @@ def test_resume_refuses_conflicting_options_and_bad_files(tmp_path, capsys):
     np.savez(bogus, x=np.zeros(3))
     assert cli.main(["run", "--resume", str(bogus), "--time", "1"]) == 2
     assert "not a discgym checkpoint" in capsys.readouterr().err
-    garbage = tmp_path / "garbage.npz"
-    garbage.write_bytes(b"\x00\x01 not an archive")
-    assert cli.main(["run", "--resume", str(garbage), "--time", "1"]) == 2
-    assert "not a discgym checkpoint" in capsys.readouterr().err
+    for content in (b"\x00\x01 not an archive", b""):
+        garbage = tmp_path / "garbage.npz"
+        garbage.write_bytes(content)
+        assert cli.main(["run", "--resume", str(garbage), "--time", "1"]) == 2
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and "not a discgym checkpoint" in err
+    one = tmp_path / "one.npz"  # a batch of one reactor resumes
+    dg.checkpoint.save(one, [dg.Simulation(MINI, seed=0)])
+    assert cli.main(["run", "--resume", str(one), "--time", "0.1", "-q"]) == 0
+    capsys.readouterr()
     batch = tmp_path / "batch.npz"
     dg.checkpoint.save(batch, [dg.Simulation(MINI, seed=0), dg.Simulation(MINI, seed=1)])
     assert cli.main(["run", "--resume", str(batch), "--time", "1"]) == 2

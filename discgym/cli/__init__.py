@@ -5,8 +5,8 @@
     discgym scenes                          # the built-in scenes, one line each
     discgym show reactor                    # species, reactions, bounds
     discgym show reactor --toml my.toml     # an editable scene file to start from
-    discgym run reactor --time 20 --plot r.png --gif r.gif --csv r.csv --save r.pkl
-    discgym run --resume r.pkl --time 20    # continue, bit for bit
+    discgym run reactor --time 20 --plot r.png --gif r.gif --csv r.csv --save r.npz
+    discgym run --resume r.npz --time 20    # continue, bit for bit
     discgym bench                           # the benchmark suite, quick mode
     discgym compile --all                   # compile every env's kernels ahead of first use
 
@@ -23,19 +23,22 @@ import argparse
 import os
 import sys
 
-from .common import (
+from .common import (  # noqa: F401  (BENCH_EXTRA, EXIT_FAILED, RENDER_EXTRA: importable here)
+    BENCH_EXTRA,
     CSV_HELP,
+    EXIT_FAILED,
     EXIT_INTERRUPTED,
     EXIT_OK,
     EXIT_USAGE,
+    RENDER_EXTRA,
     CLIError,
     err,
     note,
     parse_counts,
 )
-from .compile import cmd_bench, cmd_compile
-from .run import cmd_run, integrator_supported  # noqa: F401  (tests ask it)
-from .scenes import cmd_scenes, cmd_show
+from .compile import SIMULATION, cmd_bench, cmd_compile  # noqa: F401
+from .run import ADAPTIVE_ROWS, cmd_run, integrator_supported  # noqa: F401
+from .scenes import cmd_scenes, cmd_show, scene_summary  # noqa: F401
 
 __all__ = ["main", "CLIError", "parse_counts", "CSV_HELP"]
 
@@ -98,8 +101,8 @@ def _add_run(sub) -> None:
         epilog=CSV_HELP + "\nExamples:\n"
                "  discgym run reactor --time 20 --plot reactor.png --gif reactor.gif\n"
                "  discgym run my_scene.toml --time 50 --n A=200,B=100 --csv run.csv "
-               "--save run.pkl\n"
-               "  discgym run --resume run.pkl --time 50 --csv more.csv")
+               "--save run.npz\n"
+               "  discgym run --resume run.npz --time 50 --csv more.csv")
     p.add_argument("scene", metavar="SCENE_OR_TOML", nargs="?",
                    help="a built-in scene name or a TOML scene file (optional with --resume)")
     p.add_argument("--time", "-t", type=float, required=True, metavar="T",
@@ -212,6 +215,3 @@ def main(argv=None) -> int:
             pass
         return EXIT_OK
 
-
-if __name__ == "__main__":  # pragma: no cover
-    sys.exit(main())

@@ -340,8 +340,11 @@ def _resume(args):
     p = Path(args.resume)
     if not p.is_file():
         raise CLIError(f"--resume {args.resume}: no such file")
-    with open(p, "rb") as f:
-        pickled = f.read(1) == b"\x80"  # (a pickle's first byte, protocol 2 and later)
+    try:
+        with open(p, "rb") as f:
+            pickled = f.read(1) == b"\x80"  # (a pickle's first byte, protocol 2 and later)
+    except OSError as exc:
+        raise CLIError(f"--resume {args.resume}: cannot read it ({exc})") from None
     if pickled:  # (never unpickled here: loading a pickle runs code)
         raise CLIError(f"--resume {args.resume}: a pickled Simulation, which this command does "
                        "not load (unpickling runs code); if you trust it, pickle.load it in "
@@ -350,6 +353,10 @@ def _resume(args):
         sim = dg.checkpoint.load(p)
     except ValueError as exc:
         raise CLIError(f"--resume {exc}") from None
+    except OSError as exc:
+        raise CLIError(f"--resume {args.resume}: cannot read it ({exc})") from None
+    if isinstance(sim, list) and len(sim) == 1:  # (a batch of one)
+        sim = sim[0]
     if not isinstance(sim, dg.Simulation):
         raise CLIError(f"--resume {args.resume}: a checkpoint of {len(sim)} reactors; "
                        "discgym run continues one")

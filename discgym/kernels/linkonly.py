@@ -109,7 +109,7 @@ LEAN_MEMINFOS = _source_hash(numba_get_meminfos) == _NUMBA_GET_MEMINFOS
 class _LeanWhileCompiling(event.Listener):
     """From the start of the compile of a discgym function to its end (everything numba
     compiles on the way included): :func:`_lean_meminfos` in place of numba's method, and
-    llvmlite's lock callbacks set aside (numba's, which broadcast a ``numba:llvm_lock``
+    numba's callbacks of llvmlite's lock set aside (they broadcast a ``numba:llvm_lock``
     event to every compile's timer at each of the some 100,000 calls into LLVM of a first
     compile: about 2 % of its time, for a lock-time figure nothing reads). Both are put
     back afterwards."""
@@ -123,13 +123,16 @@ class _LeanWhileCompiling(event.Listener):
             f = getattr(ev.data.get("dispatcher"), "py_func", None)
             if not getattr(f, "__module__", "").startswith("discgym"):
                 return
+            self.depth = 1  # (first: an interrupt below still finds on_end putting back)
             if LEAN_MEMINFOS:
                 NRTContext.get_meminfos = _lean_meminfos
             if _LLVM_LOCK is not None:
                 with _LLVM_LOCK._lock:  # (no call into LLVM between its callbacks meanwhile)
-                    self.callbacks = list(_LLVM_LOCK._cblist)
+                    self.callbacks = [c for c in _LLVM_LOCK._cblist
+                                      if getattr(c[0], "__module__", "").startswith("numba")]
                     for acquire, release in self.callbacks:
                         ffi.unregister_lock_callback(acquire, release)
+            return
         self.depth += 1
 
     def on_end(self, ev):
@@ -137,13 +140,16 @@ class _LeanWhileCompiling(event.Listener):
             return
         self.depth -= 1
         if self.depth == 0:
-            if LEAN_MEMINFOS:
-                NRTContext.get_meminfos = numba_get_meminfos
-            if _LLVM_LOCK is not None:
-                with _LLVM_LOCK._lock:
-                    for acquire, release in self.callbacks:
-                        ffi.register_lock_callback(acquire, release)
-                self.callbacks = []
+            try:
+                if LEAN_MEMINFOS:
+                    NRTContext.get_meminfos = numba_get_meminfos
+            finally:
+                if _LLVM_LOCK is not None:
+                    callbacks, self.callbacks = self.callbacks, []
+                    with _LLVM_LOCK._lock:
+                        for cb in callbacks:
+                            if cb not in _LLVM_LOCK._cblist:
+                                ffi.register_lock_callback(*cb)
 
 
 #: llvmlite's lock around its calls into LLVM, whose callbacks :class:`_LeanWhileCompiling`

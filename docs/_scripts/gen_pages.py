@@ -114,7 +114,7 @@ def make(env_id: str) -> gym.Env:
     return gym.make(env_id).unwrapped
 
 
-#: The reward's first term per ``reward`` argument (env.REWARDS), in words.
+#: The reward's first term per ``reward`` argument (config.REWARDS), in words.
 GAIN = {
     "product": "({p} now - {p} before) / n_ref: the product {p} made during the step",
     "outflow": "{p} that left through the outlets during the step / n_ref",
