@@ -30,7 +30,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .scene import Box, Circle, Scene
+from .scene import Scene, SceneError, bounds_from_dict, bounds_to_dict
 from .simulation import Simulation
 
 __all__ = ["save", "load", "FORMAT", "VERSION"]
@@ -58,7 +58,7 @@ def save(path: str | os.PathLike, sims: Simulation | Sequence[Simulation]) -> No
         state = sim.get_state()
         for k in ARRAY_KEYS:
             arrays[f"{r}/{k}"] = state.pop(k)
-        state["bounds"] = _bounds_to_dict(state["bounds"])
+        state["bounds"] = bounds_to_dict(state["bounds"])
         state["rng"] = _plain(state["rng"])
         state["wall_temperature"] = [[side, t] for side, t in
                                      state["wall_temperature"].items()]
@@ -139,7 +139,10 @@ def _reactor(name: str, z, r: int, entry) -> Simulation:
             raise ValueError(f"{where}: the array {key!r} cannot be read ({_why(exc)})") \
                 from None
     try:
-        state["bounds"] = _bounds_from_dict(state.get("bounds"))
+        state["bounds"] = bounds_from_dict(state.get("bounds"))
+    except SceneError as exc:
+        raise ValueError(f"{where}: state['bounds']: {exc}") from None
+    try:
         walls = state.get("wall_temperature", [])
         state["wall_temperature"] = {side: t for side, t in walls}
         state["rng"] = _unplain(state.get("rng"))
@@ -160,20 +163,6 @@ def _reactor(name: str, z, r: int, entry) -> Simulation:
 
 def _why(exc: BaseException) -> str:
     return f"{type(exc).__name__}: {exc}"
-
-
-def _bounds_to_dict(b) -> dict:
-    if isinstance(b, Box):
-        return {"shape": "box", "width": b.width, "height": b.height, "origin": list(b.origin)}
-    return {"shape": "circle", "radius": b.radius, "center": list(b.center)}
-
-
-def _bounds_from_dict(d) -> Box | Circle:
-    if not isinstance(d, dict) or d.get("shape") not in ("box", "circle"):
-        raise ValueError(f"state['bounds']: expected a box or a circle, got {d!r}")
-    if d["shape"] == "box":
-        return Box(d["width"], d["height"], tuple(d["origin"]))
-    return Circle(d["radius"], tuple(d["center"]))
 
 
 def _plain(v):

@@ -704,7 +704,7 @@ class Scene:
                 raise SceneError(req, "missing (required)")
         kw = {k: data[k] for k in top - {"bounds", "species", "reactions", "counts",
                                          "thermal_walls", "outlets"} if k in data}
-        kw["bounds"] = _bounds_from_dict(data["bounds"])
+        kw["bounds"] = bounds_from_dict(data["bounds"])
         sp = data["species"]
         if not isinstance(sp, list):
             raise SceneError("species", "expected an array of tables [[species]]")
@@ -725,11 +725,7 @@ class Scene:
         return cls(**kw)
 
     def to_dict(self) -> dict:
-        b = self.bounds
-        if isinstance(b, Box):
-            bd = {"shape": "box", "width": b.width, "height": b.height, "origin": list(b.origin)}
-        else:
-            bd = {"shape": "circle", "radius": b.radius, "center": list(b.center)}
+        bd = bounds_to_dict(self.bounds)
         out = {
             "name": self.name,
             "description": self.description,
@@ -873,7 +869,15 @@ def _obj_from_dict(cls, where: str, d):
             from None
 
 
-def _bounds_from_dict(d) -> Bounds:
+def bounds_to_dict(b: Bounds) -> dict:
+    """Bounds in the plain-dict form of TOML scenes (:func:`bounds_from_dict` reads it)."""
+    if isinstance(b, Box):
+        return {"shape": "box", "width": b.width, "height": b.height, "origin": list(b.origin)}
+    return {"shape": "circle", "radius": b.radius, "center": list(b.center)}
+
+
+def bounds_from_dict(d) -> Bounds:
+    """Bounds from :func:`bounds_to_dict`'s form, checked (``SceneError`` naming the key)."""
     if not isinstance(d, Mapping):
         raise SceneError("bounds", f"expected a table, got {d!r}")
     shape = d.get("shape")
