@@ -347,10 +347,12 @@ class ReactorConfig:
         return counts, temperature, seed
 
     def new_simulation(self, np_random: np.random.Generator,
-                       generator: np.random.Generator | None = None) -> Simulation:
+                       generator: np.random.Generator | None = None,
+                       row: tuple | None = None) -> Simulation:
         """A fresh reactor with contents drawn from ``np_random``. Its own generator is
         seeded from ``np_random`` too; pass ``generator`` to have that one reseeded and used
-        (the vector env keeps one generator object per reactor)."""
+        (the environments keep one generator object per reactor), ``row`` = (state, r) to
+        build it in row r of a :class:`~discgym.state.ReactorState`."""
         counts, temperature, seed = self.draw_contents(np_random)
         scene = self.draw_kinetics(np_random) if self.uncertain else self.scene
         if generator is None:
@@ -358,7 +360,7 @@ class ReactorConfig:
         else:
             generator.bit_generator.state = np.random.PCG64(seed).state
         sim = Simulation(scene, counts=counts, temperature=temperature, seed=generator,
-                         integrator=self.integrator)
+                         integrator=self.integrator, row=row)
         sim.threads = 1
         return sim
 
@@ -507,7 +509,7 @@ class ReactorConfig:
 
     def read_size(self, bounds, size: float, who: str) -> float:
         """The wall's size for ``bounds``, which ``resize`` or ``set_state`` gave a reactor's
-        Simulation from outside (``Simulation.export_scalars`` tells the envs when), the env
+        Simulation from outside (the state's ``touched`` rows tell the envs when), the env
         having held ``size``: ``size`` if they are still its bounds (``bounds_of(size)``: a
         copy, a state of the same size), else theirs, so that the ``size`` observation and the
         next wall move start from the bounds the reactor has. The wall sets a box's width (the

@@ -32,7 +32,6 @@ from __future__ import annotations
 
 import copy
 from collections.abc import Mapping
-from functools import partial
 
 import gymnasium as gym
 import numpy as np
@@ -67,21 +66,8 @@ from .config import (  # noqa: F401  (importable from here too)
     ReactorConfig,
     energy_edges,
 )
-from .core import REAL_KINDS, as_actions, check_status, integrator_changed, observe
+from .core import REAL_KINDS, EpisodeCore, as_actions
 from .kernels import helper as compile_helper
-from .kernels.batch import (
-    O_BLOCKED,
-    O_ENERGY_HEAT,
-    O_HEAT,
-    O_INVALID,
-    O_STATUS,
-    env_step,
-)
-from .kernels.structs import (
-    FLOAT,
-    Episodes,
-    Reactors,
-)
 from .simulation import Simulation
 
 __all__ = [
@@ -93,6 +79,7 @@ __all__ = [
 ]
 
 _ONE = np.ones(1, dtype=bool)  # the "active" mask of a batch of one reactor
+_ROW = [0]  # its rows
 _NON_INTERACTIVE = {"agg", "cairo", "pdf", "pgf", "ps", "svg", "template"}
 
 
@@ -252,131 +239,59 @@ class DiscReactorEnv(gym.Env):
         self.action_space = cfg.action_space()
         self.observation_names = cfg.obs_names
         self.action_names = cfg.action_names
-        self.simulation: Simulation | None = None
-        S, F = cfg.n_species, len(cfg.feed)
-        # per-episode state as (1, ...) rows, the layout the compiled observation reads
-        self._stats = np.zeros((1, 3 * S + 1), dtype=FLOAT)
-        self._size = np.ones(1, dtype=FLOAT)
-        self._steps = np.zeros(1, dtype=np.int64)
-        self._feed_left = np.zeros((1, F), dtype=np.int64)
-        self._n_init = np.ones(1, dtype=FLOAT)
-        self._n_ref = np.ones(1, dtype=FLOAT)
-        self._n = np.zeros(1, dtype=np.int64)
-        self._temp = np.zeros(1, dtype=FLOAT)
-        self._kin = np.zeros(1, dtype=FLOAT)
-        self._ksteps = np.zeros(1, dtype=np.int64)
-        self._bounds_kind = np.zeros(1, dtype=np.int64)
-        self._bounds_params = np.zeros((1, 4), dtype=FLOAT)
-        self._act = np.zeros((1, 2 + F), dtype=FLOAT)
-        self._fout = np.zeros((1, 2 + F), dtype=FLOAT)
-        self._iout = np.zeros((1, 3 + 2 * F), dtype=np.int64)
-        self._obs = np.zeros((1, len(cfg.obs_names)), dtype=np.float32)
-        K = len(cfg.compiled.labels)
-        self._sp_form = np.zeros((1, S), dtype=FLOAT)
-        self._ch_rate = np.zeros((1, K), dtype=FLOAT)
-        self._ch_energy = np.zeros((1, K), dtype=FLOAT)
-        self._ch_last = np.zeros((1, K), dtype=np.int64)
-        self._out_last = np.zeros((1, S), dtype=np.int64)
-        self._feed_kT = np.full(1, np.nan, dtype=FLOAT)
-        self._feed_kT_next = np.full(1, np.nan, dtype=FLOAT)
-        self._feed_switch = np.full(1, -1, dtype=np.int64)
-        self._pending = np.zeros((1, 2), dtype=FLOAT)
-        self._ep = Episodes(self._size, self._feed_left, self._steps, self._n_init, self._n_ref,
-                            self._temp, self._kin, self._stats, self._obs, self._fout,
-                            self._iout, self._sp_form, self._ch_rate, self._ch_energy,
-                            self._ch_last, self._out_last, self._feed_kT,
-                            self._feed_kT_next, self._feed_switch, self._pending)
-        self._ashape = (2 + F,)
-        self._n_feed = F
-        self._n_species = S
-        self._step_k, self._step_dt = cfg.steps_per_action, cfg.scene.dt  # (Simulation.step)
-        self._n_seen = -1  # the simulation's disc count after the last step
-        self._bounds_seen = -1  # its bounds serial read back (Simulation.export_scalars)
-        self._bound: tuple = (None,) * 5
+        # the episode core of one reactor: its state, episode row and Simulation handle
+        self.core = EpisodeCore(cfg, 1)
+        self._ashape = (2 + len(cfg.feed),)
         self._fig = None
+
+    @property
+    def simulation(self) -> Simulation | None:
+        """The reactor's :class:`~discgym.Simulation` (None before the first reset): a
+        handle on the env's own state, so that its controls act on the next step."""
+        return self.core.simulations[0]
 
     # ------------------------------------------------------------------ API
     def reset(self, *, seed: int | None = None, options: dict | None = None):
         super().reset(seed=seed)
-        cfg = self.config
-        self.simulation = sim = cfg.new_simulation(self.np_random)
-        cfg.reset_row(self._ep, 0, sim, self.np_random)
-        self._bind(sim)
-        counts = np.bincount(sim.species, minlength=cfg.n_species)
-        self._n_ref_now = float(self._n_ref[0])
-        self._size_now = float(self._size[0])
-        obs = self._observe()
-        self._product = float(self._stats[0, cfg.product])
+        cfg, core = self.config, self.core
+        core.np_randoms[0] = self.np_random
+        core.reset(_ROW)
+        ep = core.episodes
+        counts = [int(c) for c in ep.stats[0, :cfg.n_species].tolist()]
+        product = counts[cfg.product]
+        n_ref = ep.n_ref.item()
         # the keys of a step's info; what only a step does (reward, costs, heat, injections,
         # a blocked wall, invalid components) is 0 / False
-        counts = counts.tolist()
-        product = counts[cfg.product]
-        n_ref = self._n_ref_now
-        none = [0] * self._n_feed
+        none = [0] * len(cfg.feed)
         info = cfg.info_values(counts, product, product / n_ref, 0.0, 0.0, 0.0, 0.0,
-                               self._temperature, self._size_now, none, none, False, 0,
-                               sim.time, n_ref)
+                               ep.temperature.item(), ep.size.item(), none, none, False, 0,
+                               core.state.time(0).item(), n_ref)
         if self.render_mode == "human":
             self.render()
-        return obs, info
+        return ep.obs[0].copy(), info
 
     def step(self, action):
-        sim = self.simulation
-        if sim is None:
+        if self.simulation is None:
             raise gym.error.ResetNeeded("call reset() before step()")
-        cfg = self.config
-        act = self._act
+        cfg, core = self.config, self.core
         if type(action) is np.ndarray and action.shape == self._ashape and \
                 action.dtype.kind in REAL_KINDS:
-            act[0] = action
+            core.act[0] = action
         else:
-            act[0] = as_actions(cfg, action)
-        if sim.integrator != cfg.integrator:
-            raise integrator_changed(cfg, sim.integrator, "its Simulation")
-        bound = self._bound
-        arrays = sim.kernel_arrays()
-        if arrays[0] is not bound[0] or arrays[1] is not bound[1] or \
-                arrays[2] is not bound[2] or arrays[3] is not bound[3] or \
-                arrays[4] is not bound[4] or len(sim) != self._n_seen:
-            self._bind(sim)  # (the simulation was changed from outside: arrays, disc count)
-        # the simulation's scalar state, as the rows of a batch of one reactor; bounds
-        # replaced from outside (resize, set_state) give the wall its size
-        serial = sim.export_scalars(self._rx, 0)
-        if serial != self._bounds_seen:
-            self._size[0] = self._size_now = cfg.read_size(sim.bounds, self._size_now,
-                                                           "its Simulation")
-            self._bounds_seen = serial
-        size0 = self._size_now
-        env_step(*self._args)
-        fo = self._fout[0].tolist()
-        io = self._iout[0].tolist()
-        if io[O_STATUS]:
-            check_status(cfg, self._iout, _ONE)
-        # what Simulation.step and its controls book
-        self._n_seen = n = self._n.item()
-        self._size_now = size = self._size.item()
-        moved = (partial(cfg.bounds_of, size), self._bounds_params[0].copy()) \
-            if size != size0 else None
-        sim.book_env_step(n, self._ksteps.item(), self._step_k, self._step_dt,
-                          fo[O_ENERGY_HEAT:], moved)
-        self._temperature = temperature = self._temp.item()
-        F = self._n_feed
-        injected = io[3:3 + F]
-        heat = fo[O_HEAT]
-        n_ref = self._n_ref_now
-        counts = self._stats[0, :self._n_species].tolist()
+            core.act[0] = as_actions(cfg, action)
+        out = core.step(_ONE)
+        ep = core.episodes
+        counts = [int(c) for c in ep.stats[0, :cfg.n_species].tolist()]
         product = counts[cfg.product]
-        gain, cost_heat, cost_feed, reward = cfg.reward_terms(
-            product, self._product, float(self._out_last[0, cfg.product]), heat,
-            float(sum(injected)), n_ref)
-        self._product = product
-        truncated = self._steps.item() >= cfg.episode_steps
-        info = cfg.info_values([int(c) for c in counts], int(product), product / n_ref, gain,
-                               cost_heat, cost_feed, heat, temperature, size, injected,
-                               io[3 + F:], io[O_BLOCKED] != 0, io[O_INVALID], sim.time, n_ref)
+        n_ref = ep.n_ref.item()
+        info = cfg.info_values(counts, product, product / n_ref, out.gain, out.cost_heat,
+                               out.cost_feed, out.heat, ep.temperature.item(), ep.size.item(),
+                               out.injected, out.refused, out.blocked, out.invalid,
+                               core.state.time(0).item(), n_ref)
+        truncated = ep.steps.item() >= cfg.episode_steps
         if self.render_mode == "human":
             self.render()
-        return self._obs[0].copy(), reward, False, truncated, info
+        return ep.obs[0].copy(), out.reward, False, truncated, info
 
     def render(self):
         if self.render_mode is None:
@@ -414,41 +329,12 @@ class DiscReactorEnv(gym.Env):
             self._fig = None
 
     # ------------------------------------------------------------------ helpers
-    def _bind(self, sim: Simulation) -> None:
-        """Give ``sim`` the capacity the compiled step needs (it never grows arrays) and keep
-        the arguments of :func:`~discgym.kernels.batch.env_step`: (1, ...) views of its state
-        arrays (the rows of a batch of one reactor) and this env's episode state."""
-        cfg = self.config
-        # the compiled step never grows arrays: room for all the discs the contents and the
-        # feed left could ever split into (mass is conserved), twice over (see kernels.batch)
-        sim.reserve_capacity(max(cfg.capacity,
-                                 cfg.capacity_for(sim.species, self._feed_left[0])[0]))
-        self._n_seen = len(sim)
-        cs = cfg.compiled
-        pos, vel, species, internal_energy, ids, next_id = arrays = sim.kernel_arrays()
-        icnt, fsum, ch_count, outflow = sim.kernel_counters()
-        self._bound = arrays[:5]
-        self._rx = Reactors(pos[None], vel[None], species[None], internal_energy[None],
-                            ids[None], next_id[None], self._n, self._ksteps, self._bounds_kind,
-                            self._bounds_params, icnt[None], fsum[None], ch_count[None],
-                            outflow[None], sim.kernel_walls()[None])
-        # (the structs as plain tuples of their fields: see kernels.batch.env_step)
-        self._args = (tuple(self._rx), tuple(self._ep), (tuple(cfg.tables), cs.params, cs.flags),
-                      tuple(cfg.consts), sim.kernel_rngs, _ONE, self._act)
-
-    def _observe(self) -> np.ndarray:
-        # the simulation's own arrays (padded; the kernel reads discs [0, n)): no copies; at
-        # reset, so the new simulation's bounds are those of the size
-        self._bounds_seen = self.simulation.export_scalars(self._rx, 0)
-        observe(self.config, self._rx, self._ep)
-        self._temperature = float(self._temp[0])
-        return self._obs[0].copy()
-
     def _frame(self) -> np.ndarray:
         from .render import render_frame
 
-        y = self._product / float(self._n_ref[0])
-        title = f"T {self._temperature:.2f} Y {y:.2f}"
+        ep = self.core.episodes
+        y = self.core.product.item() / ep.n_ref.item()
+        title = f"T {ep.temperature.item():.2f} Y {y:.2f}"
         return render_frame(self.simulation, size=self.render_size, title=title)
 
     def clone(self, reseed=None) -> DiscReactorEnv:
@@ -479,19 +365,13 @@ class DiscReactorEnv(gym.Env):
                 else np.random.SeedSequence(reseed)
             env_seq, sim_seq = ss.spawn(2)
             c.np_random = np.random.Generator(np.random.PCG64(env_seq))
-            if c.simulation is not None:
-                c.simulation._set_rng(np.random.Generator(np.random.PCG64(sim_seq)))
+            c.core.state.set_generator(0, np.random.Generator(np.random.PCG64(sim_seq)))
         return c
 
     def __getstate__(self):
         d = self.__dict__.copy()
         d["_fig"] = None
         d.pop("_im", None)
-        # views of the simulation's arrays would come back as copies: bind again on the
-        # next step
-        d.pop("_args", None)
-        d.pop("_rx", None)
-        d["_bound"] = (None,) * 5
         return d
 
 

@@ -184,7 +184,7 @@ class Reactor:
 
     @property
     def np_random(self):
-        return self._venv._np_randoms[self.index]
+        return self._venv.core.np_randoms[self.index]
 
     @property
     def observation_space(self):

@@ -12,7 +12,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import numbers
-from collections.abc import Callable, Mapping
+from collections.abc import Mapping
 
 import numba
 import numpy as np
@@ -32,7 +32,6 @@ from .kernels.structs import (
     Bounds,
     Discs,
     Injection,
-    generator_list,
     speed_limit,
 )
 from .scene import (
@@ -50,6 +49,7 @@ from .scene import (
     too_hot_for_walls,
     validated_counts,
 )
+from .state import ReactorState
 from .threads import ThreadChooser, numba_threads
 
 __all__ = ["Simulation", "PlacementError"]
@@ -108,7 +108,8 @@ class Simulation:
     """
 
     def __init__(self, scene: Scene | str, counts: Mapping[str, int] | None = None,
-                 temperature: float | None = None, seed=None, integrator: str = "step"):
+                 temperature: float | None = None, seed=None, integrator: str = "step", *,
+                 row: tuple[ReactorState, int] | None = None):
         integrator = _integrator_name(integrator)
         scene = as_scene(scene)
         # validated by the scene model's own rules (errors name the offending field)
@@ -116,7 +117,7 @@ class Simulation:
                                   scene.counts if counts is None else counts)
         temperature = finite_value("temperature", scene.temperature if temperature is None
                               else temperature, nonneg=True, energy=True)
-        self._setup(scene, seed)
+        self._setup(scene, seed, row)
         self._integrator = event_fit(integrator, scene, scene.bounds)
         todo = np.concatenate([np.full(c, scene.species_index(nm), dtype=INDEX)
                                for nm, c in counts.items()] + [np.zeros(0, INDEX)])
@@ -143,43 +144,99 @@ class Simulation:
         self._energy_start = self.total_energy()
 
     # ------------------------------------------------------------------ construction
-    def _setup(self, scene: Scene, seed) -> None:
+    def _setup(self, scene: Scene, seed, row: tuple | None = None) -> None:
+        """The handle's own attributes, and row ``row`` = (state, r) emptied for this
+        reactor (default: a state of one row of its own)."""
+        self._attach(scene, row)
+        st, r = self._st, self._r
+        st.clear(r)
+        st.dt[r] = scene.dt
+        st.set_bounds(r, scene.bounds)
+        st.rx.bounds_walls[r] = kernel_walls(scene)  # kT per side, NaN: specular
+        self._set_rng(_rng(seed))
+
+    def _attach(self, scene: Scene, row: tuple | None) -> None:
         self.scene = scene
         self._cs = compile_scene(scene)
         self._species_of = {sp.name: k for k, sp in enumerate(scene.species)}
-        self._bounds = scene.bounds
-        self._bounds_factory = None
-        self._bounds_kind, self._bounds_params = kernel_bounds(scene.bounds)
-        # bumped whenever resize or set_state replaces the bounds (not when an environment's
-        # wall moves them: book_env_step), so that the environments read them back only then
-        self._bounds_serial = 0
-        self._set_rng(_rng(seed))
-        cap = 16
-        self._pos = np.zeros((cap, 2), dtype=FLOAT)
-        self._vel = np.zeros((cap, 2), dtype=FLOAT)
-        self._species = np.full(cap, -1, dtype=INDEX)
-        self._internal_energy = np.zeros(cap, dtype=FLOAT)
-        self._ids = np.zeros(cap, dtype=COUNT)
-        self._idctr = np.zeros(1, dtype=COUNT)  # the next disc identity
-        self._n = 0
-        self._time = 0.0
-        self._steps = 0  # steps taken (times the memory reordering)
-        # time origin, whole steps since it; the same for since_reset (see _tick)
-        self._clock = [0.0, 0, 0.0, 0]
-        self._icnt = np.zeros(_step.N_ICOUNTERS, dtype=COUNT)
+        S, K = len(scene.species), len(self._cs.labels)
+        if row is None:
+            row = (ReactorState(1, 16, S, K), 0)
+        st, r = row
+        if not isinstance(st, ReactorState) or not 0 <= r < st.rows or \
+                st.rx.outflow.shape[1] != S or st.rx.ch_count.shape[1] != K:
+            raise ValueError(f"row: expected (ReactorState, row index) of a state of {S} "
+                             f"species and {K} reaction channels, got {row!r}")
+        self._st, self._r = st, int(r)
         self._work = _step.empty_work()  # the stepper's scratch, kept between calls
-        self._fsum = np.zeros(_step.N_FSUMS, dtype=FLOAT)
-        self._ch_count = np.zeros(len(self._cs.labels), dtype=COUNT)
-        self._outflow = np.zeros(len(scene.species), dtype=COUNT)
-        self._walls = kernel_walls(scene)  # (4,) kT per side, NaN: specular (Bounds.walls)
-        self._since_reset = 0.0
-        self._energy_input = 0.0
+        self._integrator = "step"
         self._threads = 4 * numba.get_num_threads()
         # the thread count of each call (speed only: not part of the state); one thread
         # takes the serial entry, which a parallel Simulation may not have compiled yet
         self._chooser = ThreadChooser(
             compiles=lambda t: t == 1 and not _step.advance_serial_rngs.signatures)
-        self._integrator = "step"
+
+    @classmethod
+    def attach(cls, scene: Scene, row: tuple[ReactorState, int],
+               integrator: str = "step") -> Simulation:
+        """A handle on row ``row`` = (state, r) of a :class:`~discgym.state.ReactorState`
+        as it is (nothing is copied or cleared): how an environment that holds the state
+        (after unpickling it, say) gives each reactor its :class:`Simulation` again."""
+        self = cls.__new__(cls)
+        self._attach(scene, row)
+        self._integrator = _integrator_name(integrator)
+        return self
+
+    # the row's arrays in the shared state (views, written in place) and its numbers
+    _pos = property(lambda self: self._st.rx.pos[self._r])
+    _vel = property(lambda self: self._st.rx.vel[self._r])
+    _species = property(lambda self: self._st.rx.species[self._r])
+    _internal_energy = property(lambda self: self._st.rx.internal_energy[self._r])
+    _ids = property(lambda self: self._st.rx.ids[self._r])
+    _idctr = property(lambda self: self._st.rx.next_id[self._r])  # the next disc identity
+    _icnt = property(lambda self: self._st.rx.icnt[self._r])
+    _fsum = property(lambda self: self._st.rx.fsum[self._r])
+    _ch_count = property(lambda self: self._st.rx.ch_count[self._r])
+    _outflow = property(lambda self: self._st.rx.outflow[self._r])
+    _walls = property(lambda self: self._st.rx.bounds_walls[self._r])  # (Bounds.walls)
+    _bounds_kind = property(lambda self: int(self._st.rx.bounds_kind[self._r]))
+    _bounds_params = property(lambda self: self._st.rx.bounds_params[self._r])
+    _time = property(lambda self: float(self._st.time(self._r)))
+    _rng = property(lambda self: self._st.generator(self._r))
+    _rngs = property(lambda self: self._st.row_rngs(self._r))  # (the kernels' form)
+    _since_reset = property(lambda self: float(self._st.since_reset(self._r)))
+
+    @property
+    def _n(self) -> int:
+        return int(self._st.rx.n[self._r])
+
+    @_n.setter
+    def _n(self, n: int) -> None:
+        self._st.rx.n[self._r] = n
+
+    @property
+    def _steps(self) -> int:  # kernel steps taken (times the memory reordering)
+        return int(self._st.rx.ksteps[self._r])
+
+    @_steps.setter
+    def _steps(self, k: int) -> None:
+        self._st.rx.ksteps[self._r] = k
+
+    @property
+    def _energy_input(self) -> float:
+        return float(self._st.energy_input[self._r])
+
+    @_energy_input.setter
+    def _energy_input(self, e: float) -> None:
+        self._st.energy_input[self._r] = e
+
+    @property
+    def _energy_start(self) -> float:
+        return float(self._st.energy_start[self._r])
+
+    @_energy_start.setter
+    def _energy_start(self, e: float) -> None:
+        self._st.energy_start[self._r] = e
 
     @classmethod
     def from_arrays(cls, scene: Scene | str, positions, velocities, species,
@@ -285,26 +342,10 @@ class Simulation:
         """Use ``generator`` for all randomness. Kernels receive it inside a one-item
         ``numba.typed.List`` (same object, same state): far cheaper to pass than the
         generator itself (see ``kernels.step.advance_rngs``)."""
-        self._rng = generator
-        self._rngs = generator_list([generator])
+        self._st.set_generator(self._r, generator)
 
     def _reserve(self, extra: int) -> None:
-        need = self._n + extra
-        cap = len(self._species)
-        if need <= cap:
-            return
-        cap = max(need, 2 * cap)
-        for name in ("_pos", "_vel"):
-            a = np.zeros((cap, 2), dtype=FLOAT)
-            a[: self._n] = getattr(self, name)[: self._n]
-            setattr(self, name, a)
-        spc = np.full(cap, -1, dtype=INDEX)
-        spc[: self._n] = self._species[: self._n]
-        uint = np.zeros(cap, dtype=FLOAT)
-        uint[: self._n] = self._internal_energy[: self._n]
-        ids = np.zeros(cap, dtype=COUNT)
-        ids[: self._n] = self._ids[: self._n]
-        self._species, self._internal_energy, self._ids = spc, uint, ids
+        self._st.grow(self._n + extra)
 
     def _new_ids(self, lo: int, hi: int) -> None:
         """Give discs [lo, hi) fresh identities."""
@@ -438,114 +479,11 @@ class Simulation:
                 sub0 = self._icnt[_step.IC_SUBSTEPS]
                 discs, n, self._work = self._chooser.timed(
                     most, run, lambda: self._n * float(self._icnt[_step.IC_SUBSTEPS] - sub0))
-        self._pos, self._vel, self._species, self._internal_energy, self._ids = discs[:5]
-        self._n = n
-        self._steps += n_steps
-        self._tick(n_steps, dt)
-
-    def _tick(self, n_steps: int, dt: float) -> None:
-        """The clocks: ``origin + k * scene.dt`` after k whole steps since ``origin`` (so the
-        time does not depend on how steps are split into calls); a step of another length
-        (the remainder of :meth:`advance`) starts a new origin."""
-        c = self._clock
-        h = self.scene.dt
-        if dt == h:
-            c[1] += n_steps
-            c[3] += n_steps
-        else:
-            c[0] = c[0] + c[1] * h + n_steps * dt
-            c[2] = c[2] + c[3] * h + n_steps * dt
-            c[1] = c[3] = 0
-        self._time = c[0] + c[1] * h
-        self._since_reset = c[2] + c[3] * h
-
-    # ------------------------------------------------------------------ for the environments
-    # Not public API: the doors through which discgym's environments run their compiled step
-    # (kernels.batch) on a Simulation's own arrays, so that the Simulation stays the only
-    # owner of its state and its bookkeeping.
-    def kernel_arrays(self) -> tuple:
-        """``(pos, vel, species, internal_energy, ids, next_id)``: the state arrays themselves
-        (capacity C >= N, not copies; discs [0, N) live): (C, 2), (C, 2), (C,) INDEX,
-        (C,) FLOAT, (C,) COUNT, (1,) COUNT. Internal, for discgym's environments."""
-        return (self._pos, self._vel, self._species, self._internal_energy, self._ids, self._idctr)
-
-    def kernel_counters(self) -> tuple:
-        """``(icnt, fsum, ch_count, outflow)``: the counter arrays themselves (see
-        :mod:`discgym.kernels.step`). Internal, for discgym's environments."""
-        return (self._icnt, self._fsum, self._ch_count, self._outflow)
-
-    def kernel_walls(self) -> np.ndarray:
-        """The wall temperatures themselves, (4,) FLOAT (``Bounds.walls``: kT per side, NaN
-        for a specular one; always changed in place). Internal, for discgym's
-        environments."""
-        return self._walls
-
-    @property
-    def kernel_rngs(self):
-        """The generator as the kernels take it (a one-item ``numba.typed.List``)."""
-        return self._rngs
-
-    def reserve_capacity(self, capacity: int) -> None:
-        """Grow the state arrays (if needed) to hold at least ``capacity`` discs."""
-        if len(self._species) < capacity:
-            self._reserve(capacity - self._n)
-
-    def move_into(self, pos, vel, species, internal_energy, ids, next_id, icnt, fsum,
-                  ch_count, outflow, walls) -> None:
-        """Copy the state and counters into the given arrays (as :meth:`kernel_arrays`,
-        :meth:`kernel_counters` and :meth:`kernel_walls`; past the discs: zeros, species -1)
-        and use them as its own from now on: the vector environment keeps every reactor in
-        rows of its batch."""
-        n = self._n
-        pos[:] = 0.0
-        vel[:] = 0.0
-        species[:] = -1
-        internal_energy[:] = 0.0
-        ids[:] = 0
-        pos[:n] = self._pos[:n]
-        vel[:n] = self._vel[:n]
-        species[:n] = self._species[:n]
-        internal_energy[:n] = self._internal_energy[:n]
-        ids[:n] = self._ids[:n]
-        next_id[:] = self._idctr
-        self._pos, self._vel, self._species = pos, vel, species
-        self._internal_energy, self._ids, self._idctr = internal_energy, ids, next_id
-        icnt[:] = self._icnt
-        fsum[:] = self._fsum
-        ch_count[:] = self._ch_count
-        outflow[:] = self._outflow
-        walls[:] = self._walls
-        self._icnt, self._fsum, self._ch_count = icnt, fsum, ch_count
-        self._outflow, self._walls = outflow, walls
-
-    def export_scalars(self, reactors, r: int) -> int:
-        """Write the disc count, the kernel steps taken and the bounds into row ``r`` of
-        ``reactors`` (a :class:`~discgym.kernels.structs.Reactors`). Returns a number that
-        changes whenever :meth:`resize` or :meth:`set_state` replaced the bounds (a wall moved
-        by :meth:`book_env_step` leaves it): an environment that keeps the size of its wall
-        reads the bounds back when it changed (``ReactorConfig.read_size``)."""
-        reactors.n[r] = self._n
-        reactors.ksteps[r] = self._steps
-        reactors.bounds_kind[r] = self._bounds_kind
-        reactors.bounds_params[r] = self._bounds_params
-        return self._bounds_serial
-
-    def book_env_step(self, n: int, steps: int, n_steps: int, dt: float, energies,
-                      bounds: tuple | None = None) -> None:
-        """Book what :meth:`step` and the controls book, after a compiled environment step
-        that ran ``n_steps`` steps of ``dt`` on the state arrays: the disc count ``n``, the
-        kernel steps taken ``steps``, the clocks, the energies the controls put in (added to
-        :attr:`energy_input` one after the other, as the controls add them) and, if the wall
-        moved, ``bounds`` = ``(factory, bounds_params)`` (see :meth:`_defer_bounds`)."""
-        self._n = n
-        self._steps = steps
-        self._tick(n_steps, dt)
-        e = self._energy_input
-        for x in energies:
-            e += x
-        self._energy_input = e
-        if bounds is not None:
-            self._defer_bounds(*bounds)
+        st = self._st
+        st.adopt(self._r, discs, n)  # (a kernel that grew the row's arrays returned new ones)
+        st.rx.ksteps[self._r] += n_steps
+        st.tick(self._r, n_steps, dt)
+        st.touch(self._r)
 
     # ------------------------------------------------------------------ state views
     def __len__(self) -> int:
@@ -559,19 +497,7 @@ class Simulation:
     @property
     def bounds(self):
         """The current bounds (changed by :meth:`resize`)."""
-        b = self._bounds
-        if b is None:  # (set lazily by the environment's compiled step: see _defer_bounds)
-            b = self._bounds = self._bounds_factory()
-        return b
-
-    def _defer_bounds(self, factory: Callable[[], Box | Circle], bounds_params: np.ndarray) -> None:
-        """The bounds were changed by compiled code to the parameters ``bounds_params`` (4,); the
-        :class:`Box` or :class:`Circle` object is built by ``factory()`` only when asked for
-        (building it costs a noticeable share of what a reinforcement-learning step may spend
-        in Python)."""
-        self._bounds = None
-        self._bounds_factory = factory
-        self._bounds_params = bounds_params
+        return self._st.bounds(self._r)
 
     @property
     def positions(self) -> np.ndarray:
@@ -770,8 +696,8 @@ class Simulation:
     def reset_counters(self) -> None:
         """Restart the pressure average (the momentum delivered to the walls)."""
         self._fsum[_step.FS_WALL_MOMENTUM] = 0.0
-        self._since_reset = 0.0
-        self._clock[2:] = [0.0, 0]
+        st, r = self._st, self._r
+        st.reset_origin[r] = st.reset_steps[r] = 0
 
     def overlaps(self, tol: float = 1e-9) -> int:
         """Number of pairs overlapping by more than ``tol`` (in [0, 1)) of their contact
@@ -866,6 +792,7 @@ class Simulation:
             raise ValueError(self._too_fast(fastest, f"inject(temperature={temperature})"))
         self._n += placed
         self._energy_input += energy
+        self._st.touch(self._r)
         return placed
 
     def resize(self, bounds: Box | Circle) -> None:
@@ -887,8 +814,8 @@ class Simulation:
                                               bounds.max_radius(), bounds.area, HEX_PACKING,
                                               self._rngs, 0, PLACEMENT_ATTEMPTS)
         if done == _controls.RESIZED:
-            self._bounds, self._bounds_kind, self._bounds_params = bounds, kind, params
-            self._bounds_serial += 1
+            self._st.set_bounds(self._r, bounds)
+            self._st.touch(self._r)
             return
         self._rng.bit_generator.state = rng_state  # refused: as if never tried
         if done == _controls.TOO_BIG:
@@ -931,7 +858,7 @@ class Simulation:
             "fsum": self._fsum.copy(),
             "ch_count": self._ch_count.copy(),
             "since_reset": self._since_reset,
-            "clock": tuple(self._clock),
+            "clock": self._clock(),
             "energy_input": self._energy_input,
             "energy_start": self._energy_start,
             "integrator": self._integrator,
@@ -1138,9 +1065,9 @@ class Simulation:
         """Assign a state checked by :meth:`_checked_state` (in place where arrays are big
         enough: the vector env holds views of them)."""
         n = s["n"]
-        self._bounds = s["bounds"]
-        self._bounds_kind, self._bounds_params = s["bounds_kind"], s["bounds_params"]
-        self._bounds_serial += 1
+        st, r = self._st, self._r
+        st.set_bounds(r, s["bounds"])
+        st.touch(r)
         self._n = 0
         self._reserve(n)
         self._pos[:n] = s["positions"]
@@ -1152,7 +1079,6 @@ class Simulation:
         self._idctr[0] = s["next_id"]
         self._steps = s["steps"]
         self._n = n
-        self._time = s["time"]
         if type(self._rng.bit_generator) is type(s["bit_generator"]):
             self._rng.bit_generator.state = s["rng"]
         else:
@@ -1163,8 +1089,7 @@ class Simulation:
         self._ch_count[:] = s["ch_count"]
         self._outflow[:] = s["outflow"]
         self._walls[:] = s["walls"]
-        self._since_reset = s["since_reset"]
-        self._clock = list(s["clock"])
+        st.origin[r], st.steps[r], st.reset_origin[r], st.reset_steps[r] = s["clock"]
         self._energy_input = s["energy_input"]
         self._energy_start = s["energy_start"]
         self._integrator = s["integrator"]
@@ -1179,6 +1104,12 @@ class Simulation:
                              f"dict}} (from __getstate__), got {_short(d)}")
         self._setup(d["scene"], None)
         self.set_state(d["state"])
+
+    def _clock(self) -> tuple:
+        """(time origin, whole steps since it, the same for since_reset)."""
+        st, r = self._st, self._r
+        return (float(st.origin[r]), int(st.steps[r]), float(st.reset_origin[r]),
+                int(st.reset_steps[r]))
 
     def copy(self) -> Simulation:
         other = Simulation.__new__(Simulation)

@@ -38,9 +38,7 @@ with ``reset(options={"reset_mask": mask})``); declared in ``metadata["autoreset
 from __future__ import annotations
 
 from collections.abc import Mapping
-from functools import partial
 
-import numba
 import numpy as np
 from gymnasium import error, logger
 from gymnasium.utils import seeding
@@ -49,21 +47,10 @@ from gymnasium.vector.utils import batch_space
 
 from .arguments import check_keywords, check_memory, check_render_mode, whole, with_config
 from .config import DEFAULTS, MAX_RENDER_SIZE, SLOT_BYTES_BATCH, ReactorConfig
-from .core import as_actions, check_status, integrator_changed, observe
+from .core import EpisodeCore, as_actions
 from .kernels import helper as compile_helper
 from .kernels import step as _step
-from .kernels.batch import (
-    O_BLOCKED,
-    O_ENERGY_HEAT,
-    O_HEAT,
-    O_INVALID,
-    O_STATUS,
-    balance,
-    env_step,
-    env_step_parallel,
-)
-from .kernels.structs import COUNT, FLOAT, INDEX, Episodes, Reactors, generator_list
-from .threads import ThreadChooser, numba_threads
+from .kernels.structs import FLOAT
 
 __all__ = ["DiscReactorVectorEnv"]
 
@@ -154,111 +141,16 @@ class DiscReactorVectorEnv(VectorEnv):
         self.observation_names = cfg.obs_names
         self.action_names = cfg.action_names
 
-        C = cfg.capacity
-        S = cfg.n_species
-        F = len(cfg.feed)
-        self._pos = np.zeros((R, C, 2), dtype=FLOAT)
-        self._vel = np.zeros((R, C, 2), dtype=FLOAT)
-        self._species = np.full((R, C), -1, dtype=INDEX)
-        self._internal_energy = np.zeros((R, C), dtype=FLOAT)
-        self._ids = np.zeros((R, C), dtype=COUNT)
-        self._idctr = np.zeros((R, 1), dtype=COUNT)
-        self._n = np.zeros(R, dtype=np.int64)
-        self._ksteps = np.zeros(R, dtype=np.int64)  # kernel steps taken (Simulation._steps)
-        self._bounds_kind = np.zeros(R, dtype=np.int64)
-        self._bounds_params = np.zeros((R, 4), dtype=FLOAT)
-        self._icnt = np.zeros((R, _step.N_ICOUNTERS), dtype=COUNT)
-        self._fsum = np.zeros((R, _step.N_FSUMS), dtype=FLOAT)
-        self._ch_count = np.zeros((R, len(cfg.compiled.labels)), dtype=COUNT)
-        self._outflow = np.zeros((R, S), dtype=COUNT)
-        self._walls = np.zeros((R, 4), dtype=FLOAT)
-        self._cost = np.ones(R, dtype=FLOAT)  # the cost of each reactor's next step (estimate)
-        self._chooser = ThreadChooser()  # (speed only: the bits do not depend on it)
-        self._order = np.zeros(R, dtype=np.int64)
-        self._starts = np.zeros(numba.config.NUMBA_NUM_THREADS + 1, dtype=np.int64)
-        self._fout = np.zeros((R, 2 + F), dtype=FLOAT)
-        self._iout = np.zeros((R, 3 + 2 * F), dtype=np.int64)
-        self._stats = np.zeros((R, 3 * S + 1), dtype=FLOAT)
-        # one persistent generator per reactor, reseeded at each reset (see env.new_simulation)
-        self._gens = [np.random.Generator(np.random.PCG64(0)) for _ in range(R)]
-        self._np_randoms: list = [None] * R
-        self.simulations: list = [None] * R
-        # per-reactor episode state
-        self._steps = np.zeros(R, dtype=np.int64)
-        self._size = np.ones(R, dtype=FLOAT)
-        self._bounds_seen = [-1] * R  # each Simulation's bounds serial read back (_sync)
-        self._feed_left = np.zeros((R, F), dtype=np.int64)
-        self._n_init = np.ones(R, dtype=FLOAT)
-        self._n_ref = np.ones(R, dtype=FLOAT)
-        self._product = np.zeros(R, dtype=FLOAT)
+        # the episode core of R reactors: their state, episode rows and Simulation handles
+        self.core = EpisodeCore(cfg, R, self.threads)
         self._autoreset = np.zeros(R, dtype=bool)
-        self._obs = np.zeros((R, len(cfg.obs_names)), dtype=np.float32)
-        self._temps = np.zeros(R, dtype=FLOAT)
-        self._kin = np.zeros(R, dtype=FLOAT)
-        # each reactor's kinetics, last step's reactions and outflow, inlet temperatures
-        K = len(cfg.compiled.labels)
-        self._sp_form = np.zeros((R, S), dtype=FLOAT)
-        self._ch_rate = np.zeros((R, K), dtype=FLOAT)
-        self._ch_energy = np.zeros((R, K), dtype=FLOAT)
-        self._ch_last = np.zeros((R, K), dtype=np.int64)
-        self._out_last = np.zeros((R, S), dtype=np.int64)
-        self._feed_kT = np.full(R, np.nan, dtype=FLOAT)
-        self._feed_kT_next = np.full(R, np.nan, dtype=FLOAT)
-        self._feed_switch = np.full(R, -1, dtype=np.int64)
-        self._pending = np.zeros((R, 2), dtype=FLOAT)
         self._started = False
-        self._link()
 
-    def _link(self) -> None:
-        """The objects that only refer to the batch's arrays: the per-reactor row views, the
-        kernels' structs and the typed list of generators (a numba object that does not
-        pickle); rebuilt after unpickling."""
-        R = self.num_envs
-        self._rngs = generator_list(self._gens)
-        self._views = [(self._pos[r], self._vel[r], self._species[r], self._internal_energy[r],
-                        self._ids[r], self._idctr[r]) for r in range(R)]
-        self._rx = Reactors(self._pos, self._vel, self._species, self._internal_energy,
-                            self._ids, self._idctr, self._n, self._ksteps, self._bounds_kind,
-                            self._bounds_params, self._icnt, self._fsum, self._ch_count,
-                            self._outflow, self._walls)
-        self._ep = Episodes(self._size, self._feed_left, self._steps, self._n_init,
-                            self._n_ref, self._temps, self._kin, self._stats, self._obs,
-                            self._fout, self._iout, self._sp_form, self._ch_rate,
-                            self._ch_energy, self._ch_last, self._out_last, self._feed_kT,
-                            self._feed_kT_next, self._feed_switch, self._pending)
-        # (the structs as plain tuples of their fields: see kernels.batch.env_step)
-        cfg = self.config
-        cs = cfg.compiled
-        self._fields = (tuple(self._rx), tuple(self._ep),
-                        (tuple(cfg.tables), cs.params, cs.flags), tuple(cfg.consts))
-
-    # ------------------------------------------------------------------ pickle, deepcopy
-    def __getstate__(self):
-        d = self.__dict__.copy()
-        for k in ("_rngs", "_views", "_rx", "_ep", "_fields"):
-            del d[k]
-        # each Simulation's state lives in row r of the batch's arrays (views, which pickle
-        # as copies) and its generator is self._gens[r]: rebuilt from these in __setstate__
-        d["simulations"] = [None if s is None else s.__getstate__() for s in self.simulations]
-        return d
-
-    def __setstate__(self, d):
-        from .simulation import Simulation
-
-        self.__dict__.update(d)
-        self._link()
-        sims = []
-        for r, st in enumerate(d["simulations"]):
-            if st is None:
-                sims.append(None)
-                continue
-            sim = Simulation.__new__(Simulation)
-            sim.__setstate__(st)
-            sim._set_rng(self._gens[r])  # (the same state: pickled together)
-            sim.move_into(*self._views[r], self._icnt[r], self._fsum[r], self._ch_count[r],
-                          self._outflow[r], self._walls[r])
-            sims.append(sim)
-        self.simulations = sims
+    @property
+    def simulations(self) -> list:
+        """Each reactor's :class:`~discgym.Simulation` (None before the first reset): handles
+        on rows of the env's own state, so that their controls act on the next step."""
+        return self.core.simulations
 
     # ------------------------------------------------------------------ reset
     def reset(self, *, seed=None, options: dict | None = None):
@@ -281,16 +173,15 @@ class DiscReactorVectorEnv(VectorEnv):
                                  f"{mask.shape}")
             if not self._started and not mask.all():
                 raise error.ResetNeeded("the first reset must reset every reactor")
-        idx = np.flatnonzero(mask)
+        core = self.core
+        idx = np.flatnonzero(mask).tolist()
         for r in idx:
-            if seeds[r] is not None or self._np_randoms[r] is None:
-                self._np_randoms[r], _ = seeding.np_random(seeds[r])
-            self._reset_one(r)
+            if seeds[r] is not None or core.np_randoms[r] is None:
+                core.np_randoms[r], _ = seeding.np_random(seeds[r])
+        core.reset(idx)
         self._started = True
         self._autoreset[idx] = False
-        self._observe_all()
-        self._product[idx] = self._stats[idx, self.config.product]
-        return self._obs.copy(), self._reset_infos(mask)
+        return core.episodes.obs.copy(), self._reset_infos(mask)
 
     def _reset_infos(self, mask: np.ndarray) -> dict:
         """The info of a reset: the keys of a step's info, for the reactors in ``mask``
@@ -301,22 +192,6 @@ class DiscReactorVectorEnv(VectorEnv):
         return self._infos(zero, zero, zero, zero, none, none, np.zeros(R, dtype=bool),
                            np.zeros(R, dtype=np.int64), mask)
 
-    def _reset_one(self, r: int) -> None:
-        cfg = self.config
-        sim = cfg.new_simulation(self._np_randoms[r], generator=self._gens[r])
-        n = len(sim)
-        if n > cfg.max_discs:  # cannot happen: max_discs bounds the drawn contents
-            raise RuntimeError(f"reactor {r}: {n} discs exceed the capacity plan")
-        sim.move_into(*self._views[r], self._icnt[r], self._fsum[r], self._ch_count[r],
-                      self._outflow[r], self._walls[r])
-        self._bounds_seen[r] = sim.export_scalars(self._rx, r)
-        self._cost[r] = n * cfg.steps_per_action  # (no history yet: one substep a step)
-        self.simulations[r] = sim
-        cfg.reset_row(self._ep, r, sim, self._np_randoms[r])
-
-    def _observe_all(self) -> None:
-        observe(self.config, self._rx, self._ep)
-
     # ------------------------------------------------------------------ step
     def step(self, actions):
         if not self._started:
@@ -324,7 +199,6 @@ class DiscReactorVectorEnv(VectorEnv):
         cfg = self.config
         R = self.num_envs
         act = as_actions(cfg, actions, R)
-        F = len(cfg.feed)
         if self.autoreset_mode == AutoresetMode.NEXT_STEP:
             resetting = self._autoreset.copy()
         else:
@@ -335,39 +209,18 @@ class DiscReactorVectorEnv(VectorEnv):
                         "them with reset(options={'reset_mask': mask}) (autoreset disabled)")
             resetting = np.zeros(R, dtype=bool)
         active = ~resetting
-        self._advance(active, act)
-        fout, iout = self._fout, self._iout
-        heat = fout[:, O_HEAT].copy()
-        injected = iout[:, 3:3 + F].copy()
-        refused = iout[:, 3 + F:].copy()
-        blocked = iout[:, O_BLOCKED].astype(bool)
-        invalid = iout[:, O_INVALID].copy()
-        any_reset = bool(resetting.any())
-        if any_reset:  # (their rows of the outputs are from an earlier step)
-            heat[resetting] = 0.0
-            injected[resetting] = 0
-            refused[resetting] = 0
-            blocked[resetting] = False
-            invalid[resetting] = 0
-            for r in np.flatnonzero(resetting).tolist():
-                self._reset_one(r)
-            self._observe_all()
-        product = self._stats[:, cfg.product].copy()
-        gain, cost_heat, cost_feed, rew = cfg.reward_terms(
-            product, self._product, self._out_last[:, cfg.product].astype(FLOAT), heat,
-            injected.sum(axis=1).astype(FLOAT), self._n_ref)
-        if any_reset:
-            rew[resetting] = 0.0
-            gain[resetting] = 0.0
-        self._product = product
+        core = self.core
+        out = core.step(active, act)
+        if resetting.any():  # (their rows of the outputs are zeros)
+            core.reset(np.flatnonzero(resetting).tolist())
         terminated = np.zeros(R, dtype=bool)
-        truncated = active & (self._steps >= self.limit)
+        truncated = active & (core.episodes.steps >= self.limit)
         # every reactor reports, as in Gymnasium's SyncVectorEnv: a reactor reset by this
         # step (NextStep) its reset's info (the step-only entries 0 / False)
         everyone = np.ones(R, dtype=bool)
-        infos = self._infos(gain, cost_heat, cost_feed, heat, injected, refused, blocked,
-                            invalid, everyone)
-        obs = self._obs.copy()
+        infos = self._infos(out.gain, out.cost_heat, out.cost_feed, out.heat, out.injected,
+                            out.refused, out.blocked, out.invalid, everyone)
+        obs = core.episodes.obs.copy()
         done = terminated | truncated
         if self.autoreset_mode == AutoresetMode.SAME_STEP and done.any():
             final_obs = np.full(R, None, dtype=object)
@@ -379,11 +232,8 @@ class DiscReactorVectorEnv(VectorEnv):
             infos["_final_obs"] = done.copy()
             infos["final_info"] = final_info
             infos["_final_info"] = done.copy()
-            for r in np.flatnonzero(done).tolist():
-                self._reset_one(r)
-            self._observe_all()
-            obs = self._obs.copy()
-            self._product = self._stats[:, cfg.product].copy()
+            core.reset(np.flatnonzero(done).tolist())
+            obs = core.episodes.obs.copy()
             # the finished reactors report their reset's info (as SyncVectorEnv does)
             fresh = self._reset_infos(everyone)
             for k, v in fresh.items():
@@ -391,102 +241,22 @@ class DiscReactorVectorEnv(VectorEnv):
                     infos[k][done] = v[done]
             done = np.zeros(R, dtype=bool)
         self._autoreset = done
-        return obs, rew, terminated, truncated, infos
+        return obs, out.reward, terminated, truncated, infos
 
     def _infos(self, gain, cost_heat, cost_feed, heat, injected, refused, blocked, invalid,
                active) -> dict:
         """The info as arrays (R,) with Gymnasium's ``_key`` masks (``active``: False for the
         reactors reset by this step, or not reset by ``reset``): the keys of the single env's
         info (:attr:`~discgym.config.ReactorConfig.info_types`), each an array of its type."""
-        cfg = self.config
-        counts = self._stats[:, :cfg.n_species].astype(np.int64)
+        cfg, ep = self.config, self.core.episodes
+        counts = ep.stats[:, :cfg.n_species].astype(np.int64)
         product = counts[:, cfg.product]
         infos = cfg.info_values(
-            list(counts.T), product, product / self._n_ref, gain, cost_heat, cost_feed, heat,
-            self._temps.copy(), self._size.copy(), list(injected.T), list(refused.T),
-            blocked, invalid.astype(np.int64),
-            np.array([s.time for s in self.simulations], dtype=FLOAT), self._n_ref.copy(),
+            list(counts.T), product, product / ep.n_ref, gain, cost_heat, cost_feed, heat,
+            ep.temperature.copy(), ep.size.copy(), list(injected.T), list(refused.T),
+            blocked, invalid.astype(np.int64), self.core.state.time(), ep.n_ref.copy(),
             batch=True)
         return _masked(infos, active)
-
-    def _advance(self, active: np.ndarray, act: np.ndarray) -> None:
-        """One compiled call: the actions ``act`` (R, A), the physics and the observation of
-        every active reactor (:func:`discgym.kernels.batch.env_step`), in parallel over the
-        reactors when more than one thread is asked for; then what ``Simulation.step`` and
-        its controls book, for each reactor's ``Simulation``."""
-        cfg = self.config
-        idx = np.flatnonzero(active).tolist()
-        self._sync(idx)
-        size0 = self._size.copy()
-        rx, ep, physics, consts = self._fields
-        args = (rx, ep, physics, consts, self._rngs, active, act)
-        sub0 = self._icnt[:, _step.IC_SUBSTEPS].copy()
-        ev0 = self._icnt[:, _EVENTS].sum(axis=1)
-        if len(idx) <= 1 or self.threads == 1:  # (a lone reactor runs on the calling thread)
-            env_step(*args)
-        else:
-            most = numba.get_num_threads() if self.threads is None else \
-                min(self.threads, numba.config.NUMBA_NUM_THREADS)
-
-            def run(want: int) -> None:
-                # one list of consecutive reactors per thread, of about equal cost (the last
-                # step's work of each reactor: disc-substeps + 4 x events)
-                balance(self._cost, active, want, self._order, self._starts[:want + 1])
-                with numba_threads(want):
-                    env_step_parallel(*args, self._order, self._starts[:want + 1])
-
-            # (the thread count measured call by call, the work by the same estimate:
-            # discgym.threads)
-            work = float(self._cost[active].sum())
-            self._chooser.timed(most, run, lambda: work)
-        # the work of each reactor in this step, the estimate of its cost in the next
-        cost = self._n * (self._icnt[:, _step.IC_SUBSTEPS] - sub0) + \
-            4 * (self._icnt[:, _EVENTS].sum(axis=1) - ev0)
-        self._cost[active] = cost[active]
-        if self._iout[:, O_STATUS].any():
-            check_status(cfg, self._iout, active)
-        k = cfg.steps_per_action
-        dt = cfg.scene.dt
-        moved = self._size != size0
-        n, ks, fo = self._n.tolist(), self._ksteps.tolist(), self._fout.tolist()
-        for r in idx:
-            bounds = (partial(cfg.bounds_of, float(self._size[r])), self._bounds_params[r]) \
-                if moved[r] else None
-            self.simulations[r].book_env_step(n[r], ks[r], k, dt, fo[r][O_ENERGY_HEAT:],
-                                              bounds)
-
-    def _sync(self, idx: list) -> None:
-        """Read what a user may have changed through ``env.simulations[r]`` since the last
-        step (its disc count, clocks, bounds: the wall's size, ``ReactorConfig.read_size``)
-        into the batch; refuse what the batch cannot follow (state arrays replaced, more discs
-        than the capacity plan holds, bounds that are none of the wall's) with
-        ``RuntimeError`` rather than lose it."""
-        cfg = self.config
-        for r in idx:
-            sim = self.simulations[r]
-            v = self._views[r]
-            a = sim.kernel_arrays()
-            if any(a[k] is not v[k] for k in range(6)):
-                raise RuntimeError(
-                    f"reactor {r}: its Simulation's state arrays were replaced from outside "
-                    "(e.g. an injection beyond the batch's capacity); the vector env "
-                    "keeps every reactor in its own arrays and cannot follow. Change a reactor "
-                    "through its controls (inject, resize, scale_temperature) only, or reset it")
-            if sim.integrator != cfg.integrator:
-                raise integrator_changed(cfg, sim.integrator, f"reactor {r}'s Simulation")
-            m = len(sim)
-            if m != self._n[r]:  # discs added or removed from outside: still within the plan?
-                need, mass = cfg.capacity_for(sim.species, self._feed_left[r])
-                if need > cfg.capacity:
-                    raise RuntimeError(
-                        f"reactor {r}: {m} discs (mass {mass:g}) could split into more discs "
-                        f"than the batch's capacity {cfg.capacity} holds; do not add discs to "
-                        "env.simulations[r] beyond the initial contents and the feed budget")
-            serial = sim.export_scalars(self._rx, r)
-            if serial != self._bounds_seen[r]:  # bounds replaced (resize, set_state)
-                self._size[r] = cfg.read_size(sim.bounds, float(self._size[r]),
-                                              f"reactor {r}'s Simulation")
-                self._bounds_seen[r] = serial
 
     # ------------------------------------------------------------------ misc
     def render(self):

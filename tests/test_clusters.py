@@ -123,12 +123,12 @@ def _run_entry(sim, entry, n_steps, *threads):
     the clocks are left alone."""
     cs = sim._cs
     call = (n_steps, sim.scene.dt, threads[0] if threads else 1, sim._steps, S.REORDER_EVERY)
-    d, sim._n, sim._work = entry(
+    d, n, sim._work = entry(
         (sim._pos, sim._vel, sim._species, sim._internal_energy, sim._ids, sim._idctr),
         sim._n, call, (sim._bounds_kind, sim._bounds_params, sim._walls),
         (tuple(cs.tables), cs.params, cs.flags), sim._rngs,
         (sim._icnt, sim._fsum, sim._ch_count, sim._outflow), sim._work, S.lists_for(n_steps))
-    sim._pos, sim._vel, sim._species, sim._internal_energy, sim._ids = d[:5]
+    sim._st.adopt(sim._r, d, n)
     sim._steps += n_steps
 
 

@@ -99,7 +99,7 @@ def test_infos_are_flat_with_the_same_keys_at_reset_and_step(kw):
         *_, info = env.step(env.action_space.sample())
         _check_flat(info, cfg)
         assert sum(info[f"count_{s}"] for s in names) == len(env.simulation)
-        assert info["n_ref"] == env.unwrapped._n_ref_now
+        assert info["n_ref"] == env.unwrapped.core.episodes.n_ref[0]
 
 
 def test_vector_env_infos_match_gymnasiums_sync_vector_env():
@@ -169,8 +169,8 @@ def test_vector_env_pickles_and_deep_copies_and_continues_bit_identically(mode):
         venv.step(a)
     twins = [pickle.loads(pickle.dumps(venv)), copy.deepcopy(venv)]
     for twin in twins:  # independent state: no array shared with the original
-        assert twin.simulations[0].kernel_arrays()[0] is not venv.simulations[0].kernel_arrays()[0]
-        assert np.shares_memory(twin.simulations[1].kernel_arrays()[0], twin._pos)
+        assert not np.shares_memory(twin.core.state.rx.pos, venv.core.state.rx.pos)
+        assert twin.simulations[1]._st is twin.core.state  # (handles on the twin's rows)
     # the first 10 steps cross two episode ends (5 steps each)
     for a in acts[4:]:
         ref = venv.step(a)
@@ -211,7 +211,7 @@ def test_sb3_adapter_attributes_and_methods_per_reactor_like_dummy_vec_env():
     assert sims == [ours.venv.simulations[2], ours.venv.simulations[0]]
     assert [len(s) for s in ours.get_attr("simulation")] == \
         [len(s) for s in ref.get_attr("simulation")]
-    assert ours.get_attr("np_random", 1)[0] is ours.venv._np_randoms[1]
+    assert ours.get_attr("np_random", 1)[0] is ours.venv.core.np_randoms[1]
     with pytest.raises(AttributeError):
         ours.get_attr("no_such_attribute")
     with pytest.raises(AttributeError):

@@ -39,7 +39,7 @@ def test_a_lone_env_step_is_the_simulation_bit_for_bit():
     for _ in range(15):
         a = rng.uniform(-1, 1, 4).astype(np.float32)
         twin = copy.deepcopy(sim)
-        T = env.unwrapped._temperature
+        T = env.unwrapped.core.episodes.temperature[0]
         *_, info = env.step(a)
         x = a.tolist()
         twin.scale_temperature(min(max(cfg.heat_rate ** x[0], min(1.0, cfg.t_min / T)),
@@ -68,14 +68,14 @@ def test_a_batch_reactor_keeps_its_walls_and_outflow_in_the_batch_rows():
     lone.reset(seed=8)  # reactor 1 of the batch was seeded with seed + 1
     venv.simulations[1].set_wall_temperature("top", 1.5)
     lone.simulation.set_wall_temperature("top", 1.5)
-    assert venv._walls[1][3] == 1.5 and venv._walls[0][3] == 0.5
+    assert venv.core.state.rx.bounds_walls[1][3] == 1.5 and venv.core.state.rx.bounds_walls[0][3] == 0.5
     acts = np.random.default_rng(3).uniform(-1, 1, (10, 2, 4)).astype(np.float32)
     for a in acts:
         venv.step(a)
         lone.step(a[1])
     _same(venv.simulations[1], lone.simulation)
     assert venv.simulations[1].outflow() == lone.simulation.outflow()
-    assert list(venv._outflow[1]) == list(venv.simulations[1].get_state()["outflow"])
+    assert list(venv.core.state.rx.outflow[1]) == list(venv.simulations[1].get_state()["outflow"])
     assert venv.simulations[0].wall_temperature == {"left": 2.0, "top": 0.5}
 
 

@@ -220,7 +220,7 @@ def test_observations_are_fresh_copies():
 def test_nan_and_inf_actions_are_ignored_and_reported():
     env = DiscReactorEnv(**SHORT)
     env.reset(seed=0)
-    size0 = env.unwrapped._size
+    size0 = env.unwrapped.core.episodes.size
     obs, r, term, trunc, info = env.step(np.array([np.nan, np.inf, -np.inf, np.nan],
                                                   np.float32))
     assert info["invalid_action"] == 4
@@ -342,7 +342,7 @@ def _compare_with_the_simulation_methods(seed, copy):
         if k % 4 == 0:
             a[1] = -1.0  # shrink: discs near the wall must be pushed in
         twin = copy.deepcopy(sim)
-        T = env._temperature
+        T = env.core.episodes.temperature[0]
         *_, info = env.step(a)
         x = a.tolist()  # the float32 values, as float64
         twin.scale_temperature(min(max(cfg.heat_rate ** x[0], min(1.0, cfg.t_min / T)),
@@ -374,7 +374,7 @@ def test_heating_stops_at_the_speed_limit():
     st["velocities"][:] = 0.0
     st["velocities"][0] = (0.8 * sim.speed_limit, 0.0)
     sim.set_state(st)
-    env.unwrapped._observe()  # (the heat control reads the last observation's kT)
+    env.unwrapped.core.observe()  # (the heat control reads the last observation's kT)
     with pytest.raises(ValueError, match="speed limit"):
         copy_ = pickle.loads(pickle.dumps(sim))
         copy_.scale_temperature(2.0)
@@ -409,7 +409,7 @@ def test_injections_that_would_pass_the_speed_limit_are_refused():
         st = sim.get_state()
         st["velocities"][:] = (0.0, 0.95 * sim.speed_limit)
         sim.set_state(st)
-        env.unwrapped._observe()
+        env.unwrapped.core.observe()
         twin = copy.deepcopy(sim)
         try:
             twin.inject("A", 4)

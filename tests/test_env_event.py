@@ -121,7 +121,7 @@ def test_the_env_step_is_the_event_driven_simulation_under_the_same_controls(env
         if k % 4 == 0:
             a[1] = -1.0  # shrink: discs near the wall must be pushed in
         twin = copy.deepcopy(sim)
-        T = env.unwrapped._temperature
+        T = env.unwrapped.core.episodes.temperature[0]
         *_, info = env.step(a)
         assert not info["wall_blocked"]
         x = a.tolist()  # the float32 values, as float64
@@ -136,7 +136,7 @@ def test_the_env_step_is_the_event_driven_simulation_under_the_same_controls(env
             twin.resize(new)
             moved += 1
             pushed += int((twin.positions != before).any())
-        feed_kT = float(env.unwrapped._feed_kT[0])
+        feed_kT = float(env.unwrapped.core.episodes.feed_kT[0])
         for j, f in enumerate(cfg.feed):
             want = int(round(max(x[2 + j], 0.0) * cfg.inject_max))
             if want:
@@ -307,7 +307,7 @@ def test_a_decomposing_scene_stays_within_the_planned_capacity():
     assert (info["count_A"] > 60).all()  # most AB decomposed (and the fed AB too)
     cap = venv.config.capacity
     for sim in venv.simulations:
-        assert sim.kernel_arrays()[0].shape[0] == cap
+        assert sim._pos.shape[0] == cap
         assert sim.overlaps() == 0 and sim.outside() == 0
     env = DiscReactorEnv(**kw)
     env.reset(seed=0)

@@ -292,10 +292,10 @@ def one_run(sim, n_steps):
     d, n = ev.run_steps(d, sim._n, n_steps, sim.scene.dt,
                         Bounds(*kernel_bounds(sim.bounds), sim._walls), cs.tables, cs.params,
                         cs.flags, sim._rngs[0], cnt, ev.CELLS_PER_DISC)
-    sim._pos, sim._vel, sim._species, sim._internal_energy, sim._ids = tuple(d)[:5]
-    sim._n = n
-    sim._steps += n_steps
-    sim._tick(n_steps, sim.scene.dt)
+    st, r = sim._st, sim._r
+    st.adopt(r, tuple(d), n)
+    st.rx.ksteps[r] += n_steps
+    st.tick(r, n_steps)
 
 
 CAGE = dg.Scene(bounds=dg.Box(2.0 + 1e-9, 10.0),
@@ -332,9 +332,9 @@ def test_an_env_step_past_the_event_bound_is_one_run_bit_for_bit(num_envs):
     sims = [env.simulation] if num_envs == 1 else env.simulations
     caged(sims[0])
     if num_envs == 1:
-        env._observe()
+        env.core.observe()
     else:
-        env._observe_all()
+        env.core.observe()
     refs = [s.copy() for s in sims]
     for s in refs[1:]:
         s.step(env.config.steps_per_action)  # (not caged: exact throughout)
@@ -346,8 +346,8 @@ def test_an_env_step_past_the_event_bound_is_one_run_bit_for_bit(num_envs):
         same_state(s, r)
     # the observation booked is that of the state reached (observing again changes nothing)
     booked = np.array(obs).reshape(num_envs, -1)
-    env._observe() if num_envs == 1 else env._observe_all()
-    assert np.array_equal(booked, env._obs)
+    env.core.observe()
+    assert np.array_equal(booked, env.core.episodes.obs)
 
 
 # ------------------------------------------------------- class 5: split calls, restores

@@ -140,7 +140,7 @@ def test_histogram_blocks_match_a_recomputation_from_the_state():
     sim = env.unwrapped.simulation
     for k in range(8):
         before = sim.reactions()
-        n_ref = float(env.unwrapped._n_ref[0])
+        n_ref = float(env.unwrapped.core.episodes.n_ref[0])
         a = np.array([1.0 if k < 3 else 0.0, rng.uniform(-1, 1), 1.0, 1.0], np.float32)
         obs, *_ = env.step(a)
         sim = env.unwrapped.simulation
@@ -189,9 +189,9 @@ def test_kinetics_are_drawn_per_episode_within_their_ranges_and_from_the_seed():
         # the compiled step reads this episode's tables
         u = env.unwrapped
         cs = dg.compiled.compile_scene(sc)
-        assert np.array_equal(u._ch_energy[0], cs.ch_energy)
-        assert np.array_equal(u._ch_rate[0], cs.ch_rate)
-        assert np.array_equal(u._sp_form[0], cs.sp_form)
+        assert np.array_equal(u.core.episodes.ch_energy[0], cs.ch_energy)
+        assert np.array_equal(u.core.episodes.ch_rate[0], cs.ch_rate)
+        assert np.array_equal(u.core.episodes.sp_form[0], cs.sp_form)
         seen.append(scale)
         env.reset(seed=seed)
         assert env.unwrapped.simulation.scene == sc  # the same seed, the same kinetics
@@ -259,10 +259,10 @@ def test_flow_reward_is_the_product_leaving_and_the_inlet_temperature_switches()
     names = u.observation_names
     obs, _ = env.reset(seed=4)
     sim = u.simulation
-    kT0, kT1, switch = float(u._feed_kT[0]), float(u._feed_kT_next[0]), int(u._feed_switch[0])
+    kT0, kT1, switch = float(u.core.episodes.feed_kT[0]), float(u.core.episodes.feed_kT_next[0]), int(u.core.episodes.feed_switch[0])
     assert 0.3 <= kT0 <= 2.0 and 0.3 <= kT1 <= 2.0 and 40 // 3 <= switch <= 2 * 40 // 3
     assert obs[names.index("feed_kT")] == np.float32(kT0)
-    n_ref = float(u._n_ref[0])
+    n_ref = float(u.core.episodes.n_ref[0])
     for k in range(40):
         out0 = sim.outflow()
         obs, r, _, trunc, info = env.step(np.array([0.3, 1.0, 1.0, 1.0], np.float32))

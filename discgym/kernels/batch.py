@@ -72,7 +72,7 @@ CAPPED = 3
 
 # Columns of the outputs: ``fout`` (R, 2 + F) and ``iout`` (R, 3 + 2 F)
 O_HEAT, O_ENERGY_HEAT = range(2)  # then the energy each feed species' injection put in (F)
-O_STATUS, O_BLOCKED, O_INVALID = range(3)  # then injected (F), then refused (F)
+O_STATUS, O_BLOCKED, O_INVALID, O_INJECTED = range(4)  # injected (F), then refused (F)
 
 
 _INTEGRATOR = ReactorConsts._fields.index("integrator")
