@@ -11,6 +11,7 @@ from collections.abc import Mapping
 
 import numpy as np
 
+from .checks import as_scene, discs_inside, event_fit
 from .compiled import kernel_bounds
 from .scene import (
     HEX_PACKING,
@@ -18,7 +19,6 @@ from .scene import (
     Circle,
     Scene,
 )
-from .simulation import as_scene, discs_inside, event_fit
 
 #: The kernels count steps (and discs) in int64.
 INT_MAX = 2**63 - 1

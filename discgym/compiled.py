@@ -10,7 +10,6 @@ from __future__ import annotations
 import math
 from collections import OrderedDict
 from dataclasses import dataclass
-from functools import cached_property
 
 import numpy as np
 
@@ -91,31 +90,20 @@ def rate_from_probability(p: float) -> float:
 
 @dataclass(frozen=True, eq=False)
 class CompiledScene:
-    """The scene as arrays. Shapes: S species, C reaction channels."""
+    """The scene as arrays: its :class:`~discgym.kernels.structs.Tables` (S species, K
+    reaction channels; each also read by name: ``cs.sp_mass`` is ``cs.tables.sp_mass``),
+    ``params`` (see P_*), ``flags`` (see F_*) and one label per channel."""
 
     scene: Scene
-    sp_radius: np.ndarray  # (S,) float
-    sp_mass: np.ndarray  # (S,) float
-    sp_form: np.ndarray  # (S,) float, formation energy
-    ch_kind: np.ndarray  # (C,) int: TRANSFORMATION ... REVERSE
-    ch_reac: np.ndarray  # (C, 2) int species, -1 where unused
-    ch_prod: np.ndarray  # (C, 2) int species, -1 where unused
-    ch_rate: np.ndarray  # (C,) float, first-order rate per unit time (unimolecular channels)
-    ch_energy: np.ndarray  # (C,) float, activation energy (bimolecular) or barrier (REVERSE)
-    uni_start: np.ndarray  # (S + 1,) int, CSR offsets into uni_chan per reactant species
-    uni_chan: np.ndarray  # (U,) int, unimolecular channel indices
-    bi_table: np.ndarray  # (S, S) int, bimolecular channel of a pair of species, or -1
+    tables: Tables
     params: np.ndarray  # float vector, see P_*
     flags: np.ndarray  # int vector, see F_*
-    labels: tuple  # (C,) str, one per channel
-    outlets: np.ndarray  # (M, 3) float: side index, start, end (kernel_outlets)
+    labels: tuple  # (K,) str, one per channel
 
-    @cached_property
-    def tables(self) -> Tables:
-        """The tables as the struct handed to the kernels."""
-        return Tables(self.sp_radius, self.sp_mass, self.sp_form, self.ch_kind, self.ch_reac,
-                      self.ch_prod, self.ch_rate, self.ch_energy, self.uni_start,
-                      self.uni_chan, self.bi_table, self.outlets)
+    def __getattr__(self, name):  # (only names that are not attributes: the tables')
+        if name in Tables._fields:
+            return getattr(self.tables, name)
+        raise AttributeError(f"{type(self).__name__!r} object has no attribute {name!r}")
 
 
 _CACHE: OrderedDict = OrderedDict()  # id(scene) -> CompiledScene (which holds the scene)
@@ -206,6 +194,6 @@ def _compile(scene: Scene) -> CompiledScene:
          int(len(scene.thermal_walls) > 0), int(len(scene.outlets) > 0)],
         dtype=INDEX,
     )
-    return CompiledScene(scene, sp_radius, sp_mass, sp_form, ch_kind, ch_reac, ch_prod,
-                         ch_rate, ch_energy, uni_start, uni_chan, bi_table, params, flags,
-                         tuple(labels), kernel_outlets(scene))
+    tables = Tables(sp_radius, sp_mass, sp_form, ch_kind, ch_reac, ch_prod, ch_rate,
+                    ch_energy, uni_start, uni_chan, bi_table, kernel_outlets(scene))
+    return CompiledScene(scene, tables, params, flags, tuple(labels))

@@ -264,8 +264,19 @@ Bounds = Box | Circle
 # Reactions
 
 
+class _FirstOrder:
+    """What the first-order reactions share: one reactant, a chance per unit time."""
+
+    def __post_init__(self):
+        _set(self, probability=finite_value("probability", self.probability, lo=0.0, hi=1.0))
+
+    @property
+    def reactants(self) -> tuple[str, ...]:
+        return (self.reactant,)
+
+
 @dataclass(frozen=True)
-class Transformation:
+class Transformation(_FirstOrder):
     """A -> B, first order: chance ``probability`` per unit time. Masses must be equal.
 
     The formation-energy difference goes into (or comes out of) the disc's internal energy; an
@@ -278,13 +289,6 @@ class Transformation:
 
     kind = "transformation"
 
-    def __post_init__(self):
-        _set(self, probability=finite_value("probability", self.probability, lo=0.0, hi=1.0))
-
-    @property
-    def reactants(self) -> tuple[str, ...]:
-        return (self.reactant,)
-
     @property
     def products(self) -> tuple[str, ...]:
         return (self.product,)
@@ -294,7 +298,7 @@ class Transformation:
 
 
 @dataclass(frozen=True)
-class Decomposition:
+class Decomposition(_FirstOrder):
     """A -> B + C, first order: chance ``probability`` per unit time.
 
     The fragments leave the parent's velocity in opposite directions perpendicular to it, with
@@ -308,13 +312,6 @@ class Decomposition:
     probability: float
 
     kind = "decomposition"
-
-    def __post_init__(self):
-        _set(self, probability=finite_value("probability", self.probability, lo=0.0, hi=1.0))
-
-    @property
-    def reactants(self) -> tuple[str, ...]:
-        return (self.reactant,)
 
     @property
     def products(self) -> tuple[str, ...]:
@@ -859,8 +856,13 @@ def _obj_from_dict(cls, where: str, d):
         raise SceneError(where, f"expected a table, got {d!r}")
     allowed = {f.name for f in fields(cls)}
     _no_unknown(where, d, allowed)
+    return _built(where, cls, d)
+
+
+def _built(where: str, cls, kw: Mapping):
+    """``cls(**kw)``, its errors named within ``where`` (a missing required argument too)."""
     try:
-        return cls(**d)
+        return cls(**kw)
     except SceneError as exc:
         raise SceneError(f"{where}.{exc.field}", exc.args[0].split(": ", 1)[1]) from None
     except TypeError as exc:  # a missing required argument
@@ -909,14 +911,7 @@ def _reaction_from_dict(where: str, d) -> Reaction:
     for p in params:
         if p in d:
             kw[p] = d[p]
-    try:
-        return REACTION_TYPES[kind](**kw)
-    except SceneError as exc:
-        raise SceneError(f"{where}.{exc.field}", exc.args[0].split(": ", 1)[1]) from None
-    except TypeError as exc:
-        missing = re.findall(r"'(\w+)'", str(exc))
-        raise SceneError(f"{where}.{missing[0] if missing else '?'}", "missing (required)") \
-            from None
+    return _built(where, REACTION_TYPES[kind], kw)
 
 
 def _reaction_to_dict(r: Reaction) -> dict:

@@ -23,7 +23,7 @@ from .compiled import kernel_bounds
 from .kernels import step as _step
 from .kernels.structs import COUNT, FLOAT, INDEX, Reactors, generator_list
 
-__all__ = ["ReactorState"]
+__all__ = ["ReactorState", "Row"]
 
 
 class ReactorState:
@@ -199,3 +199,63 @@ class ReactorState:
                         else None for r, b in enumerate(self._bounds)]
         d["_bounds_factory"] = [None] * self.rows
         return d
+
+
+class Row:
+    """A handle's row of a :class:`ReactorState`: ``_st`` the state, ``_r`` the row; its
+    arrays (views, written in place) and numbers under the names the handle's code uses. The
+    base of :class:`~discgym.Simulation` and of its parts (:mod:`discgym.observables`,
+    :mod:`discgym.state_io`)."""
+
+    _st: ReactorState
+    _r: int
+
+    _pos = property(lambda self: self._st.rx.pos[self._r])
+    _vel = property(lambda self: self._st.rx.vel[self._r])
+    _species = property(lambda self: self._st.rx.species[self._r])
+    _internal_energy = property(lambda self: self._st.rx.internal_energy[self._r])
+    _ids = property(lambda self: self._st.rx.ids[self._r])
+    _idctr = property(lambda self: self._st.rx.next_id[self._r])  # the next disc identity
+    _icnt = property(lambda self: self._st.rx.icnt[self._r])
+    _fsum = property(lambda self: self._st.rx.fsum[self._r])
+    _ch_count = property(lambda self: self._st.rx.ch_count[self._r])
+    _outflow = property(lambda self: self._st.rx.outflow[self._r])
+    _walls = property(lambda self: self._st.rx.bounds_walls[self._r])  # (Bounds.walls)
+    _bounds_kind = property(lambda self: int(self._st.rx.bounds_kind[self._r]))
+    _bounds_params = property(lambda self: self._st.rx.bounds_params[self._r])
+    _time = property(lambda self: float(self._st.time(self._r)))
+    _rng = property(lambda self: self._st.generator(self._r))
+    _rngs = property(lambda self: self._st.row_rngs(self._r))  # (the kernels' form)
+    _since_reset = property(lambda self: float(self._st.since_reset(self._r)))
+
+    @property
+    def _n(self) -> int:
+        return int(self._st.rx.n[self._r])
+
+    @_n.setter
+    def _n(self, n: int) -> None:
+        self._st.rx.n[self._r] = n
+
+    @property
+    def _steps(self) -> int:  # kernel steps taken (times the memory reordering)
+        return int(self._st.rx.ksteps[self._r])
+
+    @_steps.setter
+    def _steps(self, k: int) -> None:
+        self._st.rx.ksteps[self._r] = k
+
+    @property
+    def _energy_input(self) -> float:
+        return float(self._st.energy_input[self._r])
+
+    @_energy_input.setter
+    def _energy_input(self, e: float) -> None:
+        self._st.energy_input[self._r] = e
+
+    @property
+    def _energy_start(self) -> float:
+        return float(self._st.energy_start[self._r])
+
+    @_energy_start.setter
+    def _energy_start(self, e: float) -> None:
+        self._st.energy_start[self._r] = e
