@@ -76,7 +76,7 @@ class KernelTimer:
     arguments (a few microseconds for ``env_step``'s nine, most of them structs)."""
 
     def __init__(self):
-        import discgym.env as envmod
+        import discgym.core as envmod
         import discgym.kernels.controls as kcontrols
         import discgym.simulation as simmod
 
@@ -166,7 +166,7 @@ def bench_vector(R: int, threads: int, steps: int, policy: str) -> tuple[float, 
     ``policy``: "random" (every control acts on every step: the worst case for the Python
     part; ``steps`` steps after 2 warm-up steps) or "heuristic"
     (discgym.baselines.heuristic_policy, one whole episode; its own time is not counted)."""
-    import discgym.vector as vmod
+    import discgym.core as vmod
     from discgym.baselines import heuristic_policy
 
     venv = DiscReactorVectorEnv(num_envs=R, threads=threads)
@@ -198,7 +198,7 @@ def bench_vector(R: int, threads: int, steps: int, policy: str) -> tuple[float, 
 def bench_vector_split(R: int) -> dict:
     """One full episode of the heuristic on R reactors: the share of the wall time spent in
     the batched kernel vs the Python around it (controls, observation, info)."""
-    import discgym.vector as vmod
+    import discgym.core as vmod
     from discgym.baselines import heuristic_policy
 
     venv = DiscReactorVectorEnv(num_envs=R, autoreset_mode="Disabled")

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import math
 import sys
+from collections.abc import Mapping
 from dataclasses import dataclass, replace
 from functools import cached_property
 
@@ -53,6 +54,19 @@ from .scene import (
 from .simulation import PLACEMENT_ATTEMPTS, Simulation
 
 ENV_ID = "DiscReactor-v0"
+
+#: The arguments each reactor of a vector env may set for itself
+#: (``DiscReactorVectorEnv(configs=...)``): its contents, controls' ranges, budgets, costs,
+#: kinetics and episode length. The others make the batch (the scene, what is fed and made,
+#: the observation's layout, the integrator, ``step_time``) and are the same for every reactor.
+ROW_ARGUMENTS = ("n_discs", "count_jitter", "temperature_jitter", "episode_steps",
+                 "heat_rate", "temperature_range", "size_range", "wall_speed", "inject_max",
+                 "feed_budget", "heat_cost", "feed_cost", "activation_jitter",
+                 "reverse_jitter", "formation_jitter", "feed_temperature")
+# the fields of a ReactorConfig that every reactor of a batch must share (the rest follow
+# from ROW_ARGUMENTS; obs_low and obs_high are checked against the batch's observation space)
+_SHARED = ("steps_per_action", "feed", "product", "energy_bins", "grid", "observe_reactions",
+           "heating", "reward", "observe_outflow", "integrator", "obs_names")
 
 #: Default keyword arguments of :class:`~discgym.env.DiscReactorEnv` (and of ``gymnasium.make``).
 DEFAULTS = dict(
@@ -200,17 +214,13 @@ class ReactorConfig:
             r4 = (ref.center[0], ref.center[1], ref.radius, 0.0)
         cs = self.compiled
         return ReactorConsts(
-            heat_rate=float(self.heat_rate), t_min=float(self.t_min),
-            t_max=float(self.t_max), size_min=float(self.size_min),
-            size_max=float(self.size_max), wall_speed=float(self.wall_speed),
             speed_limit=float(speed_limit(MAX_SUBSTEPS, cs.params[P_MAXDISP],
                                           cs.params[P_RMIN], self.scene.dt)),
             ref_bounds=np.array(r4, dtype=FLOAT), temperature=float(self.scene.temperature),
             dt=float(self.scene.dt), packing=float(HEX_PACKING),
-            inject_max=int(self.inject_max), steps_per_action=int(self.steps_per_action),
+            steps_per_action=int(self.steps_per_action),
             attempts=int(PLACEMENT_ATTEMPTS), reorder_every=int(REORDER_EVERY),
-            product=int(self.product), episode_steps=int(self.episode_steps),
-            feed=np.array(self.feed, dtype=INDEX), feed_budget=self.feed_budget,
+            product=int(self.product), feed=np.array(self.feed, dtype=INDEX),
             obs_low=self.obs_low, obs_high=self.obs_high, energy_edges=self.energy_edges,
             energy_bins=int(self.energy_bins), grid=int(self.grid),
             obs_reactions=int(self.observe_reactions),
@@ -427,6 +437,10 @@ class ReactorConfig:
         ``np_random`` (:meth:`draw_feed`); the observation and the product count come from
         the observation that follows (:func:`~discgym.core.observe`)."""
         ep.steps[r] = 0
+        ep.heat_rate[r], ep.t_min[r], ep.t_max[r] = self.heat_rate, self.t_min, self.t_max
+        ep.size_min[r], ep.size_max[r] = self.size_min, self.size_max
+        ep.wall_speed[r], ep.inject_max[r] = self.wall_speed, self.inject_max
+        ep.episode_steps[r], ep.feed_budget[r] = self.episode_steps, self.feed_budget
         ep.size[r] = self.size_of(sim.bounds)
         ep.feed_left[r] = self.feed_budget
         ep.sp_form[r], ep.ch_rate[r], ep.ch_energy[r] = self.kinetics(sim.scene)
@@ -436,20 +450,59 @@ class ReactorConfig:
         ep.n_init[r] = len(sim)
         ep.n_ref[r] = self.n_ref(np.bincount(sim.species, minlength=self.n_species))
 
+    def row(self, defaults: dict, kwargs: Mapping, row: Mapping, who: str) -> ReactorConfig:
+        """The configuration of one reactor of a batch made with this one from ``kwargs``:
+        ``row`` sets some of :data:`ROW_ARGUMENTS` (anything else raises ``ValueError``);
+        each value is checked as the env's own argument (the error naming ``who`` and it);
+        the scene is this config's own object."""
+        if not isinstance(row, Mapping):
+            raise TypeError(f"{who}: expected a mapping of arguments, got "
+                            f"{type(row).__name__}")
+        bad = [k for k in row if k not in ROW_ARGUMENTS]
+        if bad:
+            raise ValueError(f"{who}: {bad[0]!r} cannot differ between the reactors of one "
+                             f"batch (a reactor sets only {list(ROW_ARGUMENTS)})")
+        try:
+            cfg = ReactorConfig.from_kwargs(defaults, **{**kwargs, "scene": self.scene, **row})
+        except (TypeError, ValueError) as e:
+            raise type(e)(f"{who}: {e}") from None
+        self.check_batch(cfg, self.obs_low, self.obs_high, who)
+        return cfg
+
+    def check_batch(self, other: ReactorConfig, low, high, who: str) -> None:
+        """Refuse ``other`` as a reactor of this config's batch of observation bounds
+        ``low``, ``high``: another layout, or bounds outside them (``ValueError`` naming
+        ``who`` and what differs)."""
+        for f in _SHARED:
+            a, b = getattr(other, f), getattr(self, f)
+            if not (np.array_equal(a, b) if isinstance(a, np.ndarray) else a == b):
+                raise ValueError(f"{who}: its {f} ({a!r}) is not the batch's ({b!r})")
+        out = np.flatnonzero((other.obs_low < low) | (other.obs_high > high))
+        if len(out):
+            k = out[0]
+            raise ValueError(
+                f"{who}: its observation slot {self.obs_names[k]!r} spans "
+                f"[{other.obs_low[k]:g}, {other.obs_high[k]:g}], outside the batch's "
+                f"[{low[k]:g}, {high[k]:g}]; give the vector env's own arguments the widest "
+                "ranges its reactors draw (size_range, temperature_range)")
+
     # ---------------------------------------------------------------- reward
-    def reward_terms(self, product, product_before, outflow, heat, injected, n_ref) -> tuple:
+    def reward_terms(self, product, product_before, outflow, heat, injected, n_ref,
+                     costs: tuple | None = None) -> tuple:
         """``(gain, cost_heat, cost_feed, reward)`` of a step: the one reward of the single
         env (floats) and the vector env (arrays (R,), the same expressions element-wise, so
         the same bits). ``product`` and ``product_before`` the product count after and
         before the step, ``outflow`` the product discs that left through the outlets
         during it, ``heat`` the heat put in, ``injected`` the discs injected (all feed
-        species), ``n_ref`` :meth:`n_ref`."""
+        species), ``n_ref`` :meth:`n_ref`; ``costs`` ``(heat_cost, feed_cost)``, by default
+        this config's (arrays (R,) for a batch whose reactors have their own)."""
         if self.reward == "outflow":
             gain = outflow / n_ref
         else:
             gain = (product - product_before) / n_ref
-        cost_heat = self.heat_cost * abs(heat) / n_ref
-        cost_feed = self.feed_cost * injected / n_ref
+        heat_cost, feed_cost = (self.heat_cost, self.feed_cost) if costs is None else costs
+        cost_heat = heat_cost * abs(heat) / n_ref
+        cost_feed = feed_cost * injected / n_ref
         return gain, cost_heat, cost_feed, gain - cost_heat - cost_feed
 
     # ---------------------------------------------------------------- info

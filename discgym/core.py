@@ -26,7 +26,6 @@ from .kernels.step import IC_COLLISIONS, IC_REACTIVE, IC_SUBSTEPS, IC_WALL_HITS
 from .kernels.structs import (
     FLOAT,
     Episodes,
-    Reactors,
 )
 from .simulation import Simulation
 from .state import ReactorState
@@ -42,13 +41,6 @@ _EVENTS = [IC_COLLISIONS, IC_WALL_HITS, IC_REACTIVE]
 
 # --------------------------------------------------------------------------------------------
 # the per-step logic, shared with the vector env
-
-
-def observe(cfg: ReactorConfig, rx: Reactors, ep: Episodes) -> None:
-    """Fill ``ep.stats`` (R, 3S+1), ``ep.temperature`` and ``ep.kinetic`` (R,) and
-    ``ep.obs`` (R, D) float32 for R reactors (see :func:`discgym.kernels.batch.observe_one`);
-    a step observes inside :func:`discgym.kernels.batch.env_step`, this is for resets."""
-    observe_batch(tuple(rx), tuple(ep), cfg.compiled.sp_mass, tuple(cfg.consts))
 
 
 def check_status(cfg: ReactorConfig, iout: np.ndarray, active: np.ndarray) -> None:
@@ -131,14 +123,26 @@ class EpisodeCore:
     (``inject``, ``resize``, ``set_state``, ``step``) is re-checked before it steps: more
     discs than the capacity plan holds grow every row, bounds give the wall its size
     (:meth:`~discgym.config.ReactorConfig.read_size`), another integrator is refused.
+
+    ``config`` is the batch's configuration: what every reactor shares; ``configs`` (R
+    :class:`~discgym.config.ReactorConfig` s, default ``config`` for every reactor), each
+    reactor's own (its contents, ranges, budgets, costs, kinetics, episode length: checked by
+    ``config.check_batch``), which :meth:`set_config` changes before a reset; ``low`` and
+    ``high`` the observation's bounds (default ``config``'s).
     """
 
-    def __init__(self, config: ReactorConfig, rows: int, threads: int | None = None):
+    def __init__(self, config: ReactorConfig, rows: int, threads: int | None = None,
+                 configs: list | None = None, low=None, high=None):
         cfg = self.config = config
         R, S, F = int(rows), config.n_species, len(config.feed)
         K = len(config.compiled.labels)
         self.rows, self.threads = R, threads
-        self.state = st = ReactorState(R, config.capacity, S, K)
+        self.low = config.obs_low if low is None else low
+        self.high = config.obs_high if high is None else high
+        self.configs = [config] * R if configs is None else list(configs)
+        self.heat_cost = np.array([c.heat_cost for c in self.configs], dtype=FLOAT)
+        self.feed_cost = np.array([c.feed_cost for c in self.configs], dtype=FLOAT)
+        self.state = st = ReactorState(R, max(c.capacity for c in self.configs), S, K)
         for r in range(R):  # one generator per reactor, reseeded at each of its resets
             st.set_generator(r, np.random.Generator(np.random.PCG64(0)))
         self.episodes = Episodes(
@@ -153,7 +157,12 @@ class EpisodeCore:
             ch_energy=np.zeros((R, K), dtype=FLOAT), ch_last=np.zeros((R, K), dtype=np.int64),
             out_last=np.zeros((R, S), dtype=np.int64), feed_kT=np.full(R, np.nan, dtype=FLOAT),
             feed_kT_next=np.full(R, np.nan, dtype=FLOAT),
-            feed_switch=np.full(R, -1, dtype=np.int64), pending=np.zeros((R, 2), dtype=FLOAT))
+            feed_switch=np.full(R, -1, dtype=np.int64), pending=np.zeros((R, 2), dtype=FLOAT),
+            heat_rate=np.ones(R, dtype=FLOAT), t_min=np.ones(R, dtype=FLOAT),
+            t_max=np.ones(R, dtype=FLOAT), size_min=np.ones(R, dtype=FLOAT),
+            size_max=np.ones(R, dtype=FLOAT), wall_speed=np.zeros(R, dtype=FLOAT),
+            inject_max=np.zeros(R, dtype=np.int64), episode_steps=np.ones(R, dtype=np.int64),
+            feed_budget=np.zeros((R, F), dtype=np.int64))
         self.np_randoms: list = [None] * R  #: each reactor's episode generator (draws resets)
         self.simulations: list = [None] * R
         self.product = np.zeros(R, dtype=FLOAT)  #: product discs at the last observation
@@ -168,15 +177,24 @@ class EpisodeCore:
         # (the structs as plain tuples of their fields: see kernels.batch.env_step)
         cfg = self.config
         cs = cfg.compiled
+        consts = cfg.consts._replace(obs_low=self.low, obs_high=self.high)
         self._fixed = (tuple(self.episodes), (tuple(cfg.tables), cs.params, cs.flags),
-                       tuple(cfg.consts))
+                       tuple(consts))
+
+    def set_config(self, r: int, config: ReactorConfig, who: str) -> None:
+        """Reactor ``r``'s configuration from its next reset on (refused, naming ``who``,
+        if it cannot share the batch)."""
+        self.config.check_batch(config, self.low, self.high, who)
+        self.configs[r] = config
+        self.heat_cost[r], self.feed_cost[r] = config.heat_cost, config.feed_cost
 
     # ------------------------------------------------------------------ reset
     def reset(self, rows) -> None:
         """Start a new episode in each reactor of ``rows`` (indices), its contents drawn
         from its ``np_randoms[r]``; then observe every reactor."""
-        cfg, st, ep = self.config, self.state, self.episodes
+        st, ep = self.state, self.episodes
         for r in rows:
+            cfg = self.configs[r]
             np_random = self.np_randoms[r]
             sim = cfg.new_simulation(np_random, generator=st.generator(r), row=(st, r))
             cfg.reset_row(ep, r, sim, np_random)
@@ -184,17 +202,18 @@ class EpisodeCore:
             self._plan(r, sim)
             self._cost[r] = len(sim) * cfg.steps_per_action  # (no history: one substep a step)
         self.observe()
-        self.product[rows] = ep.stats[rows, cfg.product]
+        self.product[rows] = ep.stats[rows, self.config.product]
 
     def observe(self) -> None:
         """Observe every reactor again (``episodes.obs``, ``stats``, ``temperature``,
         ``kinetic``): what a step ends with, for a reactor changed through its handle."""
-        observe(self.config, self.state.rx, self.episodes)
+        observe_batch(tuple(self.state.rx), self._fixed[0], self.config.compiled.sp_mass,
+                      self._fixed[2])
 
     def _plan(self, r: int, sim: Simulation) -> None:
         """Room for all the discs reactor ``r``'s contents and feed left could ever split
         into (mass is conserved), twice over: the compiled step never grows arrays."""
-        need = self.config.capacity_for(sim.species, self.episodes.feed_left[r])[0]
+        need = self.configs[r].capacity_for(sim.species, self.episodes.feed_left[r])[0]
         self.state.grow(need)
         self.state.touched[r] = False
 
@@ -244,8 +263,10 @@ class EpisodeCore:
                     a[~active] = 0
             product, before = ep.stats[:, p].copy(), self.product
             outflow, total, n_ref = ep.out_last[:, p], injected.sum(axis=1), ep.n_ref
-        gain, cost_heat, cost_feed, reward = cfg.reward_terms(product, before, outflow, heat,
-                                                              total, n_ref)
+        gain, cost_heat, cost_feed, reward = cfg.reward_terms(
+            product, before, outflow, heat, total, n_ref,
+            (self.configs[0].heat_cost, self.configs[0].feed_cost) if one else
+            (self.heat_cost, self.feed_cost))
         self.product[0 if one else slice(None)] = product
         if not every:
             for a in (gain, cost_heat, cost_feed, reward):
@@ -284,9 +305,9 @@ class EpisodeCore:
     def _absorb(self, rows: list) -> None:
         """Take over what the handles of ``rows`` changed since the last step (see the
         class's docstring); raise before anything is stepped where the env cannot follow."""
-        cfg, ep = self.config, self.episodes
+        ep = self.episodes
         for r in rows:
-            sim = self.simulations[r]
+            cfg, sim = self.configs[r], self.simulations[r]
             who = "its Simulation" if self.rows == 1 else f"reactor {r}'s Simulation"
             if sim.integrator != cfg.integrator:
                 raise integrator_changed(cfg, sim.integrator, who)

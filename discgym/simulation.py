@@ -92,6 +92,9 @@ class Simulation(Observables, StateIO):
             (:mod:`discgym.kernels.event_driven`): discs fly freely between exactly predicted
             contacts and react at exactly sampled times; ``step(n)`` then advances exactly
             ``n * scene.dt`` of simulated time. Same scene, same physics rules.
+        row: ``(state, r)``, a :class:`~discgym.state.ReactorState` of the scene's species
+            and reactions and a row of it, to live in (emptied first): how the environments
+            keep every reactor in one state. Default: a state of one row of its own.
 
     Arrays returned by the properties are copies; shapes use N = ``len(sim)``.
     """

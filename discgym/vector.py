@@ -8,27 +8,28 @@ the same actions (``tests/test_vector.py`` checks it; ``tests/test_env_event.py`
 :mod:`discgym.env`, and the kernel of each reactor is the same
 (:func:`discgym.kernels.step.advance`, or :func:`discgym.kernels.event_driven.run_steps`).
 
-How it works: the state of all reactors lives in padded arrays ``(R, C, 2)`` / ``(R, C)``
-with a capacity ``C = capacity_for_discs(max_discs)`` that can never run out (``max_discs``:
-the initial contents at their largest plus every feed budget), so one compiled call,
-:func:`discgym.kernels.batch.env_step_parallel` (a ``prange`` over reactors), applies every
-reactor's action (heat, wall, injection), advances it and observes it, in place. It runs
-for each reactor the same :func:`~discgym.kernels.batch.reactor_step` as the single env,
-whose controls are the kernels of :mod:`discgym.kernels.controls` that
+How it works: the reactors are the rows of one :class:`~discgym.state.ReactorState`
+(padded arrays ``(R, C, 2)`` / ``(R, C)`` with a capacity ``C`` that a step can never
+outgrow: every reactor's contents at their largest plus its feed budgets, split by every
+reaction they could undergo), and one :class:`~discgym.core.EpisodeCore` resets, steps and
+rewards them: one compiled call, :func:`discgym.kernels.batch.env_step_parallel` (a
+``prange`` over reactors), applies every reactor's action (heat, wall, injection), advances
+it and observes it, in place. It runs for each reactor the same
+:func:`~discgym.kernels.batch.reactor_step` as the single env, which is the same core with one
+reactor; the controls are the kernels of :mod:`discgym.kernels.controls` that
 ``Simulation.scale_temperature``, ``resize`` and ``inject`` call (``tests/test_env.py`` checks
 the two paths agree to the bit; the differences: heating stops at the speed limit where
 ``scale_temperature`` refuses, and a refused wall move or injection has drawn from the
-generator). Each reactor keeps a real ``Simulation``, which moves its state arrays and
-counters into row r of those arrays (``Simulation.move_into``) and, after each step, books
-its disc count, step count, clocks, energy input and bounds (``Simulation.book_env_step``).
-``env.simulations[r]`` is reactor r's ``Simulation``: its controls and ``set_state`` may be
-used between steps (the next step reads the disc count, clocks and bounds back: bounds that
-``resize`` or ``set_state`` replaced give the wall its size, which the ``size`` observation and
-the next wall move start from, ``ReactorConfig.read_size``, as in the single env); more discs
-than the capacity plan holds, state arrays replaced, or bounds the wall cannot make (another
-kind, height, origin or centre, or a size outside ``size_range``) raise ``RuntimeError`` at the
-next step, before any reactor is stepped. Do not keep it across a reset, which builds a new
-one.
+generator). ``env.simulations[r]`` is a :class:`~discgym.Simulation` handle on row r: its
+controls and ``set_state`` act on the batch's own arrays between steps, and the next step
+re-checks that reactor (bounds that ``resize`` or ``set_state`` replaced give the wall its
+size, ``ReactorConfig.read_size``; discs beyond the capacity plan grow every row; bounds the
+wall cannot make, or another integrator, raise ``RuntimeError`` before any reactor is
+stepped). A reset builds a new handle: do not keep one across it.
+
+``configs`` gives each reactor a configuration of its own (a sequence of R mappings of
+:data:`~discgym.config.ROW_ARGUMENTS`, or a callable drawing one per episode): see
+``docs/env.md``, "A configuration per reactor".
 
 Autoreset: ``autoreset_mode`` ("NextStep", the Gymnasium default; "SameStep", with
 ``info["final_obs"]`` and ``info["final_info"]``; or "Disabled", then reset finished reactors
@@ -40,7 +41,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 
 import numpy as np
-from gymnasium import error, logger
+from gymnasium import error, logger, spaces
 from gymnasium.utils import seeding
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
@@ -79,7 +80,14 @@ class DiscReactorVectorEnv(VectorEnv):
     - ``threads``: None (numba's current setting) or whole, >= 1; more than numba's
       ``NUMBA_NUM_THREADS`` uses all of them. It is the most a step runs on: each step runs
       on the count measured fastest (fewer when other processes hold cores:
-      :mod:`discgym.threads`; the same bits whatever the count).
+      :mod:`discgym.threads`; the same bits whatever the count);
+    - ``configs``: None, a sequence of ``num_envs`` mappings (reactor r's own settings,
+      keys of :data:`~discgym.config.ROW_ARGUMENTS`, updating the arguments above: reactor r
+      is then the single env made with both), or a callable ``configs(rng) -> mapping``
+      called at each reset of each reactor with a generator of that reactor's own (a
+      configuration per episode). Each checked as the env's own argument, naming
+      ``configs[r]``; a key that cannot differ between reactors (the scene, ``feed``,
+      ``product``, the observation's layout, ...) is refused.
 
     They may also come as one mapping, the only positional argument (RLlib's
     ``EnvContext``), alone or with keywords. Each is checked at construction (``TypeError``
@@ -106,7 +114,8 @@ class DiscReactorVectorEnv(VectorEnv):
 
     def _construct(self, num_envs: int = 1, *, max_episode_steps: int | None = None,
                  autoreset_mode=AutoresetMode.NEXT_STEP, threads: int | None = None,
-                 render_mode: str | None = None, render_size: int = 200, **kwargs):
+                 render_mode: str | None = None, render_size: int = 200, configs=None,
+                 **kwargs):
         check_keywords(f"{type(self).__name__}.__init__", kwargs, self.defaults)
         R = whole(num_envs, "num_envs", 1)
         if max_episode_steps is not None:
@@ -127,14 +136,18 @@ class DiscReactorVectorEnv(VectorEnv):
         else:
             self.config = cfg = ReactorConfig.from_kwargs(self.defaults, **kwargs)
         compile_helper.expect(f"env-{cfg.integrator}")
-        check_memory(R * (cfg.capacity * SLOT_BYTES_BATCH + 4096), "num_envs",
-                      f"{R} reactors of capacity {cfg.capacity} discs")
-        self.limit = cfg.episode_steps if max_episode_steps is None else \
-            min(max_episode_steps, cfg.episode_steps)
+        self._kwargs = dict(kwargs)
+        rows, self._draw = self._row_configs(configs, R, kwargs)
+        low = np.min([c.obs_low for c in rows], axis=0) if rows else cfg.obs_low
+        high = np.max([c.obs_high for c in rows], axis=0) if rows else cfg.obs_high
+        cap = max([c.capacity for c in rows] + [cfg.capacity])
+        check_memory(R * (cap * SLOT_BYTES_BATCH + 4096), "num_envs",
+                      f"{R} reactors of capacity {cap} discs")
+        self._max_episode_steps = max_episode_steps
         self.metadata = dict(self.metadata, autoreset_mode=self.autoreset_mode)
         self.render_mode = render_mode
         self.num_envs = R
-        self.single_observation_space = cfg.observation_space()
+        self.single_observation_space = spaces.Box(low.copy(), high.copy(), dtype=np.float32)
         self.single_action_space = cfg.action_space()
         self.observation_space = batch_space(self.single_observation_space, R)
         self.action_space = batch_space(self.single_action_space, R)
@@ -142,9 +155,35 @@ class DiscReactorVectorEnv(VectorEnv):
         self.action_names = cfg.action_names
 
         # the episode core of R reactors: their state, episode rows and Simulation handles
-        self.core = EpisodeCore(cfg, R, self.threads)
+        self.core = EpisodeCore(cfg, R, self.threads, rows or None, low, high)
+        self._config_rngs: list = [None] * R  # (a callable's draws: its own generators)
         self._autoreset = np.zeros(R, dtype=bool)
         self._started = False
+
+    def _row_configs(self, configs, R: int, kwargs: dict) -> tuple[list, object]:
+        """The reactors' own configurations: ``(list of R, None)`` for a sequence of R
+        mappings, ``([], configs)`` for a callable (drawn at each reset), ``([], None)``
+        for None."""
+        if configs is None:
+            return [], None
+        if callable(configs):
+            return [], configs
+        if isinstance(configs, (str, bytes, Mapping)) or not hasattr(configs, "__len__"):
+            raise TypeError(f"configs: expected None, a sequence of {R} mappings (one per "
+                            f"reactor) or a callable drawing one, got {type(configs).__name__}")
+        if len(configs) != R:
+            raise ValueError(f"configs: need one mapping per reactor ({R}), got "
+                             f"{len(configs)}")
+        return [self.config.row(self.defaults, kwargs, c, f"configs[{r}]")
+                for r, c in enumerate(configs)], None
+
+    @property
+    def limit(self) -> np.ndarray:
+        """(R,) each reactor's episode length: its ``episode_steps``, at most
+        ``max_episode_steps``."""
+        steps = self.core.episodes.episode_steps
+        m = self._max_episode_steps
+        return steps.copy() if m is None else np.minimum(steps, m)
 
     @property
     def simulations(self) -> list:
@@ -178,7 +217,10 @@ class DiscReactorVectorEnv(VectorEnv):
         for r in idx:
             if seeds[r] is not None or core.np_randoms[r] is None:
                 core.np_randoms[r], _ = seeding.np_random(seeds[r])
-        core.reset(idx)
+                # (a callable's own generator: the reactor's draws stay its single env's)
+                self._config_rngs[r] = np.random.default_rng(
+                    None if seeds[r] is None else [0xC0F16, seeds[r]])
+        self._reset_rows(idx)
         self._started = True
         self._autoreset[idx] = False
         return core.episodes.obs.copy(), self._reset_infos(mask)
@@ -212,7 +254,7 @@ class DiscReactorVectorEnv(VectorEnv):
         core = self.core
         out = core.step(active, act)
         if resetting.any():  # (their rows of the outputs are zeros)
-            core.reset(np.flatnonzero(resetting).tolist())
+            self._reset_rows(np.flatnonzero(resetting).tolist())
         terminated = np.zeros(R, dtype=bool)
         truncated = active & (core.episodes.steps >= self.limit)
         # every reactor reports, as in Gymnasium's SyncVectorEnv: a reactor reset by this
@@ -232,7 +274,7 @@ class DiscReactorVectorEnv(VectorEnv):
             infos["_final_obs"] = done.copy()
             infos["final_info"] = final_info
             infos["_final_info"] = done.copy()
-            core.reset(np.flatnonzero(done).tolist())
+            self._reset_rows(np.flatnonzero(done).tolist())
             obs = core.episodes.obs.copy()
             # the finished reactors report their reset's info (as SyncVectorEnv does)
             fresh = self._reset_infos(everyone)
@@ -242,6 +284,18 @@ class DiscReactorVectorEnv(VectorEnv):
             done = np.zeros(R, dtype=bool)
         self._autoreset = done
         return obs, out.reward, terminated, truncated, infos
+
+    def _reset_rows(self, rows: list) -> None:
+        """A new episode in each reactor of ``rows``: its configuration drawn first when
+        ``configs`` is a callable."""
+        if self._draw is not None:
+            cfg = self.config
+            for r in rows:
+                row = self._draw(self._config_rngs[r])
+                self.core.set_config(r, cfg.row(self.defaults, self._kwargs, row,
+                                                f"configs(...) for reactor {r}"),
+                                     f"configs(...) for reactor {r}")
+        self.core.reset(rows)
 
     def _infos(self, gain, cost_heat, cost_feed, heat, injected, refused, blocked, invalid,
                active) -> dict:

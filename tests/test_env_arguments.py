@@ -370,7 +370,7 @@ def test_episode_length_at_the_int64_limit():
     with pytest.raises(ValueError, match="^episode_steps.*max_episode_steps"):
         DiscReactorVectorEnv(num_envs=1, max_episode_steps=most + 1)
     venv = DiscReactorVectorEnv(num_envs=1, max_episode_steps=most + 1, episode_steps=5)
-    assert venv.limit == 5
+    assert (venv.limit == 5).all()
 
 
 def test_feed_budget_and_inject_max_limits():

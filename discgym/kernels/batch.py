@@ -284,7 +284,7 @@ def reactor_step(r, rx, ep, physics, consts, rngs, act, exact, stepped, lists):
     a, bad_heat, bad_wall = _read_action(r, act, iout)
     if consts.heating == JACKET:
         if not bad_heat:
-            _jacket(a[0], rx.bounds_walls[r], consts)
+            _jacket(r, a[0], rx.bounds_walls[r], ep)
     else:
         _heat(r, a[0], discs, rx.n[r], ep, tables.sp_mass, consts)
     if ep.steps[r] == ep.feed_switch[r]:  # the inlet temperature changes (flow tasks)
@@ -378,10 +378,11 @@ def _read_action(r, act, iout):
 
 
 @kernel
-def _jacket(a0, walls, consts):
+def _jacket(r, a0, walls, ep):
     """Jacket control: every thermal wall (a side whose temperature is not NaN) to
     ``t_min (t_max / t_min) ** ((a0 + 1) / 2)``: log-uniform over [t_min, t_max]."""
-    kT = consts.t_min * (consts.t_max / consts.t_min) ** (0.5 * (a0 + 1.0))
+    t_min, t_max = ep.t_min[r], ep.t_max[r]
+    kT = t_min * (t_max / t_min) ** (0.5 * (a0 + 1.0))
     for k in range(walls.shape[0]):
         if walls[k] == walls[k]:
             walls[k] = kT
@@ -403,8 +404,8 @@ def _heat(r, a0, discs, n, ep, sp_mass, consts):
     T = ep.temperature[r]
     if not (a0 != 0.0 and T > 0.0):
         return
-    f = consts.heat_rate ** a0
-    f = min(max(f, min(1.0, consts.t_min / T)), max(1.0, consts.t_max / T))
+    f = ep.heat_rate[r] ** a0
+    f = min(max(f, min(1.0, ep.t_min[r] / T)), max(1.0, ep.t_max[r] / T))
     f, energy, _ = heat(discs.vel, discs.species, sp_mass, n, f, consts.speed_limit,
                           np.bool_(True))
     if f != 1.0:
@@ -418,10 +419,10 @@ def _wall(r, a1, discs, n, bounds, ep, sp_radius, consts, rngs):
     kept) or the circle's radius ``size`` x the scene's (blocked: the size stays and
     ``iout[r, O_BLOCKED]`` is set). ``bounds``: reactor r's (views of its rows)."""
     size = ep.size
-    lo_s = consts.size_min
-    hi_s = consts.size_max
+    lo_s = ep.size_min[r]
+    hi_s = ep.size_max[r]
     target = lo_s + 0.5 * (a1 + 1.0) * (hi_s - lo_s)
-    ws = consts.wall_speed
+    ws = ep.wall_speed[r]
     new = min(max(size[r] + min(max(target - size[r], -ws), ws), lo_s), hi_s)
     if new == size[r]:
         return
@@ -465,7 +466,7 @@ def _inject_feed(r, a, discs, bounds, rx, ep, tables, consts, rngs):
     cap = discs.pos.shape[0]
     for k in range(F):
         x = a[2 + k]
-        want = int(np.rint(x * consts.inject_max)) if x > 0.0 else 0
+        want = int(np.rint(x * ep.inject_max[r])) if x > 0.0 else 0
         if want <= 0:
             continue
         todo = min(want, feed_left[r, k])
@@ -546,8 +547,8 @@ def observe_one(r, rx, ep, sp_mass, consts):
     n = rx.n[r]
     low = consts.obs_low
     high = consts.obs_high
-    feed_budget = consts.feed_budget
-    episode_steps = consts.episode_steps
+    feed_budget = ep.feed_budget[r]
+    episode_steps = ep.episode_steps[r]
     S = sp_mass.shape[0]
     F = feed_budget.shape[0]
     st = ep.stats[r]

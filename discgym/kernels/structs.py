@@ -324,31 +324,34 @@ class Episodes(NamedTuple):
     feed_switch: np.ndarray  #: (R,) int64 the step at which the inlet kT changes (-1: never)
     pending: np.ndarray  #: (R, 2) FLOAT a step left at its exact run's event bound: the time
     #: left and the thermal walls' heat before the step (kernels.batch.CAPPED)
+    # each reactor's own settings (ReactorConfig's, set at its reset: a batch may mix them)
+    heat_rate: np.ndarray  #: (R,) FLOAT kinetic energy x heat_rate ** a at heat action a
+    t_min: np.ndarray  #: (R,) FLOAT kT the heat control keeps within [t_min, t_max]
+    t_max: np.ndarray  #: (R,) FLOAT
+    size_min: np.ndarray  #: (R,) FLOAT the range of the size (relative to the scene's bounds)
+    size_max: np.ndarray  #: (R,) FLOAT
+    wall_speed: np.ndarray  #: (R,) FLOAT the most the size changes per step
+    inject_max: np.ndarray  #: (R,) int64 discs injected per step at injection action 1
+    episode_steps: np.ndarray  #: (R,) int64 the episode's length
+    feed_budget: np.ndarray  #: (R, F) int64 discs each feed species may inject per episode
 
 
 class ReactorConsts(NamedTuple):
-    """The constants of a reactor environment (:attr:`discgym.config.ReactorConfig.consts`)."""
+    """The constants of a reactor environment that every reactor of a batch shares
+    (:attr:`discgym.config.ReactorConfig.consts`; each reactor's own settings are rows of
+    :class:`Episodes`)."""
 
-    heat_rate: float  #: kinetic energy x heat_rate ** a at heat action a
-    t_min: float  #: kT the heat control keeps within [t_min, t_max]
-    t_max: float
-    size_min: float  #: the range of the reactor's size (relative to the scene's bounds)
-    size_max: float
-    wall_speed: float  #: the most the size changes per step
     speed_limit: float  #: the fastest a disc may move (see :func:`speed_limit`)
     ref_bounds: np.ndarray  #: (4,) FLOAT the scene's bounds: box (x0, y0, width, height),
     #: circle (cx, cy, radius, 0)
     temperature: float  #: the scene's kT (injection into an empty reactor)
     dt: float  #: the step of the scene
     packing: float  #: the densest packing fraction a resize may ask of the discs
-    inject_max: int  #: discs injected per step at injection action 1
     steps_per_action: int  #: kernel steps per environment step
     attempts: int  #: placement attempts per disc
     reorder_every: int  #: kernel steps between memory reorderings
     product: int  #: species index of the product
-    episode_steps: int
     feed: np.ndarray  #: (F,) INDEX feed species
-    feed_budget: np.ndarray  #: (F,) int64 discs each feed species may inject per episode
     obs_low: np.ndarray  #: (D,) float32 observation bounds
     obs_high: np.ndarray  #: (D,) float32
     energy_edges: np.ndarray  #: (B - 1,) FLOAT inner edges of the kinetic-energy histogram
