@@ -442,10 +442,7 @@ class ReactorConfig:
         ``np_random`` (:meth:`draw_feed`); the observation and the product count come from
         the observation that follows (:func:`~discgym.core.observe`)."""
         ep.steps[r] = 0
-        ep.heat_rate[r], ep.t_min[r], ep.t_max[r] = self.heat_rate, self.t_min, self.t_max
-        ep.size_min[r], ep.size_max[r] = self.size_min, self.size_max
-        ep.wall_speed[r], ep.inject_max[r] = self.wall_speed, self.inject_max
-        ep.episode_steps[r], ep.feed_budget[r] = self.episode_steps, self.feed_budget
+        self.settings_row(ep, r)
         ep.size[r] = self.size_of(sim.bounds)
         ep.feed_left[r] = self.feed_budget
         ep.sp_form[r], ep.ch_rate[r], ep.ch_energy[r] = self.kinetics(sim.scene)
@@ -490,6 +487,14 @@ class ReactorConfig:
                 f"[{other.obs_low[k]:g}, {other.obs_high[k]:g}], outside the batch's "
                 f"[{low[k]:g}, {high[k]:g}]; give the vector env's own arguments the widest "
                 "ranges its reactors draw (size_range, temperature_range)")
+
+    def settings_row(self, ep: Episodes, r: int) -> None:
+        """This configuration's settings that each reactor of a batch may have on its own,
+        as row ``r`` of ``ep`` (what the compiled step reads)."""
+        ep.heat_rate[r], ep.t_min[r], ep.t_max[r] = self.heat_rate, self.t_min, self.t_max
+        ep.size_min[r], ep.size_max[r] = self.size_min, self.size_max
+        ep.wall_speed[r], ep.inject_max[r] = self.wall_speed, self.inject_max
+        ep.episode_steps[r], ep.feed_budget[r] = self.episode_steps, self.feed_budget
 
     # ---------------------------------------------------------------- reward
     def reward_terms(self, product, product_before, outflow, heat, injected, n_ref,

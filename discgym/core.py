@@ -94,8 +94,8 @@ def as_actions(cfg: ReactorConfig, action, batch: int | None = None) -> np.ndarr
 
 class StepOut(NamedTuple):
     """What a step of :class:`EpisodeCore` did: per reactor, (R,) arrays (zeros for the
-    reactors it did not step), or for a core of one reactor Python numbers (``injected`` and
-    ``refused`` lists of F)."""
+    reactors it did not step), or for a core made with ``numbers`` Python numbers
+    (``injected`` and ``refused`` lists of F)."""
 
     heat: np.ndarray  #: (R,) FLOAT energy the heat action put in (or took out)
     injected: np.ndarray  #: (R, F) int64 discs injected per feed species
@@ -128,15 +128,19 @@ class EpisodeCore:
     :class:`~discgym.config.ReactorConfig` s, default ``config`` for every reactor), each
     reactor's own (its contents, ranges, budgets, costs, kinetics, episode length: checked by
     ``config.check_batch``), which :meth:`set_config` changes before a reset; ``low`` and
-    ``high`` the observation's bounds (default ``config``'s).
+    ``high`` the observation's bounds (default ``config``'s). ``numbers``: a core of one
+    reactor whose steps give Python numbers (the single env's), not arrays.
     """
 
     def __init__(self, config: ReactorConfig, rows: int, threads: int | None = None,
-                 configs: list | None = None, low=None, high=None):
+                 configs: list | None = None, low=None, high=None, numbers: bool = False):
         cfg = self.config = config
         R, S, F = int(rows), config.n_species, len(config.feed)
         K = len(config.compiled.labels)
         self.rows, self.threads = R, threads
+        if numbers and R != 1:
+            raise ValueError(f"numbers: a core of one reactor only, not {R}")
+        self.numbers = numbers  # (a single env's: StepOut of Python numbers)
         self.low = config.obs_low if low is None else low
         self.high = config.obs_high if high is None else high
         self.configs = [config] * R if configs is None else list(configs)
@@ -171,6 +175,8 @@ class EpisodeCore:
         self._chooser = ThreadChooser()  # (speed only: the bits do not depend on it)
         self._order = np.zeros(R, dtype=np.int64)
         self._starts = np.zeros(numba.config.NUMBA_NUM_THREADS + 1, dtype=np.int64)
+        for r, c in enumerate(self.configs):  # (what a reset sets: known before one)
+            c.settings_row(self.episodes, r)
         self._link()
 
     def _link(self) -> None:
@@ -224,7 +230,7 @@ class EpisodeCore:
         cfg, st, ep = self.config, self.state, self.episodes
         if act is None:
             act = self.act
-        one = self.rows == 1
+        one = self.numbers
         every = one or active.all()
         # the rows stepped: a row index for one reactor (numbers, numpy's cheapest), a
         # slice for all of them, else the mask
@@ -308,7 +314,7 @@ class EpisodeCore:
         ep = self.episodes
         for r in rows:
             cfg, sim = self.configs[r], self.simulations[r]
-            who = "its Simulation" if self.rows == 1 else f"reactor {r}'s Simulation"
+            who = "its Simulation" if self.numbers else f"reactor {r}'s Simulation"
             if sim.integrator != cfg.integrator:
                 raise integrator_changed(cfg, sim.integrator, who)
             ep.size[r] = cfg.read_size(sim.bounds, float(ep.size[r]), who)

@@ -240,7 +240,7 @@ class DiscReactorEnv(gym.Env):
         self.observation_names = cfg.obs_names
         self.action_names = cfg.action_names
         # the episode core of one reactor: its state, episode row and Simulation handle
-        self.core = EpisodeCore(cfg, 1)
+        self.core = EpisodeCore(cfg, 1, numbers=True)
         self._ashape = (2 + len(cfg.feed),)
         self._fig = None
 

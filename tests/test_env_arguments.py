@@ -108,6 +108,10 @@ BAD_VECTOR = {
     "autoreset_mode": [("Never", ValueError), (3, TypeError), (None, TypeError),
                        ("nextstep", ValueError)],
     "render_mode": [("human", ValueError), (3, TypeError)],
+    "configs": [("heat_rate", TypeError), (3, TypeError), ({"heat_rate": 2.0}, TypeError),
+                ([{}], ValueError), ([{}, {"feed": "A"}], ValueError),
+                ([{}, {"heat_rate": 0.5}], ValueError), ([{}, 3], TypeError),
+                ([{}, {"episode_steps": 2.5}], ValueError)],
 }
 
 
