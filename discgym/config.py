@@ -554,12 +554,19 @@ class ReactorConfig:
         values = [*counts, product, yield_, reward_product, cost_heat, cost_feed,
                   heat_energy, temperature, size, *injected, *refused, wall_blocked,
                   invalid_action, time, n_ref]
-        types = self.info_types
+        if len(values) != len(self.info_types):
+            raise ValueError(f"info_values: {len(values)} values for "
+                             f"{len(self.info_types)} keys")
         if batch:
-            return {k: np.array(v, dtype=types[k])
-                    for k, v in zip(types, values, strict=True)}
-        return {k: np.array(v, dtype=np.bool_) if types[k] is np.bool_ else types[k](v)
-                for k, v in zip(types, values, strict=True)}
+            return {k: np.array(v, dtype=t) for (k, t), v in
+                    zip(self.info_types.items(), values)}
+        return {k: cast(v) for (k, cast), v in zip(self._info_casts, values)}
+
+    @cached_property
+    def _info_casts(self) -> tuple:
+        """``(key, conversion)`` of each entry of a single env's info, in order (built once:
+        the conversions are a share of a step's Python)."""
+        return tuple((k, _bool_0d if t is np.bool_ else t) for k, t in self.info_types.items())
 
     def size_of(self, bounds) -> float:
         ref = self.scene.bounds
@@ -608,6 +615,10 @@ class ReactorConfig:
             f"env's wall sets the {length} of the scene's {ref} to size x the scene's, the "
             f"size within size_range ({self.size_min:g}, {self.size_max:g}), and cannot take "
             "these bounds over; resize to such bounds, set a state with them, or reset")
+
+
+def _bool_0d(v) -> np.ndarray:
+    return np.array(v, dtype=np.bool_)
 
 
 def _contents(scene: Scene, o: dict) -> tuple:

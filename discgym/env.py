@@ -257,7 +257,7 @@ class DiscReactorEnv(gym.Env):
         core.np_randoms[0] = self.np_random
         core.reset(_ROW)
         ep = core.episodes
-        counts = [int(c) for c in ep.stats[0, :cfg.n_species].tolist()]
+        counts = list(map(int, ep.stats[0, :cfg.n_species].tolist()))
         product = counts[cfg.product]
         n_ref = ep.n_ref.item()
         # the keys of a step's info; what only a step does (reward, costs, heat, injections,
@@ -265,13 +265,13 @@ class DiscReactorEnv(gym.Env):
         none = [0] * len(cfg.feed)
         info = cfg.info_values(counts, product, product / n_ref, 0.0, 0.0, 0.0, 0.0,
                                ep.temperature.item(), ep.size.item(), none, none, False, 0,
-                               core.state.time(0).item(), n_ref)
+                               core.state.time(0), n_ref)
         if self.render_mode == "human":
             self.render()
         return ep.obs[0].copy(), info
 
     def step(self, action):
-        if self.simulation is None:
+        if self.core.simulations[0] is None:
             raise gym.error.ResetNeeded("call reset() before step()")
         cfg, core = self.config, self.core
         if type(action) is np.ndarray and action.shape == self._ashape and \
@@ -281,13 +281,13 @@ class DiscReactorEnv(gym.Env):
             core.act[0] = as_actions(cfg, action)
         out = core.step(_ONE)
         ep = core.episodes
-        counts = [int(c) for c in ep.stats[0, :cfg.n_species].tolist()]
+        counts = list(map(int, ep.stats[0, :cfg.n_species].tolist()))
         product = counts[cfg.product]
         n_ref = ep.n_ref.item()
         info = cfg.info_values(counts, product, product / n_ref, out.gain, out.cost_heat,
                                out.cost_feed, out.heat, ep.temperature.item(), ep.size.item(),
                                out.injected, out.refused, out.blocked, out.invalid,
-                               core.state.time(0).item(), n_ref)
+                               core.state.time(0), n_ref)
         truncated = ep.steps.item() >= cfg.episode_steps
         if self.render_mode == "human":
             self.render()
