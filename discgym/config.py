@@ -440,7 +440,7 @@ class ReactorConfig:
         episode, ``sim`` the reactor :meth:`new_simulation` just drew from ``np_random``:
         the one reset of the single and the vector env. Draws the inlet temperatures from
         ``np_random`` (:meth:`draw_feed`); the observation and the product count come from
-        the observation that follows (:func:`~discgym.core.observe`)."""
+        the observation that follows (:meth:`~discgym.core.EpisodeCore.observe`)."""
         ep.steps[r] = 0
         self.settings_row(ep, r)
         ep.size[r] = self.size_of(sim.bounds)
@@ -468,17 +468,19 @@ class ReactorConfig:
             cfg = ReactorConfig.from_kwargs(defaults, **{**kwargs, "scene": self.scene, **row})
         except (TypeError, ValueError) as e:
             raise type(e)(f"{who}: {e}") from None
-        self.check_batch(cfg, self.obs_low, self.obs_high, who)
+        self.check_batch(cfg, None, None, who)
         return cfg
 
     def check_batch(self, other: ReactorConfig, low, high, who: str) -> None:
         """Refuse ``other`` as a reactor of this config's batch of observation bounds
-        ``low``, ``high``: another layout, or bounds outside them (``ValueError`` naming
-        ``who`` and what differs)."""
+        ``low``, ``high`` (None: not checked): another layout, or bounds outside them
+        (``ValueError`` naming ``who`` and what differs)."""
         for f in _SHARED:
             a, b = getattr(other, f), getattr(self, f)
             if not (np.array_equal(a, b) if isinstance(a, np.ndarray) else a == b):
                 raise ValueError(f"{who}: its {f} ({a!r}) is not the batch's ({b!r})")
+        if low is None:
+            return
         out = np.flatnonzero((other.obs_low < low) | (other.obs_high > high))
         if len(out):
             k = out[0]

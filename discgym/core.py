@@ -10,6 +10,8 @@ from typing import TYPE_CHECKING, NamedTuple
 import numba
 import numpy as np
 
+from .arguments import check_memory
+from .config import SLOT_BYTES_BATCH
 from .kernels.batch import (
     O_BLOCKED,
     O_ENERGY_HEAT,
@@ -43,14 +45,14 @@ _EVENTS = [IC_COLLISIONS, IC_WALL_HITS, IC_REACTIVE]
 # the per-step logic, shared with the vector env
 
 
-def check_status(cfg: ReactorConfig, iout: np.ndarray, active: np.ndarray) -> None:
+def check_status(capacity: int, iout: np.ndarray, active: np.ndarray) -> None:
     """Raise if an ``active`` reactor of the last :func:`~discgym.kernels.batch.env_step`
-    outgrew its arrays (it cannot: the capacity plan bounds every reactor; this would be a
-    bug)."""
+    outgrew its arrays of ``capacity`` discs (it cannot: the capacity plan bounds every
+    reactor; this would be a bug)."""
     status = np.where(active, iout[:, O_STATUS], 0)
     if status.any():
         bad = np.flatnonzero(status).tolist()
-        raise RuntimeError(f"reactors {bad}: the state outgrew the capacity {cfg.capacity} "
+        raise RuntimeError(f"reactors {bad}: the state outgrew the capacity {capacity} "
                            f"(status {status[bad].tolist()}); this is a bug in the capacity "
                            "plan")
 
@@ -189,10 +191,9 @@ class EpisodeCore:
 
     def set_config(self, r: int, config: ReactorConfig, who: str) -> None:
         """Reactor ``r``'s configuration from its next reset on (refused, naming ``who``,
-        if it cannot share the batch)."""
+        if it cannot share the batch: :meth:`~discgym.config.ReactorConfig.check_batch`)."""
         self.config.check_batch(config, self.low, self.high, who)
         self.configs[r] = config
-        self.heat_cost[r], self.feed_cost[r] = config.heat_cost, config.feed_cost
 
     # ------------------------------------------------------------------ reset
     def reset(self, rows) -> None:
@@ -202,6 +203,10 @@ class EpisodeCore:
         for r in rows:
             cfg = self.configs[r]
             np_random = self.np_randoms[r]
+            self.heat_cost[r], self.feed_cost[r] = cfg.heat_cost, cfg.feed_cost
+            if type(st.generator(r).bit_generator) is not np.random.PCG64:
+                # (set_state gave the row another kind; a reset reseeds a PCG64)
+                st.set_generator(r, np.random.Generator(np.random.PCG64(0)))
             sim = cfg.new_simulation(np_random, generator=st.generator(r), row=(st, r))
             cfg.reset_row(ep, r, sim, np_random)
             self.simulations[r] = sim
@@ -219,9 +224,15 @@ class EpisodeCore:
     def _plan(self, r: int, sim: Simulation) -> None:
         """Room for all the discs reactor ``r``'s contents and feed left could ever split
         into (mass is conserved), twice over: the compiled step never grows arrays."""
+        st = self.state
         need = self.configs[r].capacity_for(sim.species, self.episodes.feed_left[r])[0]
-        self.state.grow(need)
-        self.state.touched[r] = False
+        if need > st.capacity:  # (every row grows: at least twice over)
+            cap = max(need, 2 * st.capacity)
+            check_memory(self.rows * (cap * SLOT_BYTES_BATCH + 4096), "capacity",
+                         f"{self.rows} reactors of capacity {cap} discs (reactor {r} holds "
+                         f"{len(sim)})")
+            st.grow(need)
+        st.touched[r] = False
 
     # ------------------------------------------------------------------ step
     def step(self, active: np.ndarray, act: np.ndarray | None = None) -> StepOut:
@@ -241,7 +252,7 @@ class EpisodeCore:
         self._run(active, act)
         iout, fout = ep.iout, ep.fout
         if iout[0, O_STATUS] if one else iout[:, O_STATUS].any():
-            check_status(cfg, iout, active)
+            check_status(st.capacity, iout, active)
         # what Simulation.step and its controls book: the clocks, the energy put in (in the
         # order the controls add it), bounds of a moved wall (built when asked for)
         st.tick(rows, cfg.steps_per_action)

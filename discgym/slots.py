@@ -18,9 +18,9 @@ OBS_RATE_MAX = 4.0  # reactions of one channel in one step / limiting reactant a
 
 def observation_slots(names, feed: tuple, size_min: float, size_max: float) -> tuple:
     """``(names, low, high)`` of the observation's slots (see
-    :func:`~discgym.core.observe`). Every slot's range contains 0: TorchRL fills the final
-    observation of a vector env's reactors that did not finish with zeros and checks them
-    against the space."""
+    :func:`~discgym.kernels.batch.observe_one`). Every slot's range contains 0: TorchRL fills
+    the final observation of a vector env's reactors that did not finish with zeros and
+    checks them against the space."""
     obs_names, lo, hi = [], [], []
 
     def slot(name, low, high):

@@ -50,14 +50,10 @@ from .arguments import check_keywords, check_memory, check_render_mode, whole, w
 from .config import DEFAULTS, MAX_RENDER_SIZE, SLOT_BYTES_BATCH, ReactorConfig
 from .core import EpisodeCore, as_actions
 from .kernels import helper as compile_helper
-from .kernels import step as _step
 from .kernels.structs import FLOAT
 
 __all__ = ["DiscReactorVectorEnv"]
 
-# the counters of events (collisions, wall hits, reactive collisions): each costs about as
-# much as 4 disc-substeps
-_EVENTS = [_step.IC_COLLISIONS, _step.IC_WALL_HITS, _step.IC_REACTIVE]
 
 
 class DiscReactorVectorEnv(VectorEnv):
@@ -252,9 +248,14 @@ class DiscReactorVectorEnv(VectorEnv):
             resetting = np.zeros(R, dtype=bool)
         active = ~resetting
         core = self.core
+        # the configurations the resets of this step will draw, drawn (and checked) before
+        # anything is stepped: SameStep resets the reactors that reach their limit now
+        ending = resetting if self.autoreset_mode != AutoresetMode.SAME_STEP else \
+            active & (core.episodes.steps + 1 >= self.limit)
+        drawn = self._draw_configs(np.flatnonzero(ending).tolist())
         out = core.step(active, act)
         if resetting.any():  # (their rows of the outputs are zeros)
-            self._reset_rows(np.flatnonzero(resetting).tolist())
+            self._reset_rows(np.flatnonzero(resetting).tolist(), drawn)
         terminated = np.zeros(R, dtype=bool)
         truncated = active & (core.episodes.steps >= self.limit)
         # every reactor reports, as in Gymnasium's SyncVectorEnv: a reactor reset by this
@@ -274,7 +275,7 @@ class DiscReactorVectorEnv(VectorEnv):
             infos["_final_obs"] = done.copy()
             infos["final_info"] = final_info
             infos["_final_info"] = done.copy()
-            self._reset_rows(np.flatnonzero(done).tolist())
+            self._reset_rows(np.flatnonzero(done).tolist(), drawn)
             obs = core.episodes.obs.copy()
             # the finished reactors report their reset's info (as SyncVectorEnv does)
             fresh = self._reset_infos(everyone)
@@ -285,16 +286,29 @@ class DiscReactorVectorEnv(VectorEnv):
         self._autoreset = done
         return obs, out.reward, terminated, truncated, infos
 
-    def _reset_rows(self, rows: list) -> None:
-        """A new episode in each reactor of ``rows``: its configuration drawn first when
-        ``configs`` is a callable."""
+    def _draw_configs(self, rows: list) -> dict:
+        """``{r: configuration}`` for the next episode of each reactor of ``rows`` when
+        ``configs`` is a callable (else empty), every one checked before any is used (a
+        refused one raises naming its reactor, and nothing has changed)."""
+        if self._draw is None:
+            return {}
+        out = {}
+        for r in rows:
+            who = f"configs(...) for reactor {r}"
+            cfg = self.config.row(self.defaults, self._kwargs, self._draw(self._config_rngs[r]),
+                                  who)
+            self.config.check_batch(cfg, self.core.low, self.core.high, who)
+            out[r] = cfg
+        return out
+
+    def _reset_rows(self, rows: list, drawn: dict | None = None) -> None:
+        """A new episode in each reactor of ``rows``; with a callable ``configs``, in the
+        configuration ``drawn[r]`` (drawn now if not given)."""
         if self._draw is not None:
-            cfg = self.config
+            missing = [r for r in rows if drawn is None or r not in drawn]
+            drawn = {**(drawn or {}), **self._draw_configs(missing)}
             for r in rows:
-                row = self._draw(self._config_rngs[r])
-                self.core.set_config(r, cfg.row(self.defaults, self._kwargs, row,
-                                                f"configs(...) for reactor {r}"),
-                                     f"configs(...) for reactor {r}")
+                self.core.set_config(r, drawn[r], f"configs(...) for reactor {r}")
         self.core.reset(rows)
 
     def _infos(self, gain, cost_heat, cost_feed, heat, injected, refused, blocked, invalid,

@@ -60,7 +60,7 @@ def test_a_lone_env_step_is_the_simulation_bit_for_bit():
 
 def test_a_batch_reactor_keeps_its_walls_and_outflow_in_the_batch_rows():
     """set_wall_temperature on ``env.simulations[r]`` writes the batch's row (the Simulation
-    uses it as its own array after ``move_into``); the batch's reactors follow the lone
+    is a handle on it); the batch's reactors follow the lone
     env's trajectory bit for bit, outflow counts and wall heat included."""
     venv = DiscReactorVectorEnv(num_envs=2, scene=scene(), episode_steps=20)
     venv.reset(seed=7)

@@ -155,3 +155,50 @@ def test_a_batch_of_one_reactor_takes_its_own_costs():
     row = dict(heat_cost=0.05, feed_cost=0.1)
     venv = DiscReactorVectorEnv(num_envs=1, configs=[row], **BASE)
     _lockstep(venv, [DiscReactorEnv(**{**BASE, **row})], 2, 8, np.random.default_rng(6))
+
+
+def test_a_list_of_configurations_widens_the_observation_space():
+    venv = DiscReactorVectorEnv(num_envs=2, configs=[{"size_range": (0.6, 2.0)}, {}], **BASE)
+    k = venv.observation_names.index("size")
+    assert venv.single_observation_space.high[k] == 2.0
+    _lockstep(venv, [DiscReactorEnv(**{**BASE, "size_range": (0.6, 2.0)}), DiscReactorEnv(**BASE)],
+              0, 6, np.random.default_rng(7))
+
+
+@pytest.mark.parametrize("mode", ["NextStep", "SameStep"])
+def test_a_refused_draw_changes_nothing(mode):
+    calls = []
+
+    def draw(rng):
+        calls.append(1)
+        return {"heat_rate": 1.5} if len(calls) <= 3 else {"feed": "A"}
+
+    venv = DiscReactorVectorEnv(num_envs=2, configs=draw, autoreset_mode=mode,
+                                **{**BASE, "episode_steps": 3})
+    venv.reset(seed=0)  # draws 1 and 2
+    a = np.zeros((2, 4), np.float32)
+    for _ in range(2):
+        venv.step(a)
+    ep = venv.core.episodes
+    if mode == "NextStep":
+        venv.step(a)  # the episodes end
+    steps, obs = ep.steps.copy(), ep.obs.copy()
+    costs, configs = venv.core.heat_cost.copy(), list(venv.core.configs)
+    with pytest.raises(ValueError, match=r"configs\(\.\.\.\) for reactor 1: 'feed' cannot"):
+        venv.step(a)  # resets both: draw 3 is fine, draw 4 is refused
+    assert np.array_equal(ep.steps, steps) and np.array_equal(ep.obs, obs)
+    assert np.array_equal(venv.core.heat_cost, costs) and venv.core.configs == configs
+
+
+def test_a_reset_after_a_state_of_another_generator_kind():
+    import numpy.random as npr
+
+    env = DiscReactorEnv(**BASE)
+    env.reset(seed=0)
+    s = env.unwrapped.simulation.get_state()
+    s["rng"] = npr.MT19937(1).state
+    env.unwrapped.simulation.set_state(s)
+    env.step(np.zeros(4, np.float32))
+    o1, _ = env.reset(seed=3)
+    o2, _ = DiscReactorEnv(**BASE).reset(seed=3)
+    assert np.array_equal(o1, o2)
