@@ -203,6 +203,17 @@ class ReactorState:
         return d
 
 
+def _number(array: Callable, cast: type) -> property:
+    """A handle's number in its row of ``array(state)``, as ``cast``; assigned in place."""
+    def get(self):
+        return cast(array(self._st)[self._r])
+
+    def put(self, value) -> None:
+        array(self._st)[self._r] = value
+
+    return property(get, put)
+
+
 class Row:
     """A handle's row of a :class:`ReactorState`: ``_st`` the state, ``_r`` the row; its
     arrays (views, written in place) and numbers under the names the handle's code uses. The
@@ -230,34 +241,8 @@ class Row:
     _rngs = property(lambda self: self._st.row_rngs(self._r))  # (the kernels' form)
     _since_reset = property(lambda self: float(self._st.since_reset(self._r)))
 
-    @property
-    def _n(self) -> int:
-        return int(self._st.rx.n[self._r])
-
-    @_n.setter
-    def _n(self, n: int) -> None:
-        self._st.rx.n[self._r] = n
-
-    @property
-    def _steps(self) -> int:  # kernel steps taken (times the memory reordering)
-        return int(self._st.rx.ksteps[self._r])
-
-    @_steps.setter
-    def _steps(self, k: int) -> None:
-        self._st.rx.ksteps[self._r] = k
-
-    @property
-    def _energy_input(self) -> float:
-        return float(self._st.energy_input[self._r])
-
-    @_energy_input.setter
-    def _energy_input(self, e: float) -> None:
-        self._st.energy_input[self._r] = e
-
-    @property
-    def _energy_start(self) -> float:
-        return float(self._st.energy_start[self._r])
-
-    @_energy_start.setter
-    def _energy_start(self, e: float) -> None:
-        self._st.energy_start[self._r] = e
+    # (numbers of the row, read and written in place)
+    _n = _number(lambda st: st.rx.n, int)  # live discs
+    _steps = _number(lambda st: st.rx.ksteps, int)  # kernel steps (times the reordering)
+    _energy_input = _number(lambda st: st.energy_input, float)
+    _energy_start = _number(lambda st: st.energy_start, float)

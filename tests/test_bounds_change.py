@@ -261,8 +261,8 @@ def test_the_env_reads_bounds_changed_from_outside_back(make, how, size):
     assert info_size == s and obs[i] == np.float32(s)
     assert sims[0].bounds == cfg.bounds_of(s)
     if isinstance(env, DiscReactorVectorEnv):  # the other reactor: untouched, as ever
-        assert env.core.episodes.size[1] == _moved(cfg, 1.0) and sims[1].bounds == cfg.bounds_of(_moved(
-            cfg, 1.0))
+        moved = _moved(cfg, 1.0)
+        assert env.core.episodes.size[1] == moved and sims[1].bounds == cfg.bounds_of(moved)
 
 
 def test_the_reported_vector_case():

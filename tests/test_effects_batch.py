@@ -68,7 +68,8 @@ def test_a_batch_reactor_keeps_its_walls_and_outflow_in_the_batch_rows():
     lone.reset(seed=8)  # reactor 1 of the batch was seeded with seed + 1
     venv.simulations[1].set_wall_temperature("top", 1.5)
     lone.simulation.set_wall_temperature("top", 1.5)
-    assert venv.core.state.rx.bounds_walls[1][3] == 1.5 and venv.core.state.rx.bounds_walls[0][3] == 0.5
+    walls = venv.core.state.rx.bounds_walls
+    assert walls[1][3] == 1.5 and walls[0][3] == 0.5
     acts = np.random.default_rng(3).uniform(-1, 1, (10, 2, 4)).astype(np.float32)
     for a in acts:
         venv.step(a)

@@ -259,7 +259,8 @@ def test_flow_reward_is_the_product_leaving_and_the_inlet_temperature_switches()
     names = u.observation_names
     obs, _ = env.reset(seed=4)
     sim = u.simulation
-    kT0, kT1, switch = float(u.core.episodes.feed_kT[0]), float(u.core.episodes.feed_kT_next[0]), int(u.core.episodes.feed_switch[0])
+    ep = u.core.episodes
+    kT0, kT1, switch = float(ep.feed_kT[0]), float(ep.feed_kT_next[0]), int(ep.feed_switch[0])
     assert 0.3 <= kT0 <= 2.0 and 0.3 <= kT1 <= 2.0 and 40 // 3 <= switch <= 2 * 40 // 3
     assert obs[names.index("feed_kT")] == np.float32(kT0)
     n_ref = float(u.core.episodes.n_ref[0])
