@@ -5,12 +5,12 @@ the single and the vector env): each refuses a value with ``TypeError`` (a wrong
 from __future__ import annotations
 
 import math
-import numbers
 import os
 from collections.abc import Mapping
 
 import numpy as np
 
+from . import values
 from .checks import as_scene, discs_inside, event_fit
 from .compiled import kernel_bounds
 from .scene import (
@@ -87,11 +87,10 @@ def check_keywords(owner: str, kw, allowed) -> None:
 def number(v, name: str, what: str = "a number"):
     """``v`` if it is a real number (Python or numpy, or a 0-d array of one; not a bool),
     else ``TypeError`` naming ``name``."""
-    if isinstance(v, np.ndarray) and v.ndim == 0:
-        v = v[()]
-    if isinstance(v, (bool, np.bool_)) or not isinstance(v, numbers.Real):
+    x = values.real(v)
+    if x is None:
         raise TypeError(f"{name}: expected {what}, got {v!r} ({type(v).__name__})")
-    return v
+    return x
 
 
 def int_text(k: int) -> str:
@@ -101,13 +100,9 @@ def int_text(k: int) -> str:
 def whole(v, name: str, lo: int, hi: int = INT_MAX, why: str = "") -> int:
     """``v`` as an int in [lo, hi]: an integer or an integral float (numpy too)."""
     v = number(v, name, "a whole number")
-    if isinstance(v, numbers.Integral):
-        k = int(v)
-    else:
-        f = float(v)
-        if not math.isfinite(f) or not f.is_integer():
-            raise ValueError(f"{name}: need a finite whole number, got {v!r}")
-        k = int(f)
+    k = values.integer(v, integral_float=True)
+    if k is None:
+        raise ValueError(f"{name}: need a finite whole number, got {v!r}")
     if not lo <= k <= hi:
         more = f" ({why})" if why and k > hi else ""
         raise ValueError(f"{name}: need a whole number in [{lo}, {int_text(hi)}], got "
@@ -119,10 +114,7 @@ def real(v, name: str, lo: float = -math.inf, hi: float = math.inf, *,
           hi_open: bool = False, why: str = "") -> float:
     """``v`` as a finite float in [lo, hi] (or [lo, hi) with ``hi_open``)."""
     v = number(v, name)
-    try:
-        f = float(v)
-    except OverflowError:  # (an int beyond the float range)
-        f = math.inf
+    f = values.as_float(v)
     if not math.isfinite(f):
         raise ValueError(f"{name}: need a finite number, got {v!r}")
     if f < lo or f > hi or (hi_open and f == hi):
@@ -167,8 +159,8 @@ def env_scene(scene) -> Scene:
 def steps_per_action(v, dt: float) -> int:
     """``step_time`` as a whole number of steps of the scene's ``dt`` (at most the
     simulation's int64 step counter); a float32 or float16 is taken at its own precision."""
-    raw = number(v, "step_time")
-    step_time = real(raw, "step_time", 0.0)
+    step_time = real(v, "step_time", 0.0)
+    raw = v[()] if isinstance(v, np.ndarray) else v  # (its own dtype, for its precision)
     if step_time <= 0.0:
         raise ValueError(f"step_time: must be > 0, got {v!r}")
     q = step_time / dt

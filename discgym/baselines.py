@@ -27,7 +27,6 @@ from __future__ import annotations
 import copy
 import itertools
 import math
-import numbers
 import time
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
@@ -36,6 +35,7 @@ import numpy as np
 
 from .config import DEFAULTS, ReactorConfig
 from .kernels.structs import FLOAT
+from .values import as_float, integer, real
 from .vector import DiscReactorVectorEnv
 
 __all__ = [
@@ -98,9 +98,9 @@ class HeuristicPolicy:
         self.wall = float(wall)
         self.inject = np.broadcast_to(np.asarray(inject, dtype=FLOAT), (self.n_feed,))
         rate = DEFAULTS["heat_rate"] if heat_rate is None else heat_rate
-        if isinstance(rate, (bool, np.bool_)) or not isinstance(rate, numbers.Real):
+        if real(rate) is None:
             raise TypeError(f"heat_rate: expected None or a number, got {heat_rate!r}")
-        if not 1.0 <= float(rate) < math.inf:
+        if not 1.0 <= as_float(real(rate)) < math.inf:
             raise ValueError(f"heat_rate: expected None (the default env's) or the env's "
                              f"heat_rate, a finite number >= 1, got {heat_rate!r}")
         self.log_rate = math.log(rate)
@@ -218,9 +218,10 @@ def check_disjoint(eval_seeds: Sequence[int], search_seeds: Sequence[int]) -> No
 def _seeds(seeds, name: str) -> list:
     out = []
     for s in seeds:
-        if isinstance(s, (bool, np.bool_)) or not isinstance(s, (int, np.integer)) or s < 0:
+        k = integer(s)
+        if k is None or k < 0:
             raise ValueError(f"{name}: need whole numbers >= 0, got {s!r}")
-        out.append(int(s))
+        out.append(k)
     if len(set(out)) != len(out):
         raise ValueError(f"{name}: repeated seeds in {out}")
     if not out:

@@ -5,29 +5,23 @@ event-driven integrator can run, a scene given by name or path."""
 from __future__ import annotations
 
 import dataclasses
-import math
-import numbers
 
 import numpy as np
 
 from .compiled import CIRCLE
 from .kernels import event_driven as _event
 from .kernels import walls as _walls
-from .scene import Circle, Scene, SceneError, check_side, plain, sides_of
+from .scene import Circle, Scene, SceneError, check_side, sides_of
+from .values import as_float, plain, real
 
 
 def real_arg(what: str, value) -> float:
     """A real-number argument as a float: numpy scalars (and 0-d arrays) as the Python
     numbers they are; bools and non-numbers raise ValueError naming ``what``."""
-    if isinstance(value, np.ndarray) and value.shape == ():
-        value = value.item()
-    value = plain(value)
-    if isinstance(value, bool) or not isinstance(value, numbers.Real):
-        raise ValueError(f"{what}: expected a number, got {value!r}")
-    try:
-        return float(value)
-    except OverflowError:  # an int beyond the float range
-        return math.inf if value > 0 else -math.inf
+    x = real(value)
+    if x is None:
+        raise ValueError(f"{what}: expected a number, got {plain(value)!r}")
+    return as_float(x)
 
 
 def discs_inside(pos: np.ndarray, r: np.ndarray, kind: int, params: np.ndarray) -> np.ndarray:

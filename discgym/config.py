@@ -366,11 +366,13 @@ class ReactorConfig:
                        row: tuple | None = None) -> Simulation:
         """A fresh reactor with contents drawn from ``np_random``. Its own generator is
         seeded from ``np_random`` too; pass ``generator`` to have that one reseeded and used
-        (the environments keep one generator object per reactor), ``row`` = (state, r) to
+        (the environments keep one generator object per reactor; one of another kind than
+        PCG64 is replaced by a new PCG64), ``row`` = (state, r) to
         build it in row r of a :class:`~discgym.state.ReactorState`."""
         counts, temperature, seed = self.draw_contents(np_random)
         scene = self.draw_kinetics(np_random) if self.uncertain else self.scene
-        if generator is None:
+        if generator is None or type(generator.bit_generator) is not np.random.PCG64:
+            # (a row's set_state may have given it another kind of bit generator)
             generator = np.random.Generator(np.random.PCG64(seed))
         else:
             generator.bit_generator.state = np.random.PCG64(seed).state

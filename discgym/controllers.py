@@ -25,6 +25,7 @@ import numpy as np
 
 from .config import ENV_ID, FLOAT_NORMAL_MIN
 from .tasks import TASKS, task_id
+from .values import as_float, integer, real
 
 __all__ = ["Thermostat", "AdaptiveThermostat", "BandThermostat",
            "JacketThermostat", "FlowThermostat", "flow_thermostat", "controller_for",
@@ -149,11 +150,9 @@ class FlowThermostat(Thermostat):
     ``heat_rate`` = 1 the heat action is 0, as the thermostat's."""
 
     def __init__(self, env, *, ramp=0.0, ramp_from=0.7, **kwargs):
-        if isinstance(ramp, bool) or not isinstance(ramp, (int, float)) \
-                or not 0.0 <= float(ramp) < math.inf:
+        if real(ramp) is None or not 0.0 <= as_float(real(ramp)) < math.inf:
             raise ValueError(f"ramp: expected a finite number >= 0, got {ramp!r}")
-        if isinstance(ramp_from, bool) or not isinstance(ramp_from, (int, float)) \
-                or not 0.0 <= float(ramp_from) < 1.0:
+        if real(ramp_from) is None or not 0.0 <= real(ramp_from) < 1.0:
             raise ValueError(f"ramp_from: expected a fraction of the episode in [0, 1), got "
                              f"{ramp_from!r}")
         self.ramp, self.ramp_from = float(ramp), float(ramp_from)
@@ -412,7 +411,7 @@ class SetpointActions:
     def __init__(self, env, hold: int = 4, kT_low: float = 0.8, kT_high: float = 3.2,
                  average: float | None = None, base: str | None = None, span: float = 1.5,
                  correct: str = "all"):
-        if isinstance(hold, bool) or not isinstance(hold, (int, np.integer)) or hold < 1:
+        if integer(hold) is None or hold < 1:
             raise ValueError(f"hold: expected an int >= 1, got {hold!r}")
         if not (FLOAT_NORMAL_MIN <= float(kT_low) < float(kT_high) < math.inf) \
                 or not math.isfinite(float(kT_high) / float(kT_low)):
@@ -420,12 +419,9 @@ class SetpointActions:
                              f"normal float64) <= kT_low < kT_high < inf with kT_high / kT_low "
                              f"finite (the setpoint is kT_low (kT_high / kT_low) ** u), got "
                              f"{kT_low!r}, {kT_high!r}")
-        if average is not None and (isinstance(average, bool)
-                                    or not isinstance(average, (int, float))
-                                    or not 0.0 < float(average) < 1.0):
+        if average is not None and (real(average) is None or not 0.0 < real(average) < 1.0):
             raise ValueError(f"average: expected None or a weight in (0, 1), got {average!r}")
-        if isinstance(span, bool) or not isinstance(span, (int, float)) \
-                or not 1.0 < float(span) < math.inf:
+        if real(span) is None or not 1.0 < as_float(real(span)) < math.inf:
             raise ValueError(f"span: expected a factor > 1, got {span!r}")
         self.s = Slots(env)
         self.hold = int(hold)

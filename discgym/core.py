@@ -204,9 +204,6 @@ class EpisodeCore:
             cfg = self.configs[r]
             np_random = self.np_randoms[r]
             self.heat_cost[r], self.feed_cost[r] = cfg.heat_cost, cfg.feed_cost
-            if type(st.generator(r).bit_generator) is not np.random.PCG64:
-                # (set_state gave the row another kind; a reset reseeds a PCG64)
-                st.set_generator(r, np.random.Generator(np.random.PCG64(0)))
             sim = cfg.new_simulation(np_random, generator=st.generator(r), row=(st, r))
             cfg.reset_row(ep, r, sim, np_random)
             self.simulations[r] = sim

@@ -35,6 +35,8 @@ from collections.abc import Callable, Sequence
 import gymnasium as gym
 import numpy as np
 
+from .values import integer
+
 __all__ = ["RolloutOracle", "ShootingOracle", "clipped_unique", "component_offsets",
            "noise_seeds", "steps_left"]
 
@@ -172,14 +174,11 @@ class RolloutOracle:
         if candidates is not None and not callable(candidates):
             raise TypeError(f"candidates: expected a function (base_action, env) -> (K, A) "
                             f"actions, got {candidates!r}")
-        if horizon is not None and (isinstance(horizon, bool) or
-                                    not isinstance(horizon, (int, np.integer)) or horizon < 1):
+        if horizon is not None and (integer(horizon) is None or horizon < 1):
             raise ValueError(f"horizon: need None or a whole number >= 1, got {horizon!r}")
-        if isinstance(replan_every, bool) or not isinstance(replan_every, (int, np.integer)) \
-                or replan_every < 1:
+        if integer(replan_every) is None or replan_every < 1:
             raise ValueError(f"replan_every: need a whole number >= 1, got {replan_every!r}")
-        if isinstance(samples, bool) or not isinstance(samples, (int, np.integer)) \
-                or samples < 1:
+        if integer(samples) is None or samples < 1:
             raise ValueError(f"samples: need a whole number >= 1, got {samples!r}")
         if samples > 1 and noise is None:
             raise ValueError("samples: more than one rollout per candidate needs noise (an "
@@ -311,7 +310,7 @@ class ShootingOracle:
         for name, v, lo in (("samples", samples, 1), ("iterations", iterations, 1),
                             ("elite", elite, 1), ("segment", segment, 1),
                             ("replan_every", replan_every, 1)):
-            if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < lo:
+            if integer(v) is None or v < lo:
                 raise ValueError(f"{name}: need a whole number >= {lo}, got {v!r}")
         if elite > samples:
             raise ValueError(f"elite: need at most samples ({samples}), got {elite}")

@@ -21,7 +21,7 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, fields
 from pathlib import Path
 
-import numpy as np
+from .values import as_float, integer, plain, real
 
 __all__ = [
     "SceneError",
@@ -78,33 +78,16 @@ class SceneError(ValueError):
         super().__init__(f"{field_name}: {message}")
 
 
-def plain(value):
-    """A numpy scalar as the Python number it is (``np.bool_`` -> bool, ``np.integer`` -> int,
-    ``np.floating`` -> float: a float32 radius becomes ``float(value)``); anything else as
-    given. Applied once where a number enters, so every later check and the values stored are
-    the ones the Python number would give."""
-    if isinstance(value, np.generic):
-        if isinstance(value, np.bool_):
-            return bool(value)
-        if isinstance(value, np.integer):
-            return int(value)
-        if isinstance(value, np.floating):
-            return float(value)
-    return value
-
-
 def finite_value(name: str, value, *, positive=False, nonneg=False, lo=None, hi=None,
             scale=False, energy=False) -> float:
     """``value`` as a float, checked: a real number (not a bool), finite, and the given
     bounds; ``scale`` and ``energy``: see :func:`check_magnitude`."""
-    value = plain(value)
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise SceneError(name, f"expected a number, got {value!r}")
-    try:
-        v = float(value)
-    except OverflowError:
-        raise SceneError(name, "must be finite, got an integer beyond the float range") \
-            from None
+    x = real(value)
+    if x is None:
+        raise SceneError(name, f"expected a number, got {plain(value)!r}")
+    v = as_float(x)
+    if math.isinf(v) and isinstance(x, int):
+        raise SceneError(name, "must be finite, got an integer beyond the float range")
     if not math.isfinite(v):
         raise SceneError(name, f"must be finite, got {v}")
     if positive and v <= 0.0:
@@ -789,10 +772,10 @@ def validated_counts(bounds, species_by_name: Mapping[str, Species], counts) -> 
     for nm, c in dict(counts).items():
         if nm not in species_by_name:
             raise SceneError(f"counts.{nm}", f"unknown species {nm!r}")
-        c = plain(c)
-        if isinstance(c, bool) or not isinstance(c, int) or c < 0:
-            raise SceneError(f"counts.{nm}", f"expected a count >= 0, got {c!r}")
-        out[nm] = int(c)
+        k = integer(c)
+        if k is None or k < 0:
+            raise SceneError(f"counts.{nm}", f"expected a count >= 0, got {plain(c)!r}")
+        out[nm] = k
     check_fits(bounds, species_by_name, out, "counts")
     return out
 

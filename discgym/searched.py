@@ -46,6 +46,7 @@ import numpy as np
 
 from .controllers import Slots
 from .tasks import task_id
+from .values import as_float, real
 
 __all__ = ["ScheduleController", "SETPOINT_KNOTS", "WALL_KNOTS", "SEARCHED", "searched",
            "flow_thermostat_params", "band_thermostat_params", "HELD", "run_batch"]
@@ -176,8 +177,8 @@ class ScheduleController:
         out = np.empty(len(b))
         for j, (k, (lo, hi, _)) in enumerate(b.items()):
             v = values[j]
-            if isinstance(v, (bool, np.bool_)) or not isinstance(v, (int, float, np.number)) \
-                    or not math.isfinite(float(v)) or not lo <= float(v) <= hi:
+            if real(v) is None or not math.isfinite(as_float(real(v))) \
+                    or not lo <= real(v) <= hi:
                 raise ValueError(f"{k}: expected a finite number in [{lo}, {hi}], got {v!r}")
             out[j] = float(v)
         return out

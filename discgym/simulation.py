@@ -10,7 +10,6 @@ True
 from __future__ import annotations
 
 import math
-import numbers
 from collections.abc import Mapping
 
 import numba
@@ -50,7 +49,6 @@ from .scene import (
     SceneError,
     check_bounds_scale,
     finite_value,
-    plain,
     sides_of,
     too_hot_for_walls,
     validated_counts,
@@ -58,6 +56,7 @@ from .scene import (
 from .state import ReactorState
 from .state_io import StateIO
 from .threads import ThreadChooser, numba_threads
+from .values import integer, plain, real
 
 __all__ = ["Simulation", "PlacementError"]
 
@@ -237,19 +236,19 @@ class Simulation(Observables, StateIO):
         if len(sp) != n:
             raise ValueError(f"species must have {n} entries, got {len(sp)}")
         for k, s in enumerate(sp):
-            if not isinstance(s, (str, int, np.integer, float, np.floating)) or \
-                    isinstance(s, bool):
-                raise ValueError(f"species of disc {k}: expected a species name or index, got "
-                                 f"{s!r}")
             if isinstance(s, str):
                 if s not in names:
                     raise ValueError(f"species of disc {k}: unknown species {s!r} "
                                      f"(scene has {names})")
                 out[k] = names.index(s)
-            else:
-                if not (math.isfinite(s) and 0 <= s < len(names) and int(s) == s):
-                    raise ValueError(f"species of disc {k}: no species index {s!r}")
-                out[k] = int(s)
+                continue
+            if real(s) is None:
+                raise ValueError(f"species of disc {k}: expected a species name or index, got "
+                                 f"{s!r}")
+            i = integer(s, integral_float=True)
+            if i is None or not 0 <= i < len(names):
+                raise ValueError(f"species of disc {k}: no species index {s!r}")
+            out[k] = i
         return out
 
     @property
@@ -343,19 +342,17 @@ class Simulation(Observables, StateIO):
 
     @threads.setter
     def threads(self, value: int) -> None:
-        value = plain(value)
-        if isinstance(value, float) and value.is_integer():
-            value = int(value)
-        if not isinstance(value, numbers.Integral):
-            raise ValueError(f"threads: expected a whole number, got {value!r}")
-        self._threads = max(int(value), 1)
+        k = integer(value, integral_float=True)
+        if k is None:
+            raise ValueError(f"threads: expected a whole number, got {plain(value)!r}")
+        self._threads = max(k, 1)
 
     def step(self, n: int = 1) -> None:
         """Advance ``n`` steps of ``scene.dt``."""
-        if isinstance(n, bool) or not isinstance(n, (int, np.integer, float, np.floating)) \
-                or not math.isfinite(n) or n != int(n) or n < 0:
+        k = integer(n, integral_float=True)
+        if k is None or k < 0:
             raise ValueError(f"step(n): need a whole number >= 0, got {n!r}")
-        n = int(n)
+        n = k
         if n:
             self._run(n, self.scene.dt)
 
@@ -509,10 +506,10 @@ class Simulation(Observables, StateIO):
         s = self._species_of.get(species) if isinstance(species, str) else None
         if s is None:
             s = int(self._species_indices([species], 1)[0])
-        if isinstance(n, bool) or not isinstance(n, (int, np.integer, float, np.floating)) \
-                or not math.isfinite(n) or int(n) != n or n < 0:
+        k = integer(n, integral_float=True)
+        if k is None or k < 0:
             raise ValueError(f"inject(n): need a whole number >= 0, got {n!r}")
-        n = int(n)
+        n = k
         if n == 0:
             return 0
         given = temperature is not None

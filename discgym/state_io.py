@@ -18,6 +18,7 @@ from .kernels.structs import COUNT, FLOAT, INDEX
 from .observables import wall_heat_of
 from .scene import MAX_MAGNITUDE, Box, Circle, Scene, SceneError, check_bounds_scale
 from .state import Row
+from .values import as_float, integer, real
 
 _OLDEST_ICOUNTERS = 11  # counters in states of discgym before graze_repairs
 
@@ -411,21 +412,20 @@ def _state_array(state, key: str, shape: tuple, integer: bool = False,
 
 def _state_whole(state, key, within: str | None = None) -> int:
     v = state[key]
-    if isinstance(v, bool) or not isinstance(v, (int, np.integer)):
+    k = integer(v)
+    if k is None:
         raise _state_error(key, f"must be an integer, got {_short(v)}", within)
-    if not 0 <= int(v) <= _INT64_MAX:
+    if not 0 <= k <= _INT64_MAX:
         raise _state_error(key, f"must be in [0, 2**63), got {v}", within)
-    return int(v)
+    return k
 
 
 def _state_real(state, key, nonneg: bool, within: str | None = None) -> float:
     v = state[key]
-    if isinstance(v, bool) or not isinstance(v, (int, float, np.integer, np.floating)):
+    r = real(v)
+    if r is None:
         raise _state_error(key, f"must be a real number, got {_short(v)}", within)
-    try:
-        x = float(v)
-    except OverflowError:
-        x = math.inf
+    x = as_float(r)
     if not math.isfinite(x):
         raise _state_error(key, f"must be finite, got {_short(v)}", within)
     if nonneg and x < 0:
@@ -434,7 +434,8 @@ def _state_real(state, key, nonneg: bool, within: str | None = None) -> float:
 
 
 def _is_whole(v, lo: int, hi: int) -> bool:
-    return not isinstance(v, bool) and isinstance(v, (int, np.integer)) and lo <= v < hi
+    k = integer(v)
+    return k is not None and lo <= k < hi
 
 
 def _same_value(a, b) -> bool:

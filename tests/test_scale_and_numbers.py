@@ -535,11 +535,20 @@ def test_numpy_values_are_stored_as_python_numbers():
                     collisions=np.bool_(False)).collisions is False
 
 
+@pytest.mark.parametrize("name, value, f", [pytest.param(c[0], c[1], c[3], id=c[0])
+                                            for c in ARGS if not c[0].endswith(".seed")])
+def test_zero_dimensional_arrays_are_the_numbers_they_hold(name, value, f):
+    """Every numeric argument given as a 0-d array: the outcome of the number it holds
+    (one rule for what a number is, ``discgym.values``; seeds go to numpy as given)."""
+    v = 0 if name.endswith(".tol") else value
+    assert _outcome(lambda: f(np.asarray(v))) == _outcome(lambda: f(v))
+
+
 BAD = [(np.bool_(True), "bool"), (np.float64(np.nan), "nan"), (np.float32(np.inf), "inf"),
        (np.float64(-np.inf), "-inf")]
-# accept a bool as the Python bool is accepted: threads (int(True)), seeds (an int), and
-# coordinates inside arrays (numpy converts them)
-BOOL_TAKEN = {"threads", "Simulation.seed", "from_arrays.seed", "from_arrays.positions",
+# accept a bool as the Python bool is accepted: seeds (an int), and coordinates inside arrays
+# (numpy converts them)
+BOOL_TAKEN = {"Simulation.seed", "from_arrays.seed", "from_arrays.positions",
               "from_arrays.velocities", "from_arrays.internal_energy"}
 
 
@@ -552,7 +561,7 @@ def test_numpy_bools_and_non_finite_numbers_are_refused_like_python_ones(name, f
     for both), except where the Python bool is taken as a number too (``BOOL_TAKEN``)."""
     a, b = _outcome(lambda: f(bad)), _outcome(lambda: f(bad.item()))
     assert a == b
-    if name == "threads" or (label == "bool" and name in BOOL_TAKEN):
+    if label == "bool" and name in BOOL_TAKEN:
         return
     assert a[0] == "error", a
     assert a[1] in ("ValueError", "SceneError") or name.endswith(".seed"), a
@@ -585,7 +594,7 @@ def test_a_disc_at_the_speed_limit_at_the_largest_scale_is_the_one_at_unit_scale
     np.testing.assert_allclose(p1, p0, rtol=0, atol=1e-9 * 10)
 
 
-@pytest.mark.parametrize("value", [math.inf, math.nan, 1.5, "2", None])
+@pytest.mark.parametrize("value", [math.inf, math.nan, 1.5, "2", None, True, np.bool_(False)])
 def test_threads_refuses_what_is_not_a_whole_number(value):
     sim = dg.Simulation("ideal_gas", seed=0)
     with pytest.raises(ValueError, match="threads"):
