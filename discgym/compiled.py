@@ -75,10 +75,13 @@ def kernel_walls(scene: Scene) -> np.ndarray:
 
 
 def kernel_outlets(scene: Scene) -> np.ndarray:
-    """The outlets as rows (side index, start, end) (M, 3) FLOAT."""
+    """The outlets as rows (side index, start, end, then 1.0 or 0.0 for each species: does
+    it pass) (M, 3 + S) FLOAT."""
     sides = sides_of(scene.bounds)
-    return np.array([[sides.index(o.side), o.start, o.end] for o in scene.outlets],
-                    dtype=FLOAT).reshape(len(scene.outlets), 3)
+    names = [sp.name for sp in scene.species]
+    return np.array([[sides.index(o.side), o.start, o.end, *(float(o.passes(nm)) for nm in names)]
+                     for o in scene.outlets],
+                    dtype=FLOAT).reshape(len(scene.outlets), 3 + len(names))
 
 
 def rate_from_probability(p: float) -> float:

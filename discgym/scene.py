@@ -433,11 +433,16 @@ class Outlet:
     """A segment of a side through which discs leave: a disc whose wall contact point lies on
     it is removed. ``start`` < ``end`` are fractions of the side's length from its lower
     coordinate (left and right sides: from the bottom; bottom and top: from the left); for
-    a Circle, fractions of the full turn counter-clockwise from +x."""
+    a Circle, fractions of the full turn counter-clockwise from +x.
+
+    ``species``: the names of the species that pass (a membrane); a disc of another species
+    meets the segment as the side it lies on (reflected, or thermalised on a thermal side).
+    Empty (the default): every species passes."""
 
     side: str
     start: float
     end: float
+    species: Sequence[str] = ()
 
     def __post_init__(self):
         _set(self, side=_side("side", self.side),
@@ -445,6 +450,20 @@ class Outlet:
              end=finite_value("end", self.end, lo=0.0, hi=1.0))
         if not self.start < self.end:
             raise SceneError("end", f"must exceed start ({self.start}), got {self.end}")
+        names = self.species
+        if isinstance(names, (str, Mapping)) or not isinstance(names, Sequence):
+            raise SceneError("species", f"expected a list of species names, got {names!r}")
+        names = tuple(names)
+        for k, nm in enumerate(names):
+            if not isinstance(nm, str):
+                raise SceneError("species", f"expected species names, got {nm!r} at {k}")
+            if nm in names[:k]:
+                raise SceneError("species", f"{nm!r} is listed twice")
+        _set(self, species=names)
+
+    def passes(self, species: str) -> bool:
+        """Whether a disc of ``species`` leaves through this outlet."""
+        return not self.species or species in self.species
 
 
 # --------------------------------------------------------------------------------------------
@@ -609,6 +628,9 @@ class Scene:
             if not isinstance(o, Outlet):
                 raise SceneError(where, f"expected Outlet, got {o!r}")
             check_side(where, o.side, sides, self.bounds.kind)
+            for nm in o.species:
+                if nm not in {sp.name for sp in species}:
+                    raise SceneError(f"{where}.species", f"unknown species {nm!r}")
             for q, (a, b) in spans.get(o.side, {}).items():
                 if o.start < b and a < o.end:
                     raise SceneError(f"{where}.start", f"[{o.start}, {o.end}] overlaps outlets"
@@ -728,7 +750,8 @@ class Scene:
             out["thermal_walls"] = [{"side": w.side, "temperature": w.temperature}
                                     for w in self.thermal_walls]
         if self.outlets:
-            out["outlets"] = [{"side": o.side, "start": o.start, "end": o.end}
+            out["outlets"] = [{"side": o.side, "start": o.start, "end": o.end,
+                               **({"species": list(o.species)} if o.species else {})}
                               for o in self.outlets]
         return out
 

@@ -243,7 +243,7 @@ def _leaves(d, fl, queue, run, tables, counters):
     W = fl.path
     side, frac = side_of(W[d, PX], W[d, PY], int(queue.event[d, NEXT_AUX]), W[d, PVX],
                          W[d, PVY], run.bounds_kind, run.bounds_params)
-    if not on_outlet(side, frac, tables.outlets):
+    if not on_outlet(side, frac, int(fl.species[d]), tables.outlets):
         return False
     book_outflow(fl.species[d], W[d, PM], W[d, PVX], W[d, PVY], fl.internal_energy[d],
                  tables.sp_form, counters.fsum, counters.outflow)

@@ -615,7 +615,7 @@ def _wall_exchange(i, tw, axis, ph, cnt, rng):
     xc = pos[i, 0] + tw * vel[i, 0]
     yc = pos[i, 1] + tw * vel[i, 1]
     side, frac = side_of(xc, yc, axis, vel[i, 0], vel[i, 1], bounds_kind, bounds_params)
-    if ph.rc.outlets and on_outlet(side, frac, ph.tables.outlets):
+    if ph.rc.outlets and on_outlet(side, frac, int(species[i]), ph.tables.outlets):
         book_outflow(species[i], mi, vel[i, 0], vel[i, 1], ph.discs.internal_energy[i],
                      ph.tables.sp_form, cnt.fsum, cnt.outflow)
         species[i] = -1

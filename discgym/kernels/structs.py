@@ -102,8 +102,9 @@ class Tables(NamedTuple):
     uni_start: np.ndarray  #: (S + 1,) INDEX, CSR offsets into uni_chan per reactant species
     uni_chan: np.ndarray  #: (U,) INDEX, unimolecular channel indices
     bi_table: np.ndarray  #: (S, S) INDEX, bimolecular channel of a pair of species, or -1
-    outlets: np.ndarray  #: (M, 3) FLOAT outlet segments: side (LEFT ... TOP, 0 for a
-    #: circle), start, end (fractions of the side, or of the circle's turn from +x)
+    outlets: np.ndarray  #: (M, 3 + S) FLOAT outlet segments: side (LEFT ... TOP, 0 for a
+    #: circle), start, end (fractions of the side, or of the circle's turn from +x), then
+    #: per species 1.0 if it passes (a membrane passes some), else 0.0
 
 
 class Discs(NamedTuple):

@@ -384,12 +384,13 @@ def side_of(xc, yc, axis, vx, vy, bounds_kind, bounds_params):
 
 
 @kernel
-def on_outlet(side, frac, outlets):
-    """Does the point ``frac`` of ``side`` lie on one of the outlet segments ``outlets``
-    ((M, 3) rows side, start, end; ends included)?"""
+def on_outlet(side, frac, s, outlets):
+    """Does a disc of species ``s`` at the point ``frac`` of ``side`` leave through one of
+    the outlet segments ``outlets`` ((M, 3 + S) rows side, start, end, then whether each
+    species passes; ends included)? Outlets do not overlap: the one it lies on decides."""
     for k in range(outlets.shape[0]):
         if int(outlets[k, 0]) == side and outlets[k, 1] <= frac <= outlets[k, 2]:
-            return True
+            return outlets[k, 3 + s] != 0.0
     return False
 
 
