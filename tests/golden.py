@@ -261,7 +261,13 @@ def main(argv=None) -> int:
     group = ap.add_mutually_exclusive_group(required=True)
     group.add_argument("--write", type=Path, help="record the fingerprints in this file")
     group.add_argument("--check", type=Path, help="compare with the fingerprints in this file")
+    ap.add_argument("--confirm", action="store_true",
+                    help="with --check: when every fingerprint is identical on a platform other "
+                         "than the recording one, add it to the file's 'also_on' (the test then "
+                         "runs there too)")
     args = ap.parse_args(argv)
+    if args.confirm and not args.check:
+        ap.error("--confirm goes with --check")
     prints = all_fingerprints()
     if args.write:
         args.write.write_text(json.dumps({"platform": platform_key(), "fingerprints": prints},
@@ -276,7 +282,18 @@ def main(argv=None) -> int:
     for k in changed:
         print(f"changed: {k}: {old.get(k)} -> {prints.get(k)}")
     print(f"{len(prints) - len(changed)} of {len(prints)} fingerprints identical")
+    here = platform_key()
+    if args.confirm and not changed and here not in verified_platforms(recorded):
+        recorded.setdefault("also_on", []).append(here)
+        args.check.write_text(json.dumps(recorded, indent=1, sort_keys=True) + "\n")
+        print(f"added {here} to also_on in {args.check}")
     return 1 if changed else 0
+
+
+def verified_platforms(recorded: dict) -> list:
+    """The platforms a golden file holds for: the one it was recorded on, and those on which
+    ``--check --confirm`` found every fingerprint identical."""
+    return [recorded["platform"], *recorded.get("also_on", [])]
 
 
 if __name__ == "__main__":
