@@ -99,8 +99,8 @@ def int_text(k: int) -> str:
 
 def whole(v, name: str, lo: int, hi: int = INT_MAX, why: str = "") -> int:
     """``v`` as an int in [lo, hi]: an integer or an integral float (numpy too)."""
-    v = number(v, name, "a whole number")
-    k = values.integer(v, integral_float=True)
+    x = number(v, name, "a whole number")
+    k = values.integer(x, integral_float=True)
     if k is None:
         raise ValueError(f"{name}: need a finite whole number, got {v!r}")
     if not lo <= k <= hi:
@@ -113,8 +113,7 @@ def whole(v, name: str, lo: int, hi: int = INT_MAX, why: str = "") -> int:
 def real(v, name: str, lo: float = -math.inf, hi: float = math.inf, *,
           hi_open: bool = False, why: str = "") -> float:
     """``v`` as a finite float in [lo, hi] (or [lo, hi) with ``hi_open``)."""
-    v = number(v, name)
-    f = values.as_float(v)
+    f = values.as_float(number(v, name))
     if not math.isfinite(f):
         raise ValueError(f"{name}: need a finite number, got {v!r}")
     if f < lo or f > hi or (hi_open and f == hi):

@@ -20,7 +20,8 @@ def real_arg(what: str, value) -> float:
     numbers they are; bools and non-numbers raise ValueError naming ``what``."""
     x = real(value)
     if x is None:
-        raise ValueError(f"{what}: expected a number, got {plain(value)!r}")
+        shown = value[()] if isinstance(value, np.ndarray) and value.shape == () else value
+        raise ValueError(f"{what}: expected a number, got {plain(shown)!r}")
     return as_float(x)
 
 

@@ -3,8 +3,9 @@
 
 Each check reads its value through these and raises its own error naming the field
 (``SceneError`` for a scene, ``ValueError`` or ``TypeError`` for an argument, as each
-documents). A real number is a Python or numpy int or float, or a 0-d array of one; a bool is
-not a number anywhere (``True`` as a radius or a step count is a mistake, not a 1)."""
+documents). A real number is a Python or numpy int or float, another ``numbers.Real`` (a
+``Fraction``), or a 0-d array of one; a bool is not a number anywhere (``True`` as a radius
+or a step count is a mistake, not a 1)."""
 
 from __future__ import annotations
 
@@ -37,7 +38,7 @@ def real(value) -> int | float | None:
     value = plain(value)
     if isinstance(value, bool) or not isinstance(value, numbers.Real):
         return None
-    return value if isinstance(value, (int, float)) else float(value)
+    return value if isinstance(value, (int, float)) else as_float(value)
 
 
 def integer(value, *, integral_float: bool = False) -> int | None:
@@ -51,9 +52,9 @@ def integer(value, *, integral_float: bool = False) -> int | None:
     return None
 
 
-def as_float(value: int | float) -> float:
-    """A real number (from :func:`real`) as a float; an int beyond the float range as +-inf,
-    so that the caller's finiteness check refuses it with its own words."""
+def as_float(value) -> float:
+    """A real number as a float; one beyond the float range (a huge int or ``Fraction``) as
+    +-inf, so that the caller's finiteness check refuses it with its own words."""
     try:
         return float(value)
     except OverflowError:

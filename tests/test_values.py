@@ -61,3 +61,13 @@ def test_each_family_takes_a_zero_dimensional_array():
     assert dg.Species("A", np.asarray(0.3), 1.0) == dg.Species("A", 0.3, 1.0)
     assert ReactorConfig.from_kwargs(step_time=np.asarray(0.5)).steps_per_action == \
         ReactorConfig.from_kwargs(step_time=0.5).steps_per_action
+
+
+def test_a_real_beyond_the_float_range_is_refused_by_each_family_with_its_own_error():
+    huge = Fraction(10**400)
+    assert real(huge) == math.inf
+    with pytest.raises(dg.SceneError) as e:
+        dg.Species("A", huge, 1.0)
+    assert e.value.field == "radius"
+    with pytest.raises(ValueError, match="step_time"):
+        ReactorConfig.from_kwargs(step_time=huge)
