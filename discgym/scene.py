@@ -437,7 +437,9 @@ class Outlet:
 
     ``species``: the names of the species that pass (a membrane); a disc of another species
     meets the segment as the side it lies on (reflected, or thermalised on a thermal side).
-    Empty (the default): every species passes."""
+    Empty (the default): every species passes. A scene keeps the names in its species'
+    order, and an outlet that lists every species as the plain one (``()``), so that scenes
+    that behave alike compare equal."""
 
     side: str
     start: float
@@ -623,20 +625,26 @@ class Scene:
             if not w.temperature <= t_max:
                 raise SceneError(f"{where}.temperature", too_hot_for_walls(w.temperature, t_max))
         spans = {}
+        order = [sp.name for sp in species]
+        outlets = list(outlets)
         for k, o in enumerate(outlets):
             where = f"outlets[{k}]"
             if not isinstance(o, Outlet):
                 raise SceneError(where, f"expected Outlet, got {o!r}")
             check_side(where, o.side, sides, self.bounds.kind)
             for nm in o.species:
-                if nm not in {sp.name for sp in species}:
+                if nm not in order:
                     raise SceneError(f"{where}.species", f"unknown species {nm!r}")
+            if o.species:  # (in the scene's order; every species: the plain outlet, ())
+                passing = tuple(nm for nm in order if nm in o.species)
+                outlets[k] = o = Outlet(o.side, o.start, o.end,
+                                        () if len(passing) == len(order) else passing)
             for q, (a, b) in spans.get(o.side, {}).items():
                 if o.start < b and a < o.end:
                     raise SceneError(f"{where}.start", f"[{o.start}, {o.end}] overlaps outlets"
                                      f"[{q}] = [{a}, {b}] on side {o.side!r}")
             spans.setdefault(o.side, {})[k] = (o.start, o.end)
-        _set(self, thermal_walls=walls, outlets=outlets)
+        _set(self, thermal_walls=walls, outlets=tuple(outlets))
 
     def max_wall_temperature(self, species=None) -> float:
         """The hottest a thermal wall may be: a draw of THERMAL_SPEED_MARGIN (40) thermal
