@@ -499,6 +499,7 @@ class ReactorConfig:
         ep.size_min[r], ep.size_max[r] = self.size_min, self.size_max
         ep.wall_speed[r], ep.inject_max[r] = self.wall_speed, self.inject_max
         ep.episode_steps[r], ep.feed_budget[r] = self.episode_steps, self.feed_budget
+        ep.heat_cost[r], ep.feed_cost[r] = self.heat_cost, self.feed_cost
 
     # ---------------------------------------------------------------- reward
     def reward_terms(self, product, product_before, outflow, heat, injected, n_ref,

@@ -146,8 +146,6 @@ class EpisodeCore:
         self.low = config.obs_low if low is None else low
         self.high = config.obs_high if high is None else high
         self.configs = [config] * R if configs is None else list(configs)
-        self.heat_cost = np.array([c.heat_cost for c in self.configs], dtype=FLOAT)
-        self.feed_cost = np.array([c.feed_cost for c in self.configs], dtype=FLOAT)
         self.state = st = ReactorState(R, max(c.capacity for c in self.configs), S, K)
         for r in range(R):  # one generator per reactor, reseeded at each of its resets
             st.set_generator(r, np.random.Generator(np.random.PCG64(0)))
@@ -168,7 +166,8 @@ class EpisodeCore:
             t_max=np.ones(R, dtype=FLOAT), size_min=np.ones(R, dtype=FLOAT),
             size_max=np.ones(R, dtype=FLOAT), wall_speed=np.zeros(R, dtype=FLOAT),
             inject_max=np.zeros(R, dtype=np.int64), episode_steps=np.ones(R, dtype=np.int64),
-            feed_budget=np.zeros((R, F), dtype=np.int64))
+            feed_budget=np.zeros((R, F), dtype=np.int64), heat_cost=np.zeros(R, dtype=FLOAT),
+            feed_cost=np.zeros(R, dtype=FLOAT))
         self.np_randoms: list = [None] * R  #: each reactor's episode generator (draws resets)
         self.simulations: list = [None] * R
         self.product = np.zeros(R, dtype=FLOAT)  #: product discs at the last observation
@@ -203,7 +202,6 @@ class EpisodeCore:
         for r in rows:
             cfg = self.configs[r]
             np_random = self.np_randoms[r]
-            self.heat_cost[r], self.feed_cost[r] = cfg.heat_cost, cfg.feed_cost
             sim = cfg.new_simulation(np_random, generator=st.generator(r), row=(st, r))
             cfg.reset_row(ep, r, sim, np_random)
             self.simulations[r] = sim
@@ -279,8 +277,7 @@ class EpisodeCore:
             outflow, total, n_ref = ep.out_last[:, p], injected.sum(axis=1), ep.n_ref
         gain, cost_heat, cost_feed, reward = cfg.reward_terms(
             product, before, outflow, heat, total, n_ref,
-            (self.configs[0].heat_cost, self.configs[0].feed_cost) if one else
-            (self.heat_cost, self.feed_cost))
+            (ep.heat_cost.item(), ep.feed_cost.item()) if one else (ep.heat_cost, ep.feed_cost))
         self.product[0 if one else slice(None)] = product
         if not every:
             for a in (gain, cost_heat, cost_feed, reward):

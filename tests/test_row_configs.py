@@ -183,11 +183,11 @@ def test_a_refused_draw_changes_nothing(mode):
     if mode == "NextStep":
         venv.step(a)  # the episodes end
     steps, obs = ep.steps.copy(), ep.obs.copy()
-    costs, configs = venv.core.heat_cost.copy(), list(venv.core.configs)
+    costs, configs = venv.core.episodes.heat_cost.copy(), list(venv.core.configs)
     with pytest.raises(ValueError, match=r"configs\(\.\.\.\) for reactor 1: 'feed' cannot"):
         venv.step(a)  # resets both: draw 3 is fine, draw 4 is refused
     assert np.array_equal(ep.steps, steps) and np.array_equal(ep.obs, obs)
-    assert np.array_equal(venv.core.heat_cost, costs) and venv.core.configs == configs
+    assert np.array_equal(venv.core.episodes.heat_cost, costs) and venv.core.configs == configs
 
 
 def test_a_reset_after_a_state_of_another_generator_kind():

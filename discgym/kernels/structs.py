@@ -335,6 +335,8 @@ class Episodes(NamedTuple):
     inject_max: np.ndarray  #: (R,) int64 discs injected per step at injection action 1
     episode_steps: np.ndarray  #: (R,) int64 the episode's length
     feed_budget: np.ndarray  #: (R, F) int64 discs each feed species may inject per episode
+    heat_cost: np.ndarray  #: (R,) FLOAT the reward's cost per unit of heat (read in Python)
+    feed_cost: np.ndarray  #: (R,) FLOAT the reward's cost per disc fed (read in Python)
 
 
 class ReactorConsts(NamedTuple):
