@@ -3,7 +3,7 @@
 # outside the source tree (so the checkout cannot be imported instead), check that the package
 # imported is the installed one, that every registered discgym task makes (single and native
 # vector env), that every scene TOML of the tree is shipped and loads, that the compile
-# helper's plans are shipped, and that the CLI runs.
+# helper's plans and the trained agents are shipped, and that the CLI runs.
 # Cheap (about a minute, mostly pip): gymnasium.make compiles nothing and a native vector
 # env's construction a few small functions (~2 s); the kernels compile at the first reset
 # (~20 s), which this leaves to the test suite. Usage: bash .ci/wheel_check.sh (from anywhere)
@@ -61,6 +61,15 @@ from discgym.kernels import helper  # noqa: E402
 assert helper.PLANS_FILE.is_file(), f"no {helper.PLANS_FILE}"
 assert helper.load_plans() or __import__("numba").__version__ != \
     __import__("json").loads(helper.PLANS_FILE.read_text())["numba"], "plans unreadable"
+
+# the trained agents are shipped and load (numpy only)
+from discgym import pretrained  # noqa: E402
+
+in_tree = {p.parent.name for p in (root / "discgym" / "agents").glob("*/agents.json")}
+assert set(pretrained.available()) == in_tree, (pretrained.available(), in_tree)
+for env_id, seeds in pretrained.available().items():
+    for seed in seeds:
+        pretrained.load(env_id, seed)
 
 print(f"discgym {discgym.__version__} from {where.parent}: made {', '.join(ids)}; "
       f"{len(shipped)} scenes")

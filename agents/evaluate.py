@@ -196,8 +196,40 @@ def agent_factory(run: Path, checkpoint: str = "best", deterministic: bool = Tru
     episode (a factory is called once per episode), and the action interface the run trained
     through (its ``vec_env_wrapper``, e.g. :class:`discgym.sb3.SetpointHold`, applied to the
     one env by the wrapper's ``episode_policy``)."""
-    import gymnasium as gym
     import torch
+
+    model, vn, wrappers = load_run(run, checkpoint)
+
+    def factory(env):
+        state, start = None, np.ones(1, dtype=bool)
+
+        def policy(obs):
+            nonlocal state, start
+            o = np.asarray(obs, dtype=np.float32)[None]
+            if not deterministic and start[0]:
+                torch.manual_seed(zlib.crc32(o.tobytes()))
+            if vn is not None:
+                o = vn.normalize_obs(o)
+            act, state = model.predict(o, state=state, episode_start=start,
+                                       deterministic=deterministic)
+            start = np.zeros(1, dtype=bool)
+            return act[0]
+
+        # the training env's action interfaces: the outermost one asks the model
+        for cls, kwargs in reversed(wrappers):
+            policy = cls.episode_policy(env, policy, **kwargs)
+        return policy
+
+    factory.checkpoint = checkpoint_file(run, checkpoint)
+    return factory
+
+
+def load_run(run: Path, checkpoint: str = "best"):
+    """``(model, vecnormalize, wrappers)`` of a run: the model of ``checkpoint`` on the CPU,
+    its ``VecNormalize`` statistics (``VecNormalize.load``; None if it kept none) set to
+    evaluate, and its ``vec_env_wrapper`` as ``(class, kwargs)`` pairs; a file that does not
+    load is the run's fault (one line naming it)."""
+    import gymnasium as gym
     from stable_baselines3.common.vec_env import DummyVecEnv, VecNormalize
 
     import discgym  # noqa: F401  (registers the tasks)
@@ -225,29 +257,7 @@ def agent_factory(run: Path, checkpoint: str = "best", deterministic: bool = Tru
         with _loading(run / f"{prefix}vecnormalize.pkl"):
             vn = VecNormalize.load(str(run / f"{prefix}vecnormalize.pkl"), dummy)
         vn.training, vn.norm_reward = False, False
-
-    def factory(env):
-        state, start = None, np.ones(1, dtype=bool)
-
-        def policy(obs):
-            nonlocal state, start
-            o = np.asarray(obs, dtype=np.float32)[None]
-            if not deterministic and start[0]:
-                torch.manual_seed(zlib.crc32(o.tobytes()))
-            if vn is not None:
-                o = vn.normalize_obs(o)
-            act, state = model.predict(o, state=state, episode_start=start,
-                                       deterministic=deterministic)
-            start = np.zeros(1, dtype=bool)
-            return act[0]
-
-        # the training env's action interfaces: the outermost one asks the model
-        for cls, kwargs in reversed(wrappers):
-            policy = cls.episode_policy(env, policy, **kwargs)
-        return policy
-
-    factory.checkpoint = f"{prefix}model.zip"
-    return factory
+    return model, vn, wrappers
 
 
 @contextlib.contextmanager

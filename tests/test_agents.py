@@ -198,6 +198,39 @@ def test_agent_factory_matches_vecnormalize_and_predict(ppo_run):
     np.testing.assert_array_equal(fac(env)(obs), want[0])
 
 
+def test_export_policy_ships_a_run_that_acts_as_its_model(ppo_run, tmp_path, monkeypatch):
+    """agents/export_policy.py writes a run as a numpy agent (discgym.pretrained) whose
+    actions are the model's within --atol at every decision, with returns on evaluation
+    seeds that the loaded agent reproduces; bad arguments write nothing."""
+    import export_policy
+    import gymnasium as gym
+
+    from discgym import pretrained
+
+    for bad in ([], ["--runs", str(ppo_run), "--seeds", "5"],
+                ["--runs", str(ppo_run), str(ppo_run)]):
+        with pytest.raises(argcheck.UsageError):
+            export_policy.main([*bad, "--out", str(tmp_path / "out")])
+    assert not (tmp_path / "out").exists()
+    assert export_policy.main(["--runs", str(ppo_run), "--out", str(tmp_path),
+                               "--seeds", "1000", "1001"]) == 0
+    meta = json.loads((tmp_path / "DiscReactor-v0" / "agents.json").read_text())
+    rec = meta["agents"]["0"]
+    assert rec["largest_action_difference"] <= 1e-4 and rec["decisions_compared"] == 100
+    monkeypatch.setattr(pretrained, "FOLDER", tmp_path)
+    assert pretrained.available() == {"DiscReactor-v0": [0]}
+    agent = pretrained.load("DiscReactor-v0", 0)
+    assert agent.interface == {} and agent.info["returns"] == rec["returns"]
+    env = gym.make("DiscReactor-v0")
+    obs, _ = env.reset(seed=1000)
+    policy, total, done = agent.policy(env), 0.0, False
+    while not done:
+        obs, r, terminated, truncated, _ = env.step(policy(obs))
+        total += float(r)
+        done = terminated or truncated
+    assert total == pytest.approx(rec["returns"]["1000"], rel=1e-9, abs=1e-12)
+
+
 def test_sampled_actions_are_reproducible_per_episode(ppo_run):
     obs = np.linspace(0, 1, 19, dtype=np.float32)
     a1 = evaluate.agent_factory(ppo_run, "final", deterministic=False)(None)(obs)
