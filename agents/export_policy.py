@@ -28,7 +28,7 @@ import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from argcheck import Range, parse, run, staged_folder, usage  # noqa: E402
-from evaluate import checkpoint_file, load_run, run_info  # noqa: E402
+from evaluate import checkpoint_file, env_kwargs_of, load_run, run_info, variant  # noqa: E402
 
 import discgym  # noqa: E402, F401  (registers the tasks)
 
@@ -50,10 +50,12 @@ class Args:
 def export(run_dir: Path) -> tuple:
     """``(arrays, interface, normalisation, model, vecnormalize)`` of a run's best
     checkpoint."""
+    import torch
+
     model, vn, wrappers = load_run(run_dir, "best")
     pol = model.policy
     if type(model).__name__ != "PPO" or pol.squash_output or \
-            type(pol.activation_fn).__name__ != "type" and pol.activation_fn.__name__ != "Tanh":
+            pol.activation_fn is not torch.nn.Tanh:
         raise usage("runs", f"{run_dir}: not a PPO MlpPolicy with tanh units")
     if vn is None or not vn.norm_obs:
         raise usage("runs", f"{run_dir}: no observation normalisation to export")
@@ -88,15 +90,17 @@ def episode(env_id: str, agent, seed: int, seen: list | None = None) -> float:
 
     agent.decide = recording  # (what agent.policy asks, this episode)
     env = gym.make(env_id)
-    obs, _ = env.reset(seed=seed)
-    policy = agent.policy(env)
-    total, done = 0.0, False
-    while not done:
-        obs, r, terminated, truncated, _ = env.step(policy(obs))
-        total += float(r)
-        done = terminated or truncated
-    env.close()
-    del agent.decide
+    try:
+        obs, _ = env.reset(seed=seed)
+        policy = agent.policy(env)
+        total, done = 0.0, False
+        while not done:
+            obs, r, terminated, truncated, _ = env.step(policy(obs))
+            total += float(r)
+            done = terminated or truncated
+    finally:
+        env.close()
+        del agent.decide
     return total
 
 
@@ -116,6 +120,13 @@ def main(argv=None) -> int:
     seeds = [int(i["seed"]) for i in infos]
     if len(set(seeds)) != len(seeds):
         raise usage("runs", f"one run per training seed, got seeds {seeds}")
+    kinds = sorted({variant(i) for i in infos})
+    if len(kinds) != 1:
+        raise usage("runs", f"runs of one setting (seeds of one variant), got {kinds}")
+    for r in args.runs:
+        if env_kwargs_of(Path(r)):
+            raise usage("runs", f"{r} trained on {env_kwargs_of(Path(r))}, not the task as "
+                                f"registered: its agent would be scored on another env")
     final = Path(args.out or pretrained.FOLDER) / env_id
     meta = {"env_id": env_id, "agents": {}}
     files = {}
@@ -138,6 +149,10 @@ def main(argv=None) -> int:
             with np.load(ev) as z:
                 summary = {**summary, "best_at": int(z["timesteps"][np.argmax(
                     z["results"].mean(axis=1))])}
+        if "interface" in meta and (meta["interface"], meta["clip_obs"], meta["epsilon"]) != \
+                (interface, norm["clip_obs"], norm["epsilon"]):
+            raise usage("runs", f"{r}: another action interface or normalisation than "
+                                f"{args.runs[0]}'s")
         meta.update({"interface": interface, **norm})
         meta["agents"][str(info["seed"])] = {
             "returns": returns, "checkpoint": checkpoint_file(Path(r), "best"),
@@ -147,9 +162,7 @@ def main(argv=None) -> int:
         files[f"seed{info['seed']}.npz"] = arrays
         print(f"seed {info['seed']}: returns {returns}; largest action difference from the "
               f"trained model {gap:.2g} over {len(seen)} decisions")
-    meta["command"] = ("python agents/train_ppo.py --env-id DiscFlow-v0 --hyperparams "
-                       "hyperparams/residual --train-integrator event --eval-episodes 30 "
-                       "--seed K" if env_id == "DiscFlow-v0" else None)
+    meta["trained"] = kinds[0]  # (evaluate.variant: the algorithm, hyperparameters, settings)
     with staged_folder(final, "out") as tmp:
         for name, arrays in files.items():
             np.savez(Path(tmp) / name, **arrays)

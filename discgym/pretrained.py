@@ -2,8 +2,9 @@
 
 The flagship's agents (PPO correcting ``DiscFlow-v0``'s flow thermostat, the README's main
 command, one per training seed) are stored as their network's weights and their observation
-normalisation (``.npz``, read with ``allow_pickle=False``) and a JSON file of how they act:
-loading one runs no code, and needs neither torch nor Stable-Baselines3::
+normalisation (``.npz``, read with ``allow_pickle=False``) and a JSON file of how they act
+(the controller they correct, by its name in discgym): loading one unpickles nothing, and
+needs neither torch nor Stable-Baselines3::
 
     import gymnasium as gym
     import discgym
@@ -49,6 +50,8 @@ def available() -> dict:
     """``{env_id: [training seeds]}`` of the shipped agents."""
     out = {}
     for f in sorted(FOLDER.glob("*/agents.json")):
+        if f.parent.name.startswith("."):  # (an export's staging folder)
+            continue
         out[f.parent.name] = sorted(int(k) for k in json.loads(f.read_text())["agents"])
     return out
 
@@ -56,7 +59,7 @@ def available() -> dict:
 def load(env_id: str = "DiscFlow-v0", seed: int = 0) -> Agent:
     """The shipped agent of task ``env_id`` trained with ``seed`` (:func:`available`)."""
     have = available()
-    if env_id not in have:
+    if not isinstance(env_id, str) or env_id not in have:
         raise ValueError(f"env_id: no trained agent of {env_id!r}; shipped: {sorted(have)}")
     k = integer(seed)
     if k is None or k not in have[env_id]:
@@ -78,6 +81,10 @@ class Agent:
         self.obs_mean, self.obs_var = (arrays[k] for k in NORMALISATION)
         self.env_id, self.seed = env_id, seed
         self.interface = dict(meta["interface"])
+        base = self.interface.get("base")
+        if base is not None and not str(base).startswith("discgym."):
+            raise ValueError(f"{env_id} seed {seed}: its interface names a controller "
+                             f"outside discgym ({base!r}); refusing to import it")
         self.clip_obs, self.epsilon = float(meta["clip_obs"]), float(meta["epsilon"])
         self.info = {k: v for k, v in meta.items() if k != "agents"}
         self.info.update(meta["agents"][str(seed)])
@@ -86,6 +93,9 @@ class Agent:
         """The action (float32, in [-1, 1]) for what the agent observes (the observation and
         its running mean: :meth:`discgym.controllers.SetpointActions.agent_obs`)."""
         o = np.asarray(agent_obs, dtype=np.float32)
+        if o.shape != (self.layers[0][0].shape[1],):
+            raise ValueError(f"agent_obs: expected shape ({self.layers[0][0].shape[1]},) (what "
+                             f"the agent observes), got {o.shape}")
         x = np.clip((o - self.obs_mean) / np.sqrt(self.obs_var + self.epsilon),
                     -self.clip_obs, self.clip_obs).astype(np.float32)
         for i, (w, b) in enumerate(self.layers):
@@ -98,6 +108,9 @@ class Agent:
         """The env policy (observation -> env action) of one episode of ``env`` (a
         ``gymnasium.make`` of the agent's task): make one per episode. An agent trained on
         the env's own observations and actions (no interface) is :meth:`decide` itself."""
+        spec = getattr(env, "spec", None)
+        if spec is not None and spec.id != self.env_id:
+            raise ValueError(f"env: the agent was trained on {self.env_id}, got {spec.id}")
         if not self.interface:
             return self.decide
         return SetpointActions(env, **self.interface).policy(self.decide)

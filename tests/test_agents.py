@@ -198,22 +198,27 @@ def test_agent_factory_matches_vecnormalize_and_predict(ppo_run):
     np.testing.assert_array_equal(fac(env)(obs), want[0])
 
 
-def test_export_policy_ships_a_run_that_acts_as_its_model(ppo_run, tmp_path, monkeypatch):
+def test_export_policy_ships_a_run_that_acts_as_its_model(ppo_run, hp_dir, tmp_path,
+                                                          monkeypatch):
     """agents/export_policy.py writes a run as a numpy agent (discgym.pretrained) whose
     actions are the model's within --atol at every decision, with returns on evaluation
-    seeds that the loaded agent reproduces; bad arguments write nothing."""
+    seeds that the loaded agent reproduces; bad arguments, and a run trained on another env
+    than the registered task (ppo_run's 20-step episodes), write nothing."""
     import export_policy
     import gymnasium as gym
 
     from discgym import pretrained
 
-    for bad in ([], ["--runs", str(ppo_run), "--seeds", "5"],
-                ["--runs", str(ppo_run), str(ppo_run)]):
-        with pytest.raises(argcheck.UsageError):
+    run = train_ppo.train(_args(hp_dir, tmp_path / "run", episode_steps=None))
+    for bad, field in (([], "runs"), (["--runs", str(run), "--seeds", "5"], "seeds"),
+                       (["--runs", str(run), str(run)], "runs"),
+                       (["--runs", str(ppo_run)], "runs")):
+        with pytest.raises(argcheck.UsageError, match=f"--{field}"):
             export_policy.main([*bad, "--out", str(tmp_path / "out")])
     assert not (tmp_path / "out").exists()
-    assert export_policy.main(["--runs", str(ppo_run), "--out", str(tmp_path),
+    assert export_policy.main(["--runs", str(run), "--out", str(tmp_path / "out"),
                                "--seeds", "1000", "1001"]) == 0
+    tmp_path = tmp_path / "out"
     meta = json.loads((tmp_path / "DiscReactor-v0" / "agents.json").read_text())
     rec = meta["agents"]["0"]
     assert rec["largest_action_difference"] <= 1e-4 and rec["decisions_compared"] == 100

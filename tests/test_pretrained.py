@@ -64,7 +64,18 @@ def test_an_agent_acts_within_its_bounds():
     assert repr(agent) == "<discgym.pretrained.Agent DiscFlow-v0 seed 0>"
 
 
+def test_an_agent_refuses_another_task_and_a_wrong_shaped_observation():
+    agent = pretrained.load("DiscFlow-v0", 0)
+    with pytest.raises(ValueError, match="^env: .* DiscReactor-v0"):
+        agent.policy(gym.make("DiscReactor-v0"))
+    for bad in (np.zeros(1), np.zeros(agent.layers[0][0].shape[1] // 2),
+                np.zeros((2, agent.layers[0][0].shape[1]))):
+        with pytest.raises(ValueError, match="^agent_obs: expected shape"):
+            agent.decide(bad)
+
+
 @pytest.mark.parametrize("kwargs, field", [(dict(env_id="DiscNope-v0"), "env_id"),
+                                           (dict(env_id=["DiscFlow-v0"]), "env_id"),
                                            (dict(seed=7), "seed"), (dict(seed=True), "seed"),
                                            (dict(seed="0"), "seed")])
 def test_load_refuses_what_is_not_shipped_naming_it(kwargs, field):
