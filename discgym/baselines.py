@@ -35,7 +35,7 @@ import numpy as np
 
 from .config import DEFAULTS, ReactorConfig
 from .kernels.structs import FLOAT
-from .values import as_float, integer, real
+from .values import integer, number_in, real
 from .vector import DiscReactorVectorEnv
 
 __all__ = [
@@ -100,7 +100,8 @@ class HeuristicPolicy:
         rate = DEFAULTS["heat_rate"] if heat_rate is None else heat_rate
         if real(rate) is None:
             raise TypeError(f"heat_rate: expected None or a number, got {heat_rate!r}")
-        if not 1.0 <= as_float(real(rate)) < math.inf:
+        rate = number_in(rate, 1.0, math.inf)
+        if rate is None:
             raise ValueError(f"heat_rate: expected None (the default env's) or the env's "
                              f"heat_rate, a finite number >= 1, got {heat_rate!r}")
         self.log_rate = math.log(rate)

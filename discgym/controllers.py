@@ -25,7 +25,7 @@ import numpy as np
 
 from .config import ENV_ID, FLOAT_NORMAL_MIN
 from .tasks import TASKS, task_id
-from .values import as_float, integer, real
+from .values import integer, number_in
 
 __all__ = ["Thermostat", "AdaptiveThermostat", "BandThermostat",
            "JacketThermostat", "FlowThermostat", "flow_thermostat", "controller_for",
@@ -150,12 +150,13 @@ class FlowThermostat(Thermostat):
     ``heat_rate`` = 1 the heat action is 0, as the thermostat's."""
 
     def __init__(self, env, *, ramp=0.0, ramp_from=0.7, **kwargs):
-        if real(ramp) is None or not 0.0 <= as_float(real(ramp)) < math.inf:
+        r, r_from = number_in(ramp, 0.0, math.inf), number_in(ramp_from, 0.0, 1.0, hi_open=True)
+        if r is None:
             raise ValueError(f"ramp: expected a finite number >= 0, got {ramp!r}")
-        if real(ramp_from) is None or not 0.0 <= real(ramp_from) < 1.0:
+        if r_from is None:
             raise ValueError(f"ramp_from: expected a fraction of the episode in [0, 1), got "
                              f"{ramp_from!r}")
-        self.ramp, self.ramp_from = float(ramp), float(ramp_from)
+        self.ramp, self.ramp_from = r, r_from
         super().__init__(env, **kwargs)
 
     def target(self, o: np.ndarray) -> float:
@@ -411,24 +412,28 @@ class SetpointActions:
     def __init__(self, env, hold: int = 4, kT_low: float = 0.8, kT_high: float = 3.2,
                  average: float | None = None, base: str | None = None, span: float = 1.5,
                  correct: str = "all"):
-        if integer(hold) is None or hold < 1:
+        held = integer(hold)
+        if held is None or held < 1:
             raise ValueError(f"hold: expected an int >= 1, got {hold!r}")
-        if not (FLOAT_NORMAL_MIN <= float(kT_low) < float(kT_high) < math.inf) \
-                or not math.isfinite(float(kT_high) / float(kT_low)):
+        lo, hi = number_in(kT_low, FLOAT_NORMAL_MIN, math.inf), number_in(kT_high, 0.0, math.inf)
+        if lo is None or hi is None or not lo < hi or not math.isfinite(hi / lo):
             raise ValueError(f"kT_low, kT_high: expected {FLOAT_NORMAL_MIN!r} (the smallest "
                              f"normal float64) <= kT_low < kT_high < inf with kT_high / kT_low "
                              f"finite (the setpoint is kT_low (kT_high / kT_low) ** u), got "
                              f"{kT_low!r}, {kT_high!r}")
-        if average is not None and (real(average) is None or not 0.0 < real(average) < 1.0):
+        weight = None if average is None else number_in(average, 0.0, 1.0, lo_open=True,
+                                                        hi_open=True)
+        if average is not None and weight is None:
             raise ValueError(f"average: expected None or a weight in (0, 1), got {average!r}")
-        if real(span) is None or not 1.0 < as_float(real(span)) < math.inf:
+        factor = number_in(span, 1.0, math.inf, lo_open=True)
+        if factor is None:
             raise ValueError(f"span: expected a factor > 1, got {span!r}")
         self.s = Slots(env)
-        self.hold = int(hold)
-        self.kT_low, self.kT_high = float(kT_low), float(kT_high)
-        self.average = None if average is None else float(average)
+        self.hold = held
+        self.kT_low, self.kT_high = lo, hi
+        self.average = weight
         self.parts = self._parts(correct, base)
-        self.env, self.base, self.span, self.correct = env, base, float(span), correct
+        self.env, self.base, self.span, self.correct = env, base, factor, correct
         # the env action's components the agent's action holds, in order
         n_act = 2 + self.s.n_feed
         cols = {"setpoint": [0], "wall": [1], "feeds": list(range(2, n_act))}

@@ -46,7 +46,7 @@ import numpy as np
 
 from .controllers import Slots
 from .tasks import task_id
-from .values import as_float, real
+from .values import number_in
 
 __all__ = ["ScheduleController", "SETPOINT_KNOTS", "WALL_KNOTS", "SEARCHED", "searched",
            "flow_thermostat_params", "band_thermostat_params", "HELD", "run_batch"]
@@ -176,11 +176,11 @@ class ScheduleController:
         b = cls.bounds(env)
         out = np.empty(len(b))
         for j, (k, (lo, hi, _)) in enumerate(b.items()):
-            v = values[j]
-            if real(v) is None or not math.isfinite(as_float(real(v))) \
-                    or not lo <= real(v) <= hi:
-                raise ValueError(f"{k}: expected a finite number in [{lo}, {hi}], got {v!r}")
-            out[j] = float(v)
+            v = number_in(values[j], lo, hi)
+            if v is None:
+                raise ValueError(f"{k}: expected a finite number in [{lo}, {hi}], got "
+                                 f"{values[j]!r}")
+            out[j] = v
         return out
 
     @classmethod

@@ -52,6 +52,20 @@ def integer(value, *, integral_float: bool = False) -> int | None:
     return None
 
 
+def number_in(value, lo: float, hi: float, *, lo_open: bool = False,
+              hi_open: bool = False) -> float | None:
+    """``value`` as a float if it is a finite real number in [lo, hi] (``lo_open``,
+    ``hi_open``: without that end), else None: a range check's one reading of its value."""
+    x = real(value)
+    if x is None:
+        return None
+    f = as_float(x)
+    if not math.isfinite(f) or f < lo or f > hi or (lo_open and f == lo) or \
+            (hi_open and f == hi):
+        return None
+    return f
+
+
 def as_float(value) -> float:
     """A real number as a float; one beyond the float range (a huge int or ``Fraction``) as
     +-inf, so that the caller's finiteness check refuses it with its own words."""

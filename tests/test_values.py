@@ -71,3 +71,14 @@ def test_a_real_beyond_the_float_range_is_refused_by_each_family_with_its_own_er
     assert e.value.field == "radius"
     with pytest.raises(ValueError, match="step_time"):
         ReactorConfig.from_kwargs(step_time=huge)
+
+
+def test_number_in_reads_a_value_once_against_its_interval():
+    from discgym.values import number_in
+
+    assert number_in(np.float32(0.5), 0.0, 1.0) == 0.5
+    assert number_in(0, 0.0, 1.0) == 0.0 and number_in(0, 0.0, 1.0, lo_open=True) is None
+    assert number_in(1, 0.0, 1.0, hi_open=True) is None and number_in(1, 0.0, 1.0) == 1.0
+    for bad in (True, "0.5", math.nan, math.inf, 10**400, 2.0, -0.1):
+        assert number_in(bad, 0.0, 1.0) is None, bad
+    assert number_in(1e300, 0.0, math.inf) == 1e300
